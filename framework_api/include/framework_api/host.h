@@ -1,0 +1,66 @@
+// Runs the plugins a robot configuration enables, each on its own thread, all sharing one
+// WorldState. vision_host is a thin command line around this class; tests drive it directly.
+#pragma once
+
+#include <atomic>
+#include <condition_variable>
+#include <cstdint>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "framework_api/config.h"
+#include "framework_api/plugin_loader.h"
+#include "framework_api/world_state.h"
+
+namespace fw {
+
+struct PluginSummary {
+  std::string name;
+  std::string version;
+  double rate_hz_setting = 0.0;    // 0 = driven by its own source (no rate_hz in its block)
+  std::uint64_t steps = 0;
+  std::uint64_t frames = 0;        // steps that processed something
+  std::uint64_t errors = 0;
+  std::string last_error;
+  bool end_of_stream = false;
+  double elapsed_s = 0.0;
+
+  double frameRate_hz() const { return elapsed_s > 0.0 ? frames / elapsed_s : 0.0; }
+};
+
+class Host {
+ public:
+  // Loads every plugin named in host.plugins from plugin_dir (file <name>.so) and creates it with
+  // its configuration block. Throws PluginLoadError or ConfigError naming the plugin and the cause.
+  Host(const Config& config, const std::string& plugin_dir);
+  ~Host();
+  Host(const Host&) = delete;
+  Host& operator=(const Host&) = delete;
+
+  void start();
+  // Asks every plugin thread to stop after its current step and joins them. Idempotent.
+  void stop();
+  // True once every plugin has reported end of stream.
+  bool allFinished() const;
+
+  std::vector<PluginSummary> summaries() const;
+  WorldState& world() { return world_; }
+
+ private:
+  struct Running;
+  void run(Running& plugin);
+
+  WorldState world_;  // declared first: plugins hold a pointer to it and are destroyed before it
+  std::vector<std::unique_ptr<Running>> plugins_;
+  std::atomic<bool> stop_requested_{false};
+  std::mutex wake_mutex_;
+  std::condition_variable wake_;
+};
+
+// One summary line per plugin: "kinect3d 1.0.0: 301 frames in 10.0 s (30.1 Hz), 0 errors".
+std::string formatSummary(const PluginSummary& summary);
+
+}  // namespace fw

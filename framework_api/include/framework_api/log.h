@@ -1,0 +1,25 @@
+// Minimal thread-safe logging to stderr: "2026-11-21 10:00:00.123 INFO  [kinect3d] message".
+// Standard output is left to a program's data (JSON lines, summaries).
+#pragma once
+
+#include <string>
+
+namespace fw {
+
+enum class LogLevel { kDebug, kInfo, kWarn, kError };
+
+void log(LogLevel level, const std::string& component, const std::string& message);
+inline void logInfo(const std::string& component, const std::string& message) {
+  log(LogLevel::kInfo, component, message);
+}
+inline void logWarn(const std::string& component, const std::string& message) {
+  log(LogLevel::kWarn, component, message);
+}
+inline void logError(const std::string& component, const std::string& message) {
+  log(LogLevel::kError, component, message);
+}
+
+// Messages below this level are dropped. Default: kInfo.
+void setLogLevel(LogLevel level);
+
+}  // namespace fw

@@ -1,0 +1,88 @@
+// Shared value types exchanged between plugins through the WorldState.
+// Units: metres, seconds, radians. Frames are named in every type that holds a position.
+#pragma once
+
+#include <Eigen/Core>
+#include <string>
+
+namespace fw {
+
+// Seconds since the Unix epoch on the host's wall clock.
+double wallClockNow_s();
+
+// When a measurement was taken by its source and when this host received it. The source clock
+// may differ from the host's (a recording replays old source times); fusion uses receive time to
+// judge freshness and source time to relate measurements of the same source.
+struct Stamp {
+  double source_time_s = 0.0;
+  double receive_time_s = 0.0;
+
+  static Stamp now() {
+    const double t = wallClockNow_s();
+    return {t, t};
+  }
+};
+
+// The frame a position is expressed in.
+//  - kSensor: optical frame, x right, y down, z forward.
+//  - kRobot:  x right, y forward, z up, origin on the floor under the robot centre.
+//  - kField:  origin at the centre spot, y towards the opponent goal, z up.
+enum class Frame { kSensor, kRobot, kField };
+const char* toString(Frame frame);
+
+enum class BallState { kAir, kGround };
+const char* toString(BallState state);
+
+// Where the robot stands on the field (from self-localisation). theta_rad is the heading of the
+// robot's +y axis measured from the field's +y axis, positive counter-clockwise (about +z).
+struct RobotPose {
+  double x_m = 0.0;
+  double y_m = 0.0;
+  double theta_rad = 0.0;
+  Stamp stamp;
+
+  // Maps a point in the robot frame to the field frame.
+  Eigen::Vector3d fieldFromRobot(const Eigen::Vector3d& p_R) const;
+};
+
+// One ball measurement from one source.
+struct BallObservation {
+  Eigen::Vector3d position_m = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d covariance_m2 = Eigen::Matrix3d::Identity();
+  Frame frame = Frame::kRobot;
+  BallState state = BallState::kGround;
+  std::string source;  // plugin or sensor that produced it, e.g. "kinect3d"
+  Stamp stamp;
+  int support_points = 0;  // depth points behind the measurement, 0 when not applicable
+
+  static BallObservation inRobotFrame(const Eigen::Vector3d& p_R, const Eigen::Matrix3d& cov_m2,
+                                      BallState state, std::string source, Stamp stamp);
+  // Same frame, state and source, positions within tol_m, covariances within tol_m^2 per entry.
+  bool isApprox(const BallObservation& other, double tol_m) const;
+};
+
+// The omni camera's ground ball: it only sees the ball on the floor, as a bearing and a distance
+// in the robot frame (distance from the ground-plane projection, so wrong for a ball in the air).
+struct OmniBallObservation {
+  double bearing_rad = 0.0;  // from the robot's +y axis, positive towards -x (counter-clockwise)
+  double distance_m = 0.0;
+  double distance_sigma_m = 0.0;
+  double bearing_sigma_rad = 0.0;
+  std::string source;
+  Stamp stamp;
+
+  // The ground point the camera reports, in the robot frame (z = 0).
+  Eigen::Vector3d groundPoint_R() const;
+};
+
+// The world model's best ball: one estimate from every source, in the robot frame.
+struct FusedBall {
+  Eigen::Vector3d position_m = Eigen::Vector3d::Zero();
+  Eigen::Vector3d velocity_mps = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d covariance_m2 = Eigen::Matrix3d::Identity();
+  BallState state = BallState::kGround;
+  Stamp stamp;
+  std::string sources;  // comma-separated sources that contributed
+};
+
+}  // namespace fw

@@ -1,0 +1,370 @@
+#include "framework_api/config.h"
+
+#include <yaml-cpp/yaml.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+namespace fw {
+
+struct Config::Data {
+  YAML::Node root{YAML::NodeType::Map};
+  // Dotted key -> "file:line" or "--set key=value": where the value in force came from.
+  std::map<std::string, std::string> origins;
+};
+
+namespace {
+
+namespace fs = std::filesystem;
+
+std::string joinKey(const std::string& parent, const std::string& key) {
+  return parent.empty() ? key : parent + "." + key;
+}
+
+std::vector<std::string> splitKey(const std::string& dotted) {
+  std::vector<std::string> parts;
+  std::stringstream in(dotted);
+  for (std::string part; std::getline(in, part, '.');) parts.push_back(part);
+  return parts;
+}
+
+// The node at a dotted path below root, or an undefined node. Navigates with reset() because
+// assigning yaml-cpp nodes would rewrite the tree.
+YAML::Node lookup(const YAML::Node& root, const std::string& dotted) {
+  YAML::Node current;
+  current.reset(root);
+  if (dotted.empty()) return current;
+  for (const std::string& part : splitKey(dotted)) {
+    if (!current.IsMap()) return YAML::Node(YAML::NodeType::Undefined);
+    const YAML::Node& parent = current;
+    YAML::Node next = parent[part];
+    if (!next.IsDefined()) return next;
+    current.reset(next);
+  }
+  return current;
+}
+
+// Where a value was written, for error messages.
+struct Source {
+  std::string label;   // file path, or "--set key=value"
+  bool has_lines = true;
+
+  std::string at(const YAML::Node& node) const {
+    if (!has_lines || node.Mark().is_null()) return label;
+    return label + ":" + std::to_string(node.Mark().line + 1);
+  }
+};
+
+enum class ScalarKind { kBool, kInt, kReal, kString };
+
+bool parseInt(const std::string& text, long& out) {
+  if (text.empty()) return false;
+  char* end = nullptr;
+  errno = 0;
+  out = std::strtol(text.c_str(), &end, 10);
+  return errno == 0 && *end == '\0';
+}
+
+bool parseReal(const std::string& text, double& out) {
+  if (text.empty()) return false;
+  char* end = nullptr;
+  out = std::strtod(text.c_str(), &end);
+  return *end == '\0' && std::isfinite(out);
+}
+
+bool parseBool(const std::string& text, bool& out) {
+  if (text == "true" || text == "True" || text == "TRUE") return out = true, true;
+  if (text == "false" || text == "False" || text == "FALSE") return out = false, true;
+  return false;
+}
+
+ScalarKind kindOf(const YAML::Node& scalar) {
+  if (scalar.Tag() == "!") return ScalarKind::kString;  // quoted
+  const std::string& text = scalar.Scalar();
+  long i;
+  double d;
+  bool b;
+  if (parseInt(text, i)) return ScalarKind::kInt;
+  if (parseReal(text, d)) return ScalarKind::kReal;
+  if (parseBool(text, b)) return ScalarKind::kBool;
+  return ScalarKind::kString;
+}
+
+const char* describe(ScalarKind kind) {
+  switch (kind) {
+    case ScalarKind::kBool: return "true or false";
+    case ScalarKind::kInt: return "an integer";
+    case ScalarKind::kReal: return "a number";
+    case ScalarKind::kString: return "a string";
+  }
+  return "?";
+}
+
+bool accepts(ScalarKind expected, ScalarKind given) {
+  if (expected == ScalarKind::kString) return true;
+  if (expected == ScalarKind::kReal) return given == ScalarKind::kReal || given == ScalarKind::kInt;
+  return expected == given;
+}
+
+std::string listKeys(const YAML::Node& map) {
+  std::string keys;
+  for (const auto& entry : map) keys += (keys.empty() ? "" : ", ") + entry.first.as<std::string>();
+  return keys.empty() ? "none" : keys;
+}
+
+void recordOrigins(const YAML::Node& node, const std::string& key, const Source& source,
+                   std::map<std::string, std::string>& origins) {
+  origins[key] = source.at(node);
+  if (node.IsMap()) {
+    for (const auto& entry : node) {
+      recordOrigins(entry.second, joinKey(key, entry.first.as<std::string>()), source, origins);
+    }
+  }
+}
+
+// Merges overlay into base, where base already holds the defaults: the schema.
+void mergeInto(YAML::Node& base, const YAML::Node& overlay, const std::string& path,
+               const Source& source, Config::Data& data) {
+  for (const auto& entry : overlay) {
+    const std::string name = entry.first.as<std::string>();
+    const std::string key = joinKey(path, name);
+    const YAML::Node& value = entry.second;
+    const YAML::Node& const_base = base;
+    YAML::Node target = const_base[name];
+    if (!target.IsDefined()) {
+      throw ConfigError(source.at(entry.first) + ": unknown key '" + key + "'" +
+                        (path.empty() ? " (known blocks: " : " (known keys here: ") +
+                        listKeys(base) + ")");
+    }
+    auto wrongType = [&](const std::string& expected) {
+      return ConfigError(source.at(value) + ": " + key + " has the wrong type; expected " +
+                         expected);
+    };
+    if (target.IsNull()) {
+      // Optional block: no schema here, the reader checks it.
+      base[name] = YAML::Clone(value);
+    } else if (target.IsMap()) {
+      if (value.IsNull()) continue;  // "key:" with nothing under it keeps the defaults
+      if (!value.IsMap()) throw wrongType("a map with keys " + listKeys(target));
+      YAML::Node child = base[name];
+      mergeInto(child, value, key, source, data);
+      continue;
+    } else if (target.IsSequence()) {
+      if (!value.IsSequence()) throw wrongType("a list, e.g. [a, b]");
+      base[name] = YAML::Clone(value);
+    } else {
+      const ScalarKind expected = kindOf(target);
+      if (!value.IsScalar() || !accepts(expected, kindOf(value))) throw wrongType(describe(expected));
+      base[name] = YAML::Clone(value);
+    }
+    recordOrigins(value, key, source, data.origins);
+  }
+}
+
+YAML::Node loadYamlFile(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw ConfigError("cannot read configuration file '" + path + "'");
+  try {
+    YAML::Node node = YAML::Load(in);
+    if (node.IsNull() || !node.IsDefined()) return YAML::Node(YAML::NodeType::Map);
+    if (!node.IsMap()) throw ConfigError(path + ": expected a map of blocks at the top level");
+    return node;
+  } catch (const YAML::ParserException& e) {
+    throw ConfigError(path + ":" + std::to_string(e.mark.line + 1) + ": YAML syntax error: " +
+                      e.msg);
+  }
+}
+
+// "a.b.c=value" -> {a: {b: {c: value}}}
+YAML::Node overrideToYaml(const std::string& assignment) {
+  const auto eq = assignment.find('=');
+  if (eq == std::string::npos || eq == 0) {
+    throw ConfigError("--set '" + assignment + "': expected key=value, e.g. kinect3d.grid.voxel_m=0.2");
+  }
+  YAML::Node value;
+  try {
+    value = YAML::Load(assignment.substr(eq + 1));
+  } catch (const YAML::ParserException& e) {
+    throw ConfigError("--set '" + assignment + "': value is not valid YAML: " + e.msg);
+  }
+  const std::vector<std::string> parts = splitKey(assignment.substr(0, eq));
+  for (auto part = parts.rbegin(); part != parts.rend(); ++part) {
+    if (part->empty()) throw ConfigError("--set '" + assignment + "': empty key component");
+    YAML::Node wrapper(YAML::NodeType::Map);
+    wrapper[*part] = value;
+    value = wrapper;
+  }
+  return value;
+}
+
+}  // namespace
+
+Config Config::load(const std::string& defaults_dir, const std::string& robot_file,
+                    const std::vector<std::string>& overrides) {
+  auto data = std::make_shared<Data>();
+
+  std::error_code error;
+  if (!fs::is_directory(defaults_dir, error)) {
+    throw ConfigError("defaults folder '" + defaults_dir + "' does not exist");
+  }
+  std::vector<fs::path> files;
+  for (const auto& entry : fs::directory_iterator(defaults_dir)) {
+    if (entry.path().extension() == ".yaml") files.push_back(entry.path());
+  }
+  std::sort(files.begin(), files.end());
+  for (const fs::path& file : files) {
+    const YAML::Node defaults = loadYamlFile(file.string());
+    const std::string block = file.stem().string();
+    if (defaults.size() != 1 || !defaults[block]) {
+      throw ConfigError(file.string() + ": a defaults file holds exactly one top-level block named '" +
+                        block + "' after the file");
+    }
+    data->root[block] = YAML::Clone(defaults[block]);
+    recordOrigins(defaults[block], block, Source{file.string()}, data->origins);
+  }
+
+  if (!robot_file.empty()) {
+    mergeInto(data->root, loadYamlFile(robot_file), "", Source{robot_file}, *data);
+  }
+  for (const std::string& assignment : overrides) {
+    mergeInto(data->root, overrideToYaml(assignment), "", Source{"--set " + assignment, false},
+              *data);
+  }
+  return Config(std::move(data));
+}
+
+bool Config::hasBlock(const std::string& name) const {
+  return lookup(data_->root, name).IsDefined();
+}
+
+ConfigView Config::block(const std::string& name) const {
+  if (!hasBlock(name)) {
+    throw ConfigError("no configuration block '" + name + "' (is config/defaults/" + name +
+                      ".yaml missing?)");
+  }
+  return ConfigView(data_, name);
+}
+
+std::string Config::toYaml() const {
+  YAML::Emitter out;
+  out << data_->root;
+  return out.c_str();
+}
+
+std::string ConfigView::fullKey(const std::string& key) const { return joinKey(path_, key); }
+
+std::string ConfigView::originOf(const std::string& key) const {
+  const auto found = data_->origins.find(fullKey(key));
+  return found == data_->origins.end() ? "configuration" : found->second;
+}
+
+void ConfigView::fail(const std::string& key, const std::string& problem) const {
+  throw ConfigError(originOf(key) + ": " + fullKey(key) + " " + problem);
+}
+
+bool ConfigView::has(const std::string& key) const {
+  const YAML::Node node = lookup(data_->root, fullKey(key));
+  return node.IsDefined() && !node.IsNull();
+}
+
+std::vector<std::string> ConfigView::keys() const {
+  std::vector<std::string> names;
+  const YAML::Node node = lookup(data_->root, path_);
+  if (node.IsMap()) {
+    for (const auto& entry : node) names.push_back(entry.first.as<std::string>());
+  }
+  return names;
+}
+
+std::string ConfigView::scalar(const std::string& key, const std::string& expected) const {
+  const YAML::Node node = lookup(data_->root, fullKey(key));
+  if (!node.IsDefined() || node.IsNull()) fail(key, "is missing; expected " + expected);
+  if (!node.IsScalar()) fail(key, "has the wrong type; expected " + expected);
+  return node.Scalar();
+}
+
+namespace {
+std::string formatNumber(double value) {
+  std::ostringstream out;
+  out << value;
+  return out.str();
+}
+}  // namespace
+
+bool ConfigView::getBool(const std::string& key) const {
+  bool value;
+  const std::string text = scalar(key, "true or false");
+  if (!parseBool(text, value)) fail(key, "= " + text + " has the wrong type; expected true or false");
+  return value;
+}
+
+int ConfigView::getInt(const std::string& key, int min, int max) const {
+  const std::string expected =
+      "an integer in [" + std::to_string(min) + ", " + std::to_string(max) + "]";
+  const std::string text = scalar(key, expected);
+  long value;
+  if (!parseInt(text, value)) fail(key, "= " + text + " has the wrong type; expected " + expected);
+  if (value < min || value > max) fail(key, "= " + text + " is out of range; expected " + expected);
+  return static_cast<int>(value);
+}
+
+double ConfigView::getDouble(const std::string& key, double min, double max) const {
+  const std::string expected =
+      "a number in [" + formatNumber(min) + ", " + formatNumber(max) + "]";
+  const std::string text = scalar(key, expected);
+  double value;
+  if (!parseReal(text, value)) fail(key, "= " + text + " has the wrong type; expected " + expected);
+  if (value < min || value > max) fail(key, "= " + text + " is out of range; expected " + expected);
+  return value;
+}
+
+std::string ConfigView::getString(const std::string& key) const {
+  return scalar(key, "a string");
+}
+
+std::string ConfigView::getChoice(const std::string& key,
+                                  const std::vector<std::string>& allowed) const {
+  std::string expected = "one of";
+  for (const auto& choice : allowed) expected += " '" + choice + "'";
+  const std::string value = scalar(key, expected);
+  if (std::find(allowed.begin(), allowed.end(), value) == allowed.end()) {
+    fail(key, "= '" + value + "' is not allowed; expected " + expected);
+  }
+  return value;
+}
+
+std::vector<std::string> ConfigView::getStringList(const std::string& key) const {
+  const YAML::Node node = lookup(data_->root, fullKey(key));
+  if (!node.IsDefined() || node.IsNull()) fail(key, "is missing; expected a list of strings");
+  if (!node.IsSequence()) fail(key, "has the wrong type; expected a list of strings, e.g. [a, b]");
+  std::vector<std::string> values;
+  for (const auto& item : node) {
+    if (!item.IsScalar()) fail(key, "has the wrong type; expected a list of strings, e.g. [a, b]");
+    values.push_back(item.Scalar());
+  }
+  return values;
+}
+
+ConfigView ConfigView::child(const std::string& key) const {
+  const YAML::Node node = lookup(data_->root, fullKey(key));
+  if (!node.IsDefined() || node.IsNull()) fail(key, "is missing; expected a map");
+  if (!node.IsMap()) fail(key, "has the wrong type; expected a map");
+  return ConfigView(data_, fullKey(key));
+}
+
+void ConfigView::requireOnlyKeys(const std::vector<std::string>& allowed) const {
+  for (const std::string& key : keys()) {
+    if (std::find(allowed.begin(), allowed.end(), key) == allowed.end()) {
+      std::string known;
+      for (const auto& name : allowed) known += (known.empty() ? "" : ", ") + name;
+      fail(key, "is an unknown key (known keys here: " + known + ")");
+    }
+  }
+}
+
+}  // namespace fw

@@ -1,0 +1,146 @@
+#include "framework_api/host.h"
+
+#include <chrono>
+#include <cstdio>
+
+#include "framework_api/log.h"
+
+namespace fw {
+
+namespace {
+using Clock = std::chrono::steady_clock;
+
+double secondsSince(Clock::time_point start) {
+  return std::chrono::duration<double>(Clock::now() - start).count();
+}
+
+// Log the first few errors of a plugin, then one in a hundred, so a failing camera cannot flood
+// the log during a match.
+bool shouldLogError(std::uint64_t error_count) {
+  return error_count <= 5 || error_count % 100 == 0;
+}
+}  // namespace
+
+struct Host::Running {
+  std::unique_ptr<PluginInstance> instance;
+  double rate_hz = 0.0;
+  std::thread thread;
+  mutable std::mutex mutex;  // guards summary
+  PluginSummary summary;
+};
+
+Host::Host(const Config& config, const std::string& plugin_dir) {
+  const ConfigView host = config.block("host");
+  for (const std::string& name : host.getStringList("plugins")) {
+    const ConfigView block = config.block(name);
+    auto running = std::make_unique<Running>();
+    running->rate_hz = block.has("rate_hz") ? block.getDouble("rate_hz", 0.1, 1000.0) : 0.0;
+    const auto library = PluginLibrary::open(plugin_dir + "/" + name + ".so");
+    if (library->name() != name) {
+      throw PluginLoadError("'" + library->path() + "' declares the plugin name '" +
+                            library->name() + "', expected '" + name + "'");
+    }
+    running->instance = library->create(PluginContext{block, &world_});
+    running->summary.name = name;
+    running->summary.version = library->version();
+    running->summary.rate_hz_setting = running->rate_hz;
+    logInfo("host", "loaded plugin " + name + " " + library->version() + " from " +
+                        library->path());
+    plugins_.push_back(std::move(running));
+  }
+}
+
+Host::~Host() { stop(); }
+
+void Host::start() {
+  for (auto& plugin : plugins_) {
+    Running& running = *plugin;
+    running.thread = std::thread([this, &running] { run(running); });
+  }
+}
+
+void Host::stop() {
+  {
+    std::lock_guard<std::mutex> lock(wake_mutex_);
+    stop_requested_ = true;
+  }
+  wake_.notify_all();
+  for (auto& plugin : plugins_) {
+    if (plugin->thread.joinable()) plugin->thread.join();
+  }
+}
+
+bool Host::allFinished() const {
+  for (const auto& plugin : plugins_) {
+    std::lock_guard<std::mutex> lock(plugin->mutex);
+    if (!plugin->summary.end_of_stream) return false;
+  }
+  return !plugins_.empty();
+}
+
+std::vector<PluginSummary> Host::summaries() const {
+  std::vector<PluginSummary> result;
+  for (const auto& plugin : plugins_) {
+    std::lock_guard<std::mutex> lock(plugin->mutex);
+    result.push_back(plugin->summary);
+  }
+  return result;
+}
+
+void Host::run(Running& plugin) {
+  const Clock::time_point start = Clock::now();
+  const auto period = plugin.rate_hz > 0.0
+                          ? std::chrono::duration_cast<Clock::duration>(
+                                std::chrono::duration<double>(1.0 / plugin.rate_hz))
+                          : Clock::duration::zero();
+  Clock::time_point next_tick = start;
+  while (!stop_requested_) {
+    if (period > Clock::duration::zero()) {
+      std::unique_lock<std::mutex> lock(wake_mutex_);
+      if (wake_.wait_until(lock, next_tick, [this] { return stop_requested_.load(); })) break;
+      next_tick += period;
+      // After a long stall, skip the missed ticks instead of bursting to catch up.
+      if (next_tick < Clock::now()) next_tick = Clock::now() + period;
+    }
+    StepResult result = StepResult::kIdle;
+    std::string error;
+    try {
+      result = plugin.instance->step();
+    } catch (const PluginError& e) {
+      error = e.what();
+    }
+    std::lock_guard<std::mutex> lock(plugin.mutex);
+    PluginSummary& summary = plugin.summary;
+    ++summary.steps;
+    summary.elapsed_s = secondsSince(start);
+    if (!error.empty()) {
+      ++summary.errors;
+      summary.last_error = error;
+      if (shouldLogError(summary.errors)) {
+        logError(summary.name, "step failed (" + std::to_string(summary.errors) + "): " + error);
+      }
+      continue;
+    }
+    if (result == StepResult::kProcessed) ++summary.frames;
+    if (result == StepResult::kEndOfStream) {
+      summary.end_of_stream = true;
+      logInfo(summary.name, "end of stream");
+      break;
+    }
+  }
+  std::lock_guard<std::mutex> lock(plugin.mutex);
+  plugin.summary.elapsed_s = secondsSince(start);
+}
+
+std::string formatSummary(const PluginSummary& summary) {
+  char line[512];
+  std::snprintf(line, sizeof line, "%s %s: %llu frames in %.1f s (%.1f Hz), %llu errors%s%s",
+                summary.name.c_str(), summary.version.c_str(),
+                static_cast<unsigned long long>(summary.frames), summary.elapsed_s,
+                summary.frameRate_hz(), static_cast<unsigned long long>(summary.errors),
+                summary.end_of_stream ? ", end of stream" : "",
+                summary.last_error.empty() ? "" : (", last error: " + summary.last_error).c_str());
+  return line;
+}
+
+}  // namespace fw

@@ -1,0 +1,71 @@
+#include "framework_api/world_state.h"
+
+namespace fw {
+
+template <typename T>
+void WorldState::pushCapped(std::deque<T>& history, const T& value) {
+  history.push_front(value);
+  if (history.size() > kHistoryPerSource) history.pop_back();
+}
+
+void WorldState::publishBall(const BallObservation& observation) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  pushCapped(balls_[observation.source], observation);
+  ++version_;
+}
+
+void WorldState::publishOmniBall(const OmniBallObservation& observation) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  pushCapped(omni_balls_[observation.source], observation);
+  ++version_;
+}
+
+void WorldState::publishFusedBall(const FusedBall& ball) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  fused_ball_ = ball;
+  ++version_;
+}
+
+void WorldState::publishRobotPose(const RobotPose& pose) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  robot_pose_ = pose;
+  ++version_;
+}
+
+std::vector<BallObservation> WorldState::recentBalls(const std::string& source) const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  const auto found = balls_.find(source);
+  if (found == balls_.end()) return {};
+  return {found->second.begin(), found->second.end()};
+}
+
+std::vector<OmniBallObservation> WorldState::recentOmniBalls(const std::string& source) const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  const auto found = omni_balls_.find(source);
+  if (found == omni_balls_.end()) return {};
+  return {found->second.begin(), found->second.end()};
+}
+
+std::vector<std::string> WorldState::ballSources() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  std::vector<std::string> sources;
+  for (const auto& entry : balls_) sources.push_back(entry.first);
+  return sources;
+}
+
+std::optional<FusedBall> WorldState::fusedBall() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return fused_ball_;
+}
+
+std::optional<RobotPose> WorldState::robotPose() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return robot_pose_;
+}
+
+std::uint64_t WorldState::version() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return version_;
+}
+
+}  // namespace fw

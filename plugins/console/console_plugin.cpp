@@ -1,0 +1,53 @@
+// console: prints what the world state holds, a line per new ball, at a fixed rate. It is how a
+// person sees what the robot believes, and the visible end of the demo.
+#include <cstdio>
+#include <string>
+
+#include "framework_api/plugin.h"
+
+namespace {
+
+std::string formatPosition(const Eigen::Vector3d& p) {
+  char text[96];
+  std::snprintf(text, sizeof text, "(%+.2f, %+.2f, %+.2f) m", p.x(), p.y(), p.z());
+  return text;
+}
+
+class Console : public fw::Plugin {
+ public:
+  explicit Console(const fw::PluginContext& context)
+      : world_(*context.world),
+        max_age_s_(context.config.getDouble("max_age_s", 0.0, 60.0)) {}
+
+  fw::StepResult step() override {
+    const std::uint64_t version = world_.version();
+    if (version == last_version_) return fw::StepResult::kIdle;
+    last_version_ = version;
+    const double now_s = fw::wallClockNow_s();
+    std::string line;
+    for (const std::string& source : world_.ballSources()) {
+      const auto recent = world_.recentBalls(source);
+      if (recent.empty() || now_s - recent.front().stamp.receive_time_s > max_age_s_) continue;
+      const fw::BallObservation& ball = recent.front();
+      line += " " + source + ": " + fw::toString(ball.state) + " " + formatPosition(ball.position_m);
+    }
+    if (const auto fused = world_.fusedBall();
+        fused && now_s - fused->stamp.receive_time_s <= max_age_s_) {
+      line += " fused: " + std::string(fw::toString(fused->state)) + " " +
+              formatPosition(fused->position_m);
+    }
+    if (line.empty()) return fw::StepResult::kIdle;
+    std::printf("[console] ball%s\n", line.c_str());
+    std::fflush(stdout);
+    return fw::StepResult::kProcessed;
+  }
+
+ private:
+  fw::WorldState& world_;
+  const double max_age_s_;
+  std::uint64_t last_version_ = 0;
+};
+
+}  // namespace
+
+FW_REGISTER_PLUGIN(Console, "console", "1.0.0")

@@ -1,0 +1,178 @@
+#include <gtest/gtest.h>
+
+#include <fcntl.h>
+#include <poll.h>
+#include <signal.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <thread>
+
+#include "framework_api/host.h"
+
+extern char** environ;
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+fw::Config exchangeConfig(const std::vector<std::string>& overrides = {}) {
+  return fw::Config::load(std::string(TEST_CONFIG_DIR) + "/defaults",
+                          std::string(TEST_CONFIG_DIR) + "/robots/exchange.yaml", overrides);
+}
+
+const fw::PluginSummary& summaryOf(const std::vector<fw::PluginSummary>& all, const std::string& name) {
+  for (const auto& summary : all) {
+    if (summary.name == name) return summary;
+  }
+  throw std::runtime_error("no summary for " + name);
+}
+
+TEST(Host, PluginsExchangeDataThroughWorldState) {
+  fw::Host host(exchangeConfig(), TEST_PLUGIN_DIR);
+  host.start();
+  const auto deadline = Clock::now() + std::chrono::seconds(5);
+  while (!host.world().fusedBall() && Clock::now() < deadline) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  host.stop();
+
+  const auto fused = host.world().fusedBall();
+  ASSERT_TRUE(fused.has_value()) << "the consumer never republished the producer's ball";
+  EXPECT_TRUE(fused->position_m.isApprox(Eigen::Vector3d(0.5, 3.0, 1.25)));
+  EXPECT_EQ(fused->sources, "tp_producer");
+
+  const auto summaries = host.summaries();
+  ASSERT_EQ(summaries.size(), 3u);
+  EXPECT_GT(summaryOf(summaries, "tp_producer").frames, 5u);
+  EXPECT_GT(summaryOf(summaries, "tp_consumer").frames, 1u);
+  EXPECT_DOUBLE_EQ(summaryOf(summaries, "tp_consumer").rate_hz_setting, 100.0);
+  // A plugin that fails every step is counted, not fatal.
+  const fw::PluginSummary& faulty = summaryOf(summaries, "tp_faulty");
+  EXPECT_GT(faulty.errors, 2u);
+  EXPECT_EQ(faulty.frames, 0u);
+  EXPECT_EQ(faulty.last_error, "frame checksum mismatch");
+}
+
+TEST(Host, ReportsEndOfStream) {
+  fw::Host host(exchangeConfig({"host.plugins=[tp_producer]", "tp_producer.frames=3"}),
+                TEST_PLUGIN_DIR);
+  host.start();
+  const auto deadline = Clock::now() + std::chrono::seconds(5);
+  while (!host.allFinished() && Clock::now() < deadline) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  EXPECT_TRUE(host.allFinished());
+  host.stop();
+  EXPECT_EQ(host.summaries().at(0).frames, 3u);
+  EXPECT_EQ(host.world().recentBalls("tp_producer").size(), 3u);
+}
+
+TEST(Host, UnknownPluginIsALoadError) {
+  try {
+    fw::Host host(exchangeConfig({"host.plugins=[tp_valid, tp_throwing]"}), TEST_PLUGIN_DIR);
+    FAIL() << "expected an error";
+  } catch (const fw::ConfigError& e) {
+    // tp_throwing has no defaults file, so it is refused before its library is even opened.
+    EXPECT_NE(std::string(e.what()).find("no configuration block 'tp_throwing'"), std::string::npos)
+        << e.what();
+  }
+}
+
+// Runs vision_host as a child process with stdout and stderr captured.
+class HostProcess {
+ public:
+  explicit HostProcess(const std::vector<std::string>& args) {
+    int fds[2];
+    if (pipe(fds) != 0) throw std::runtime_error("pipe failed");
+    posix_spawn_file_actions_t actions;
+    posix_spawn_file_actions_init(&actions);
+    posix_spawn_file_actions_adddup2(&actions, fds[1], STDOUT_FILENO);
+    posix_spawn_file_actions_adddup2(&actions, fds[1], STDERR_FILENO);
+    posix_spawn_file_actions_addclose(&actions, fds[0]);
+    std::vector<std::string> all{VISION_HOST_EXE};
+    all.insert(all.end(), args.begin(), args.end());
+    std::vector<char*> argv;
+    for (auto& arg : all) argv.push_back(arg.data());
+    argv.push_back(nullptr);
+    if (posix_spawn(&pid_, VISION_HOST_EXE, &actions, nullptr, argv.data(), environ) != 0) {
+      throw std::runtime_error("cannot start vision_host");
+    }
+    posix_spawn_file_actions_destroy(&actions);
+    close(fds[1]);
+    out_fd_ = fds[0];
+  }
+  ~HostProcess() {
+    if (pid_ > 0) {
+      kill(pid_, SIGKILL);
+      waitpid(pid_, nullptr, 0);
+    }
+    close(out_fd_);
+  }
+  void signal(int signal_number) { kill(pid_, signal_number); }
+
+  // Waits for exit up to timeout; returns the exit status or -1 on timeout.
+  int waitExit(std::chrono::milliseconds timeout) {
+    const auto deadline = Clock::now() + timeout;
+    while (Clock::now() < deadline) {
+      int status = 0;
+      if (waitpid(pid_, &status, WNOHANG) == pid_) {
+        pid_ = -1;
+        return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    }
+    return -1;
+  }
+  std::string readAll() {
+    std::string text;
+    char buffer[4096];
+    for (ssize_t n; (n = read(out_fd_, buffer, sizeof buffer)) > 0;) text.append(buffer, n);
+    return text;
+  }
+
+ private:
+  pid_t pid_ = -1;
+  int out_fd_ = -1;
+};
+
+void expectCleanStopOn(int signal_number, const std::string& name) {
+  HostProcess host({"--robot", std::string(TEST_CONFIG_DIR) + "/robots/exchange.yaml",
+                    "--plugin-dir", TEST_PLUGIN_DIR});
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));  // let every plugin start
+  const auto signalled = Clock::now();
+  host.signal(signal_number);
+  const int status = host.waitExit(std::chrono::milliseconds(3000));
+  const double stop_s = std::chrono::duration<double>(Clock::now() - signalled).count();
+  EXPECT_EQ(status, 0);
+  EXPECT_LT(stop_s, 1.0) << "the host must stop within one second";
+  const std::string out = host.readAll();
+  EXPECT_NE(out.find("Summary (" + name + ")"), std::string::npos) << out;
+  EXPECT_NE(out.find("tp_producer 0.1.0: "), std::string::npos) << out;
+  EXPECT_NE(out.find("last error: frame checksum mismatch"), std::string::npos) << out;
+}
+
+TEST(HostProcess, StopsCleanlyOnSigint) { expectCleanStopOn(SIGINT, "SIGINT"); }
+TEST(HostProcess, StopsCleanlyOnSigterm) { expectCleanStopOn(SIGTERM, "SIGTERM"); }
+
+TEST(HostProcess, BadConfigExitsNonZeroNamingTheKey) {
+  HostProcess host({"--robot", std::string(TEST_CONFIG_DIR) + "/robots/exchange.yaml",
+                    "--plugin-dir", TEST_PLUGIN_DIR, "--set", "tp_producer.frames=many"});
+  EXPECT_EQ(host.waitExit(std::chrono::milliseconds(3000)), 2);
+  const std::string out = host.readAll();
+  EXPECT_NE(out.find("--set tp_producer.frames=many: tp_producer.frames has the wrong type; "
+                     "expected an integer"),
+            std::string::npos) << out;
+}
+
+TEST(HostProcess, DemoConfigRunsWithShippedPlugins) {
+  HostProcess host({"--robot", std::string(PROJECT_CONFIG_DIR) + "/robots/demo.yaml",
+                    "--plugin-dir", PRODUCT_PLUGIN_DIR, "--set", "host.duration_s=0.5"});
+  EXPECT_EQ(host.waitExit(std::chrono::milliseconds(5000)), 0);
+  EXPECT_NE(host.readAll().find("Summary (duration reached)"), std::string::npos);
+}
+
+}  // namespace
