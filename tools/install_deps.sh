@@ -9,7 +9,7 @@ PACKAGES=(
   libpcl-dev
   liboctomap-dev
   libopenni2-dev
-  libopencv-core-dev libopencv-imgproc-dev libopencv-imgcodecs-dev
+  libopencv-dev
   libyaml-cpp-dev
   libcli11-dev
   nlohmann-json3-dev

@@ -33,6 +33,8 @@ std::vector<std::string> splitKey(const std::string& dotted) {
   return parts;
 }
 
+bool parseInt(const std::string& text, long& out);
+
 // The node at a dotted path below root, or an undefined node. Navigates with reset() because
 // assigning yaml-cpp nodes would rewrite the tree.
 YAML::Node lookup(const YAML::Node& root, const std::string& dotted) {
@@ -40,10 +42,13 @@ YAML::Node lookup(const YAML::Node& root, const std::string& dotted) {
   current.reset(root);
   if (dotted.empty()) return current;
   for (const std::string& part : splitKey(dotted)) {
-    if (!current.IsMap()) return YAML::Node(YAML::NodeType::Undefined);
     const YAML::Node& parent = current;
-    YAML::Node next = parent[part];
-    if (!next.IsDefined()) return next;
+    long index;
+    const bool by_index = parent.IsSequence() && parseInt(part, index) && index >= 0;
+    if (!by_index && !parent.IsMap()) return YAML::Node(YAML::NodeType::Undefined);
+    // Copy-construct: a missing key gives a "zombie" node that reset() would refuse.
+    const YAML::Node next = by_index ? parent[static_cast<std::size_t>(index)] : parent[part];
+    if (!next.IsDefined()) return YAML::Node(YAML::NodeType::Undefined);
     current.reset(next);
   }
   return current;
@@ -124,6 +129,10 @@ void recordOrigins(const YAML::Node& node, const std::string& key, const Source&
     for (const auto& entry : node) {
       recordOrigins(entry.second, joinKey(key, entry.first.as<std::string>()), source, origins);
     }
+  } else if (node.IsSequence()) {
+    for (std::size_t i = 0; i < node.size(); ++i) {
+      recordOrigins(node[i], joinKey(key, std::to_string(i)), source, origins);
+    }
   }
 }
 
@@ -166,18 +175,24 @@ void mergeInto(YAML::Node& base, const YAML::Node& overlay, const std::string& p
   }
 }
 
+YAML::Node parseYaml(const std::string& text, const std::string& label) {
+  try {
+    YAML::Node node = YAML::Load(text);
+    if (node.IsNull() || !node.IsDefined()) return YAML::Node(YAML::NodeType::Map);
+    if (!node.IsMap()) throw ConfigError(label + ": expected a map of keys at the top level");
+    return node;
+  } catch (const YAML::ParserException& e) {
+    throw ConfigError(label + ":" + std::to_string(e.mark.line + 1) + ": YAML syntax error: " +
+                      e.msg);
+  }
+}
+
 YAML::Node loadYamlFile(const std::string& path) {
   std::ifstream in(path);
   if (!in) throw ConfigError("cannot read configuration file '" + path + "'");
-  try {
-    YAML::Node node = YAML::Load(in);
-    if (node.IsNull() || !node.IsDefined()) return YAML::Node(YAML::NodeType::Map);
-    if (!node.IsMap()) throw ConfigError(path + ": expected a map of blocks at the top level");
-    return node;
-  } catch (const YAML::ParserException& e) {
-    throw ConfigError(path + ":" + std::to_string(e.mark.line + 1) + ": YAML syntax error: " +
-                      e.msg);
-  }
+  std::stringstream text;
+  text << in.rdbuf();
+  return parseYaml(text.str(), path);
 }
 
 // "a.b.c=value" -> {a: {b: {c: value}}}
@@ -237,6 +252,22 @@ Config Config::load(const std::string& defaults_dir, const std::string& robot_fi
   }
   return Config(std::move(data));
 }
+
+Config Config::loadDocument(const std::string& path) {
+  auto data = std::make_shared<Data>();
+  data->root = loadYamlFile(path);
+  recordOrigins(data->root, "", Source{path}, data->origins);
+  return Config(std::move(data));
+}
+
+Config Config::parseDocument(const std::string& text, const std::string& label) {
+  auto data = std::make_shared<Data>();
+  data->root = parseYaml(text, label);
+  recordOrigins(data->root, "", Source{label}, data->origins);
+  return Config(std::move(data));
+}
+
+ConfigView Config::root() const { return ConfigView(data_, ""); }
 
 bool Config::hasBlock(const std::string& name) const {
   return lookup(data_->root, name).IsDefined();
@@ -348,6 +379,44 @@ std::vector<std::string> ConfigView::getStringList(const std::string& key) const
     values.push_back(item.Scalar());
   }
   return values;
+}
+
+std::vector<double> ConfigView::getDoubleList(const std::string& key, std::size_t size) const {
+  const std::string expected =
+      size == 0 ? "a list of numbers" : "a list of " + std::to_string(size) + " numbers";
+  const YAML::Node node = lookup(data_->root, fullKey(key));
+  if (!node.IsDefined() || node.IsNull()) fail(key, "is missing; expected " + expected);
+  if (!node.IsSequence() || (size != 0 && node.size() != size)) {
+    fail(key, "has the wrong form; expected " + expected);
+  }
+  std::vector<double> values;
+  for (const auto& item : node) {
+    double value;
+    if (!item.IsScalar() || !parseReal(item.Scalar(), value)) {
+      fail(key, "has the wrong form; expected " + expected);
+    }
+    values.push_back(value);
+  }
+  return values;
+}
+
+std::size_t ConfigView::listSize(const std::string& key) const {
+  const YAML::Node node = lookup(data_->root, fullKey(key));
+  if (!node.IsDefined() || node.IsNull()) fail(key, "is missing; expected a list");
+  if (!node.IsSequence()) fail(key, "has the wrong type; expected a list");
+  return node.size();
+}
+
+std::vector<ConfigView> ConfigView::childList(const std::string& key) const {
+  const YAML::Node node = lookup(data_->root, fullKey(key));
+  if (!node.IsDefined() || node.IsNull()) fail(key, "is missing; expected a list of maps");
+  if (!node.IsSequence()) fail(key, "has the wrong type; expected a list of maps");
+  std::vector<ConfigView> children;
+  for (std::size_t i = 0; i < node.size(); ++i) {
+    if (!node[i].IsMap()) fail(key + "." + std::to_string(i), "has the wrong type; expected a map");
+    children.push_back(ConfigView(data_, fullKey(key + "." + std::to_string(i))));
+  }
+  return children;
 }
 
 ConfigView ConfigView::child(const std::string& key) const {

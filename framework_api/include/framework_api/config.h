@@ -31,6 +31,13 @@ class Config {
   static Config load(const std::string& defaults_dir, const std::string& robot_file,
                      const std::vector<std::string>& overrides);
 
+  // A standalone YAML document with no schema (scene files, camera files): every value keeps its
+  // file:line for errors, and the reader checks keys with requireOnlyKeys and the typed getters.
+  static Config loadDocument(const std::string& path);
+  // The same for YAML text; label stands for the file name in errors.
+  static Config parseDocument(const std::string& text, const std::string& label);
+  ConfigView root() const;
+
   // The configuration of one top-level block, e.g. "kinect3d". Throws ConfigError if there is none.
   ConfigView block(const std::string& name) const;
   bool hasBlock(const std::string& name) const;
@@ -59,7 +66,13 @@ class ConfigView {
   // A string that must be one of `allowed`.
   std::string getChoice(const std::string& key, const std::vector<std::string>& allowed) const;
   std::vector<std::string> getStringList(const std::string& key) const;
+  // A list of exactly `size` numbers (any size when size is 0), e.g. a position [x, y, z].
+  std::vector<double> getDoubleList(const std::string& key, std::size_t size) const;
   ConfigView child(const std::string& key) const;
+  // The number of entries of a list; its entries are keys "<key>.0", "<key>.1", ...
+  std::size_t listSize(const std::string& key) const;
+  // The maps of a list of maps, e.g. a scene's objects; their paths are "objects.0", "objects.1".
+  std::vector<ConfigView> childList(const std::string& key) const;
 
   // For optional blocks (null default): every key of this map must be in `allowed`.
   void requireOnlyKeys(const std::vector<std::string>& allowed) const;

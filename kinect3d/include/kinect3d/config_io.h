@@ -1,0 +1,17 @@
+// Reading kinect3d's plain structs from configuration views. The YAML itself is parsed by
+// framework_api; the algorithms never see configuration, only the structs made here.
+#pragma once
+
+#include "framework_api/config.h"
+#include "kinect3d/depth_frame.h"
+#include "kinect3d/sensor_pose.h"
+
+namespace kinect3d {
+
+// The fixed interface {x, y, z (metres), yaw_deg, pitch_deg, roll_deg}; every key is required.
+SensorPose readSensorPose(const fw::ConfigView& pose);
+// {width, height, fx, fy, cx, cy}; every key is required. The caller checks for unknown keys,
+// since files such as a TUM camera.yaml keep other keys beside these.
+Intrinsics readIntrinsics(const fw::ConfigView& intrinsics);
+
+}  // namespace kinect3d

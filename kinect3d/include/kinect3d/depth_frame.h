@@ -1,0 +1,48 @@
+// One depth image as every source delivers it: OpenNI2's convention of uint16 millimetres along
+// the optical axis, 0 = no data.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace kinect3d {
+
+// Pinhole intrinsics of the depth camera, in pixels.
+struct Intrinsics {
+  int width = 640;
+  int height = 480;
+  double fx = 575.8;  // OpenNI's Kinect v1 default; units spread about +-3 %
+  double fy = 575.8;
+  double cx = 319.5;
+  double cy = 239.5;
+
+  // From a horizontal and vertical field of view (as OpenNI2 streams report it).
+  static Intrinsics fromFieldOfView(int width, int height, double hfov_rad, double vfov_rad);
+  bool operator==(const Intrinsics& other) const;
+};
+
+struct DepthFrame {
+  Intrinsics intrinsics;
+  std::vector<std::uint16_t> depth_mm;  // row-major, width * height
+  double source_time_s = 0.0;           // the sensor's (or the recording's) clock
+  double receive_time_s = 0.0;          // host wall clock when the frame arrived
+  std::uint64_t index = 0;              // the source's frame counter; gaps are dropped frames
+  std::string sensor_id;                // device URI, file or scene name
+
+  int width() const { return intrinsics.width; }
+  int height() const { return intrinsics.height; }
+  std::uint16_t at(int u, int v) const { return depth_mm[static_cast<std::size_t>(v) * width() + u]; }
+  // Resizes depth_mm to match intrinsics and zeroes it.
+  void resize(const Intrinsics& new_intrinsics);
+};
+
+// Depth statistics used by `kinect3d info` and the tests.
+struct DepthStats {
+  double invalid_fraction = 0.0;
+  double min_m = 0.0;  // over valid pixels; 0 when none is valid
+  double max_m = 0.0;
+};
+DepthStats computeStats(const DepthFrame& frame);
+
+}  // namespace kinect3d

@@ -1,0 +1,87 @@
+// Where depth frames come from. The pipeline cannot tell sources apart: a live OpenNI2 device, an
+// .oni recording, a TUM RGB-D sequence and the simulator all deliver DepthFrames through read().
+//
+// URIs (see docs/depth-sources.md):
+//   openni2:            first OpenNI2 device       openni2:<device-uri>   a given device
+//   oni:<file>          OpenNI2 recording          <path>.oni             the same
+//   tum:<dir>           TUM RGB-D sequence         <dir with depth.txt>   the same
+//   sim:<scene>         simulator, built-in scene name or scene file (.yaml)
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <stdexcept>
+#include <string>
+
+#include "kinect3d/depth_frame.h"
+
+namespace kinect3d {
+
+// A source that cannot be opened or read any further: names the file, line or frame.
+class DepthSourceError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+enum class ReadResult {
+  kFrame,       // frame filled
+  kNoFrameYet,  // nothing within the wait (live device); try again
+  kEnd          // the recording or scene is over
+};
+
+struct SourceOptions {
+  // Recordings and the simulator: deliver frames at their recorded rate rather than as fast as
+  // possible (live devices are always real time).
+  bool realtime = false;
+  // The longest read() may block waiting for a live device.
+  double max_wait_s = 0.1;
+};
+
+struct SourceCounters {
+  std::uint64_t frames = 0;   // delivered
+  std::uint64_t dropped = 0;  // gaps in the source's frame indices
+  std::uint64_t skipped = 0;  // unreadable frames reported and skipped
+};
+
+class DepthSource {
+ public:
+  virtual ~DepthSource() = default;
+
+  // Fills frame with the next depth image. Checks what every source must deliver (size against
+  // intrinsics), stamps receive time, counts dropped frames. Throws DepthSourceError when the
+  // source cannot go on.
+  ReadResult read(DepthFrame& frame);
+
+  const SourceCounters& counters() const { return counters_; }
+  // The number of frames, when known in advance (recordings, scenes); 0 for live devices.
+  virtual std::uint64_t frameCount() const { return 0; }
+  // The nominal frame rate.
+  virtual double frameRate_hz() const { return 30.0; }
+  virtual std::string describe() const = 0;
+
+ protected:
+  explicit DepthSource(const SourceOptions& options) : options_(options) {}
+  const SourceOptions& options() const { return options_; }
+  // Sources report an unreadable frame they skipped through this, then go on to the next.
+  void reportSkipped(const std::string& what);
+
+ private:
+  virtual ReadResult readFrame(DepthFrame& frame) = 0;
+
+  // Sleeps until the frame's source time, relative to the first frame, has passed on the wall clock.
+  void paceToRealTime(const DepthFrame& frame);
+
+  SourceOptions options_;
+  SourceCounters counters_;
+  bool has_last_index_ = false;
+  std::uint64_t last_index_ = 0;
+  std::uint64_t skipped_since_last_frame_ = 0;
+  double first_source_time_s_ = 0.0;
+  double first_wall_time_s_ = 0.0;
+};
+
+// Opens the source a URI names. Throws DepthSourceError for an unknown scheme or a source that
+// cannot be opened, naming the URI and the cause.
+std::unique_ptr<DepthSource> openDepthSource(const std::string& uri, const SourceOptions& options = {});
+
+}  // namespace kinect3d

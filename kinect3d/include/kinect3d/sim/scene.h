@@ -1,0 +1,76 @@
+// A simulated scene: the floor, static and moving obstacles, the ball and the sensor, all in the
+// robot frame of the robot that carries the sensor (x right, y forward, z up, floor z = 0).
+// Scene files are YAML (docs/simulator.md); built-in scenes are such files compiled in.
+#pragma once
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "kinect3d/depth_frame.h"
+#include "kinect3d/sensor_pose.h"
+#include "kinect3d/sim/kinect_noise.h"
+
+namespace kinect3d::sim {
+
+// A solid primitive. Boxes and cylinders stand upright and may be turned about z.
+struct Shape {
+  enum class Kind { kBox, kCylinder, kSphere };
+  Kind kind = Kind::kBox;
+  Eigen::Vector3d center_m = Eigen::Vector3d::Zero();  // box/sphere centre; cylinder base centre
+  Eigen::Vector3d size_m = Eigen::Vector3d::Ones();     // box extents; cylinder (2r, 2r, height); sphere (2r, 2r, 2r)
+  double yaw_rad = 0.0;
+  double dropout = 0.0;  // extra chance a pixel on it returns no data (dark, absorbing material)
+};
+
+// One obstacle (a wall, a goal, a robot, a person) made of shapes, optionally walking a path.
+struct SceneObject {
+  std::string type;
+  std::vector<Shape> shapes;            // where they are at t = 0
+  std::vector<Eigen::Vector2d> path_m;  // waypoints in x, y; walked back and forth from the first
+  double speed_mps = 0.0;
+
+  // How far the object has moved from where its shapes are defined, at time t.
+  Eigen::Vector3d displacementAt(double t_s) const;
+};
+
+struct BallPhysics {
+  double radius_m = 0.11;             // FIFA size 5
+  double gravity_mps2 = 9.81;
+  double drag_per_m = 0.024;          // rho Cd A / 2m; 0 = no air drag
+  double restitution = 0.6;           // vertical speed kept at a bounce
+  double bounce_friction = 0.2;       // fraction of horizontal speed lost at a bounce
+  double rolling_decel_mps2 = 0.4;    // rolling resistance on carpet
+};
+
+struct BallLaunch {
+  Eigen::Vector3d position_m = Eigen::Vector3d(0.0, 2.0, 0.11);
+  Eigen::Vector3d velocity_mps = Eigen::Vector3d::Zero();
+  double launch_time_s = 0.0;  // at rest at position_m before this
+  bool hanging = false;        // hung on a wire: never moves
+};
+
+struct Scene {
+  std::string name;
+  double duration_s = 2.0;
+  double fps = 30.0;
+  double start_time_s = 1.7e9;  // source clock of frame 0
+  SensorPose sensor_pose;
+  Intrinsics intrinsics;
+  KinectNoise noise;
+  bool floor = true;
+  std::vector<SceneObject> objects;
+  std::optional<BallLaunch> ball;
+  BallPhysics physics;
+
+  int frameCount() const;
+};
+
+// Loads a built-in scene by name, or a scene file by path (anything ending in .yaml).
+// Throws std::runtime_error naming the file, line and key on any problem.
+Scene loadScene(const std::string& name_or_path);
+std::vector<std::string> builtinSceneNames();
+
+}  // namespace kinect3d::sim

@@ -1,0 +1,75 @@
+#include "kinect3d/depth_source.h"
+
+#include <filesystem>
+#include <thread>
+
+#include "framework_api/log.h"
+#include "framework_api/types.h"
+#include "sources.h"
+
+namespace kinect3d {
+
+ReadResult DepthSource::read(DepthFrame& frame) {
+  const ReadResult result = readFrame(frame);
+  if (result != ReadResult::kFrame) return result;
+  const std::size_t expected =
+      static_cast<std::size_t>(frame.intrinsics.width) * frame.intrinsics.height;
+  if (frame.depth_mm.size() != expected) {
+    throw DepthSourceError(describe() + ": frame " + std::to_string(frame.index) + " has " +
+                           std::to_string(frame.depth_mm.size()) + " pixels, expected " +
+                           std::to_string(expected));
+  }
+  if (has_last_index_ && frame.index > last_index_ + 1) {
+    // A gap the source skipped itself (an unreadable file) is counted as skipped, not dropped.
+    const std::uint64_t gap = frame.index - last_index_ - 1;
+    counters_.dropped += gap > skipped_since_last_frame_ ? gap - skipped_since_last_frame_ : 0;
+  }
+  skipped_since_last_frame_ = 0;
+  has_last_index_ = true;
+  last_index_ = frame.index;
+  ++counters_.frames;
+  if (options_.realtime) paceToRealTime(frame);
+  frame.receive_time_s = fw::wallClockNow_s();
+  return ReadResult::kFrame;
+}
+
+void DepthSource::paceToRealTime(const DepthFrame& frame) {
+  const double now_s = fw::wallClockNow_s();
+  if (counters_.frames == 1) {
+    first_source_time_s_ = frame.source_time_s;
+    first_wall_time_s_ = now_s;
+    return;
+  }
+  const double wait_s = (frame.source_time_s - first_source_time_s_) - (now_s - first_wall_time_s_);
+  if (wait_s > 0.0) std::this_thread::sleep_for(std::chrono::duration<double>(wait_s));
+}
+
+void DepthSource::reportSkipped(const std::string& what) {
+  ++counters_.skipped;
+  ++skipped_since_last_frame_;
+  fw::logWarn("depth", "skipped unreadable frame: " + what);
+}
+
+std::unique_ptr<DepthSource> openDepthSource(const std::string& uri, const SourceOptions& options) {
+  namespace fs = std::filesystem;
+  const auto colon = uri.find(':');
+  const std::string scheme = colon == std::string::npos ? "" : uri.substr(0, colon);
+  const std::string rest = colon == std::string::npos ? uri : uri.substr(colon + 1);
+  if (scheme == "openni2") return openOpenNI2Device(rest, options);
+  if (scheme == "oni") return openOniRecording(rest, options);
+  if (scheme == "tum") return openTumSequence(rest, options);
+  if (scheme == "sim") return openSimulation(rest, options);
+  if (scheme.empty() || scheme.find('/') != std::string::npos) {
+    // A bare path: recognised by what it is.
+    if (fs::path(uri).extension() == ".oni") return openOniRecording(uri, options);
+    if (fs::is_directory(uri) && fs::exists(fs::path(uri) / "depth.txt")) {
+      return openTumSequence(uri, options);
+    }
+    throw DepthSourceError("'" + uri + "' is neither an .oni file nor a folder holding depth.txt; " +
+                           "use a URI: openni2:, oni:<file>, tum:<dir> or sim:<scene>");
+  }
+  throw DepthSourceError("unknown depth source scheme '" + scheme + ":' in '" + uri +
+                         "'; expected openni2:, oni:, tum: or sim:");
+}
+
+}  // namespace kinect3d

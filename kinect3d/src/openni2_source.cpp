@@ -1,0 +1,244 @@
+// Live OpenNI2 devices and .oni recordings, both through OpenNI2's own device layer.
+#include <OpenNI.h>
+
+#include <chrono>
+#include <cstring>
+#include <filesystem>
+#include <mutex>
+#include <thread>
+
+#include "framework_api/log.h"
+#include "sources.h"
+
+namespace kinect3d {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+// OpenNI2 is initialised once per process and never shut down while a stream may exist.
+void initialiseOpenNI() {
+  static std::once_flag once;
+  static openni::Status status = openni::STATUS_OK;
+  std::call_once(once, [] { status = openni::OpenNI::initialize(); });
+  if (status != openni::STATUS_OK) {
+    throw DepthSourceError(std::string("OpenNI2 failed to initialise: ") +
+                           openni::OpenNI::getExtendedError());
+  }
+}
+
+std::string lastError() { return openni::OpenNI::getExtendedError(); }
+
+// The depth stream of one opened OpenNI2 device (live or file).
+class OpenNI2Stream {
+ public:
+  // Opens uri (a device URI, a file, or empty for the first device) and starts depth at VGA 30 Hz
+  // in millimetres where the device offers that mode.
+  void open(const std::string& uri, const std::string& label) {
+    close();
+    if (device_.open(uri.empty() ? openni::ANY_DEVICE : uri.c_str()) != openni::STATUS_OK) {
+      throw DepthSourceError(label + ": cannot open: " + lastError());
+    }
+    if (stream_.create(device_, openni::SENSOR_DEPTH) != openni::STATUS_OK) {
+      device_.close();
+      throw DepthSourceError(label + ": has no depth stream: " + lastError());
+    }
+    if (!device_.isFile()) selectVgaMillimetres(label);
+    if (stream_.start() != openni::STATUS_OK) {
+      close();
+      throw DepthSourceError(label + ": cannot start the depth stream: " + lastError());
+    }
+    const openni::VideoMode mode = stream_.getVideoMode();
+    if (mode.getPixelFormat() != openni::PIXEL_FORMAT_DEPTH_1_MM) {
+      close();
+      throw DepthSourceError(label + ": depth is not in millimetres (pixel format " +
+                             std::to_string(mode.getPixelFormat()) + ")");
+    }
+    intrinsics_ = Intrinsics::fromFieldOfView(mode.getResolutionX(), mode.getResolutionY(),
+                                              stream_.getHorizontalFieldOfView(),
+                                              stream_.getVerticalFieldOfView());
+    fps_ = mode.getFps() > 0 ? mode.getFps() : 30;
+  }
+
+  void close() {
+    if (stream_.isValid()) {
+      stream_.stop();
+      stream_.destroy();
+    }
+    if (device_.isValid()) device_.close();
+  }
+
+  // Waits up to timeout for a frame. Returns false on timeout; throws when the stream failed.
+  bool read(DepthFrame& frame, int timeout_ms, const std::string& label) {
+    openni::VideoStream* streams[] = {&stream_};
+    int ready = -1;
+    const openni::Status waited = openni::OpenNI::waitForAnyStream(streams, 1, &ready, timeout_ms);
+    if (waited == openni::STATUS_TIME_OUT) return false;
+    if (waited != openni::STATUS_OK) throw DepthSourceError(label + ": " + lastError());
+    return readReady(frame, label);
+  }
+
+  // Reads the next frame without waiting (for recordings in manual playback).
+  bool readReady(DepthFrame& frame, const std::string& label) {
+    openni::VideoFrameRef ref;
+    if (stream_.readFrame(&ref) != openni::STATUS_OK || !ref.isValid()) {
+      throw DepthSourceError(label + ": cannot read a frame: " + lastError());
+    }
+    if (ref.getWidth() != intrinsics_.width || ref.getHeight() != intrinsics_.height ||
+        ref.getDataSize() < intrinsics_.width * intrinsics_.height * 2) {
+      throw DepthSourceError(label + ": frame " + std::to_string(ref.getFrameIndex()) +
+                             " is " + std::to_string(ref.getWidth()) + "x" +
+                             std::to_string(ref.getHeight()) + " with " +
+                             std::to_string(ref.getDataSize()) + " bytes, expected " +
+                             std::to_string(intrinsics_.width) + "x" +
+                             std::to_string(intrinsics_.height));
+    }
+    frame.resize(intrinsics_);
+    const auto* rows = static_cast<const unsigned char*>(ref.getData());
+    for (int v = 0; v < intrinsics_.height; ++v) {
+      std::memcpy(&frame.depth_mm[static_cast<std::size_t>(v) * intrinsics_.width],
+                  rows + static_cast<std::size_t>(v) * ref.getStrideInBytes(), intrinsics_.width * 2);
+    }
+    frame.index = static_cast<std::uint64_t>(ref.getFrameIndex());
+    frame.source_time_s = ref.getTimestamp() * 1e-6;  // microseconds on the device clock
+    return true;
+  }
+
+  openni::Device& device() { return device_; }
+  openni::VideoStream& stream() { return stream_; }
+  const Intrinsics& intrinsics() const { return intrinsics_; }
+  int fps() const { return fps_; }
+  bool isOpen() const { return stream_.isValid(); }
+
+ private:
+  void selectVgaMillimetres(const std::string& label) {
+    const openni::SensorInfo& info = stream_.getSensorInfo();
+    const auto& modes = info.getSupportedVideoModes();
+    for (int i = 0; i < modes.getSize(); ++i) {
+      const openni::VideoMode& mode = modes[i];
+      if (mode.getResolutionX() == 640 && mode.getResolutionY() == 480 && mode.getFps() == 30 &&
+          mode.getPixelFormat() == openni::PIXEL_FORMAT_DEPTH_1_MM) {
+        if (stream_.setVideoMode(mode) != openni::STATUS_OK) {
+          throw DepthSourceError(label + ": cannot select 640x480 at 30 Hz: " + lastError());
+        }
+        return;
+      }
+    }
+    fw::logWarn("openni2", label + ": no 640x480 30 Hz millimetre mode; using the device default");
+  }
+
+  openni::Device device_;
+  openni::VideoStream stream_;
+  Intrinsics intrinsics_;
+  int fps_ = 30;
+};
+
+// A live device. If it disappears (unplugged, USB reset) the source reports it and tries to reopen
+// it every second, delivering no frames meanwhile, without stopping the host.
+class OpenNI2Device : public DepthSource {
+ public:
+  OpenNI2Device(std::string uri, const SourceOptions& options)
+      : DepthSource(options), uri_(std::move(uri)) {
+    stream_.open(uri_, describe());
+    fw::logInfo("openni2", describe() + ": streaming " + std::to_string(stream_.intrinsics().width) +
+                               "x" + std::to_string(stream_.intrinsics().height));
+  }
+  ~OpenNI2Device() override { stream_.close(); }
+
+  double frameRate_hz() const override { return stream_.fps(); }
+  std::string describe() const override { return "openni2:" + uri_; }
+
+ private:
+  ReadResult readFrame(DepthFrame& frame) override {
+    const int wait_ms = static_cast<int>(options().max_wait_s * 1000.0);
+    if (!stream_.isOpen()) return reopen(wait_ms);
+    try {
+      if (!stream_.read(frame, wait_ms, describe())) return ReadResult::kNoFrameYet;
+    } catch (const DepthSourceError& e) {
+      fw::logError("openni2", std::string(e.what()) + "; reopening every second");
+      stream_.close();
+      next_attempt_ = Clock::now() + std::chrono::seconds(1);
+      return ReadResult::kNoFrameYet;
+    }
+    frame.sensor_id = describe();
+    return ReadResult::kFrame;
+  }
+
+  ReadResult reopen(int wait_ms) {
+    if (Clock::now() < next_attempt_) {
+      std::this_thread::sleep_for(std::min(std::chrono::milliseconds(wait_ms),
+                                           std::chrono::duration_cast<std::chrono::milliseconds>(
+                                               next_attempt_ - Clock::now())));
+      return ReadResult::kNoFrameYet;
+    }
+    try {
+      stream_.open(uri_, describe());
+      fw::logInfo("openni2", describe() + ": reopened");
+    } catch (const DepthSourceError& e) {
+      next_attempt_ = Clock::now() + std::chrono::seconds(1);
+    }
+    return ReadResult::kNoFrameYet;
+  }
+
+  std::string uri_;
+  OpenNI2Stream stream_;
+  Clock::time_point next_attempt_{};
+};
+
+class OniRecording : public DepthSource {
+ public:
+  OniRecording(std::string path, const SourceOptions& options)
+      : DepthSource(options), path_(std::move(path)) {
+    stream_.open(path_, describe());
+    openni::PlaybackControl* playback = stream_.device().getPlaybackControl();
+    if (playback == nullptr) throw DepthSourceError(describe() + ": not a recording");
+    playback->setRepeatEnabled(false);
+    // Manual speed: a frame is produced when it is read, so nothing is dropped however slowly the
+    // pipeline runs. Real-time pacing, when asked for, is done by DepthSource::read.
+    playback->setSpeed(-1.0f);
+    frames_ = playback->getNumberOfFrames(stream_.stream());
+    if (frames_ <= 0) throw DepthSourceError(describe() + ": the recording holds no depth frames");
+  }
+  ~OniRecording() override { stream_.close(); }
+
+  std::uint64_t frameCount() const override { return static_cast<std::uint64_t>(frames_); }
+  double frameRate_hz() const override { return stream_.fps(); }
+  std::string describe() const override { return "oni:" + path_; }
+
+ private:
+  ReadResult readFrame(DepthFrame& frame) override {
+    if (read_ >= frames_) return ReadResult::kEnd;
+    try {
+      stream_.readReady(frame, describe());
+    } catch (const DepthSourceError& e) {
+      throw DepthSourceError(std::string(e.what()) + " (frame " + std::to_string(read_ + 1) +
+                             " of " + std::to_string(frames_) + "; the file may be truncated)");
+    }
+    ++read_;
+    frame.sensor_id = describe();
+    return ReadResult::kFrame;
+  }
+
+  std::string path_;
+  OpenNI2Stream stream_;
+  int frames_ = 0;
+  int read_ = 0;
+};
+
+}  // namespace
+
+std::unique_ptr<DepthSource> openOpenNI2Device(const std::string& device_uri,
+                                               const SourceOptions& options) {
+  initialiseOpenNI();
+  return std::make_unique<OpenNI2Device>(device_uri, options);
+}
+
+std::unique_ptr<DepthSource> openOniRecording(const std::string& path, const SourceOptions& options) {
+  if (!std::filesystem::is_regular_file(path)) {
+    throw DepthSourceError("recording '" + path + "' does not exist");
+  }
+  initialiseOpenNI();
+  return std::make_unique<OniRecording>(path, options);
+}
+
+}  // namespace kinect3d

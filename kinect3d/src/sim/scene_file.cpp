@@ -1,0 +1,191 @@
+// Scene files: YAML read through framework_api's document reader, so every error names the file,
+// line and key. The format is documented in docs/simulator.md.
+#include <cmath>
+#include <filesystem>
+#include <map>
+
+#include "builtin_scenes.h"
+#include "kinect3d/config_io.h"
+#include "kinect3d/sim/scene.h"
+
+namespace kinect3d::sim {
+
+namespace {
+
+double radians(double degrees) { return degrees * M_PI / 180.0; }
+
+Eigen::Vector3d vector3(const fw::ConfigView& view, const std::string& key) {
+  const std::vector<double> v = view.getDoubleList(key, 3);
+  return {v[0], v[1], v[2]};
+}
+
+// Standard obstacles, sized from the MSL rules and the reference notes.
+std::vector<Shape> shapesOf(const fw::ConfigView& object, const std::string& type) {
+  const Eigen::Vector3d base = vector3(object, "center");
+  const double yaw = object.has("yaw_deg") ? radians(object.getDouble("yaw_deg", -360, 360)) : 0.0;
+  const double dropout = object.has("dropout") ? object.getDouble("dropout", 0.0, 1.0) : 0.0;
+  auto box = [&](Eigen::Vector3d offset, Eigen::Vector3d size) {
+    const Eigen::Vector3d center = base + Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()) * offset;
+    return Shape{Shape::Kind::kBox, center, size, yaw, dropout};
+  };
+  if (type == "box") return {Shape{Shape::Kind::kBox, base, vector3(object, "size"), yaw, dropout}};
+  if (type == "cylinder" || type == "sphere") {
+    const double r = object.getDouble("radius", 0.01, 10.0);
+    if (type == "sphere") return {Shape{Shape::Kind::kSphere, base, Eigen::Vector3d::Constant(2 * r), 0.0, dropout}};
+    return {Shape{Shape::Kind::kCylinder, base, {2 * r, 2 * r, object.getDouble("height", 0.01, 20.0)}, 0.0, dropout}};
+  }
+  if (type == "robot") {
+    // An MSL robot: at most 0.52 m across and 0.80 m tall; centre given on the floor.
+    const Eigen::Vector3d size = object.has("size") ? vector3(object, "size") : Eigen::Vector3d(0.5, 0.5, 0.78);
+    return {box({0, 0, size.z() / 2}, size)};
+  }
+  if (type == "human") {
+    // Legs, torso and head of an adult; centre given on the floor between the feet.
+    return {box({-0.1, 0, 0.45}, {0.14, 0.16, 0.9}), box({0.1, 0, 0.45}, {0.14, 0.16, 0.9}),
+            box({0, 0, 1.2}, {0.42, 0.24, 0.62}),
+            Shape{Shape::Kind::kSphere, base + Eigen::Vector3d(0, 0, 1.64), Eigen::Vector3d::Constant(0.22), 0.0, dropout}};
+  }
+  if (type == "goal") {
+    // 2.0 m wide, 1.0 m high inside, 0.125 m posts; the net is invisible to the projector.
+    const double post = 0.125;
+    return {box({-1.0 - post / 2, 0, 0.5 + post / 2}, {post, post, 1.0 + post}),
+            box({1.0 + post / 2, 0, 0.5 + post / 2}, {post, post, 1.0 + post}),
+            box({0, 0, 1.0 + post / 2}, {2.0 + 2 * post, post, post})};
+  }
+  throw std::runtime_error(object.originOf("type") + ": " + object.path() + ".type = '" + type +
+                           "' is unknown; expected box, cylinder, sphere, robot, human or goal");
+}
+
+SceneObject readObject(const fw::ConfigView& object) {
+  object.requireOnlyKeys({"type", "center", "size", "radius", "height", "yaw_deg", "dropout", "path", "speed_mps"});
+  SceneObject result;
+  result.type = object.getChoice("type", {"box", "cylinder", "sphere", "robot", "human", "goal"});
+  result.shapes = shapesOf(object, result.type);
+  if (object.has("path")) {
+    // Waypoints [[x, y], ...]; the object walks them back and forth, starting at the first.
+    const std::size_t points = object.listSize("path");
+    for (std::size_t i = 0; i < points; ++i) {
+      const std::vector<double> xy = object.getDoubleList("path." + std::to_string(i), 2);
+      result.path_m.emplace_back(xy[0], xy[1]);
+    }
+    result.speed_mps = object.getDouble("speed_mps", 0.0, 15.0);
+  }
+  return result;
+}
+
+KinectNoise readNoise(const fw::ConfigView& view) {
+  view.requireOnlyKeys({"baseline_m", "quantisation", "axial_noise", "lateral_noise_px", "shadows",
+                        "edge_dropout", "flying_pixels", "exposure_s", "trail_dropout",
+                        "random_dropout", "min_range_m", "max_range_m", "seed"});
+  KinectNoise n;
+  if (view.has("baseline_m")) n.baseline_m = view.getDouble("baseline_m", 0.01, 0.5);
+  if (view.has("quantisation")) n.quantisation = view.getBool("quantisation");
+  if (view.has("axial_noise")) n.axial_noise = view.getBool("axial_noise");
+  if (view.has("lateral_noise_px")) n.lateral_noise_px = view.getDouble("lateral_noise_px", 0.0, 5.0);
+  if (view.has("shadows")) n.shadows = view.getBool("shadows");
+  if (view.has("edge_dropout")) n.edge_dropout = view.getDouble("edge_dropout", 0.0, 1.0);
+  if (view.has("flying_pixels")) n.flying_pixels = view.getDouble("flying_pixels", 0.0, 1.0);
+  if (view.has("exposure_s")) n.exposure_s = view.getDouble("exposure_s", 0.0, 0.033);
+  if (view.has("trail_dropout")) n.trail_dropout = view.getDouble("trail_dropout", 0.0, 1.0);
+  if (view.has("random_dropout")) n.random_dropout = view.getDouble("random_dropout", 0.0, 1.0);
+  if (view.has("min_range_m")) n.min_range_m = view.getDouble("min_range_m", 0.1, 20.0);
+  if (view.has("max_range_m")) n.max_range_m = view.getDouble("max_range_m", n.min_range_m, 20.0);
+  if (view.has("seed")) n.seed = static_cast<std::uint64_t>(view.getInt("seed", 0, 2147483647));
+  return n;
+}
+
+Scene readScene(const fw::ConfigView& root) {
+  root.requireOnlyKeys({"name", "description", "duration_s", "fps", "start_time_s", "sensor",
+                        "noise", "floor", "objects", "ball", "physics"});
+  Scene scene;
+  scene.name = root.getString("name");
+  scene.duration_s = root.getDouble("duration_s", 0.0, 3600.0);
+  if (root.has("fps")) scene.fps = root.getDouble("fps", 1.0, 120.0);
+  if (root.has("start_time_s")) scene.start_time_s = root.getDouble("start_time_s", 0.0, 1e10);
+  const fw::ConfigView sensor = root.child("sensor");
+  sensor.requireOnlyKeys({"pose_in_robot", "intrinsics"});
+  scene.sensor_pose = readSensorPose(sensor.child("pose_in_robot"));
+  if (sensor.has("intrinsics")) {
+    sensor.child("intrinsics").requireOnlyKeys({"width", "height", "fx", "fy", "cx", "cy"});
+    scene.intrinsics = readIntrinsics(sensor.child("intrinsics"));
+  }
+  if (root.has("noise")) scene.noise = readNoise(root.child("noise"));
+  if (root.has("floor")) scene.floor = root.getBool("floor");
+  if (root.has("objects")) {
+    for (const fw::ConfigView& object : root.childList("objects")) {
+      scene.objects.push_back(readObject(object));
+    }
+  }
+  if (root.has("ball")) {
+    const fw::ConfigView ball = root.child("ball");
+    ball.requireOnlyKeys({"position", "velocity", "launch_time_s", "hanging"});
+    BallLaunch launch;
+    launch.position_m = vector3(ball, "position");
+    if (ball.has("velocity")) launch.velocity_mps = vector3(ball, "velocity");
+    if (ball.has("launch_time_s")) launch.launch_time_s = ball.getDouble("launch_time_s", 0.0, 3600.0);
+    if (ball.has("hanging")) launch.hanging = ball.getBool("hanging");
+    scene.ball = launch;
+  }
+  if (root.has("physics")) {
+    const fw::ConfigView physics = root.child("physics");
+    physics.requireOnlyKeys({"radius_m", "gravity_mps2", "drag_per_m", "restitution",
+                             "bounce_friction", "rolling_decel_mps2"});
+    BallPhysics& p = scene.physics;
+    if (physics.has("radius_m")) p.radius_m = physics.getDouble("radius_m", 0.01, 1.0);
+    if (physics.has("gravity_mps2")) p.gravity_mps2 = physics.getDouble("gravity_mps2", 0.0, 20.0);
+    if (physics.has("drag_per_m")) p.drag_per_m = physics.getDouble("drag_per_m", 0.0, 1.0);
+    if (physics.has("restitution")) p.restitution = physics.getDouble("restitution", 0.0, 1.0);
+    if (physics.has("bounce_friction")) p.bounce_friction = physics.getDouble("bounce_friction", 0.0, 1.0);
+    if (physics.has("rolling_decel_mps2")) p.rolling_decel_mps2 = physics.getDouble("rolling_decel_mps2", 0.0, 10.0);
+  }
+  return scene;
+}
+
+}  // namespace
+
+int Scene::frameCount() const { return static_cast<int>(std::lround(duration_s * fps)); }
+
+Eigen::Vector3d SceneObject::displacementAt(double t_s) const {
+  if (path_m.size() < 2 || speed_mps <= 0.0) return Eigen::Vector3d::Zero();
+  double length = 0.0;
+  for (std::size_t i = 1; i < path_m.size(); ++i) length += (path_m[i] - path_m[i - 1]).norm();
+  if (length <= 0.0) return Eigen::Vector3d::Zero();
+  // Walk the path to its end and back again, forever.
+  double s = std::fmod(speed_mps * t_s, 2.0 * length);
+  if (s > length) s = 2.0 * length - s;
+  for (std::size_t i = 1; i < path_m.size(); ++i) {
+    const double leg = (path_m[i] - path_m[i - 1]).norm();
+    if (s <= leg || i + 1 == path_m.size()) {
+      const Eigen::Vector2d p = path_m[i - 1] + (leg > 0 ? std::min(s / leg, 1.0) : 0.0) * (path_m[i] - path_m[i - 1]);
+      return {p.x() - path_m.front().x(), p.y() - path_m.front().y(), 0.0};
+    }
+    s -= leg;
+  }
+  return Eigen::Vector3d::Zero();
+}
+
+Scene loadScene(const std::string& name_or_path) {
+  try {
+    const bool is_file = std::filesystem::path(name_or_path).extension() == ".yaml";
+    if (is_file) return readScene(fw::Config::loadDocument(name_or_path).root());
+    const std::map<std::string, std::string>& builtins = builtinScenes();
+    const auto found = builtins.find(name_or_path);
+    if (found == builtins.end()) {
+      std::string names;
+      for (const auto& entry : builtins) names += " " + entry.first;
+      throw std::runtime_error("no built-in scene '" + name_or_path + "' (built in:" + names +
+                               "; or give a scene file ending in .yaml)");
+    }
+    return readScene(fw::Config::parseDocument(found->second, "built-in scene " + found->first).root());
+  } catch (const fw::ConfigError& e) {
+    throw std::runtime_error(e.what());
+  }
+}
+
+std::vector<std::string> builtinSceneNames() {
+  std::vector<std::string> names;
+  for (const auto& entry : builtinScenes()) names.push_back(entry.first);
+  return names;
+}
+
+}  // namespace kinect3d::sim

@@ -1,0 +1,81 @@
+#include "kinect3d/sim/sequence_writer.h"
+
+#include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+
+namespace kinect3d::sim {
+
+namespace fs = std::filesystem;
+
+TumSequenceWriter::TumSequenceWriter(const std::string& dir) : dir_(dir) {
+  std::error_code error;
+  fs::create_directories(fs::path(dir) / "depth", error);
+  if (error) throw std::runtime_error("cannot create '" + dir + "/depth': " + error.message());
+  std::ofstream list(fs::path(dir) / "depth.txt");
+  if (!list) throw std::runtime_error("cannot write '" + dir + "/depth.txt'");
+  list << "# depth maps written by kinect3d simulate\n# timestamp filename\n";
+}
+
+void TumSequenceWriter::write(const DepthFrame& frame) {
+  const Intrinsics& in = frame.intrinsics;
+  if (!camera_written_) {
+    std::ofstream camera(fs::path(dir_) / "camera.yaml");
+    camera.precision(10);
+    camera << "width: " << in.width << "\nheight: " << in.height << "\nfx: " << in.fx
+           << "\nfy: " << in.fy << "\ncx: " << in.cx << "\ncy: " << in.cy
+           << "\ndepth_scale: 5000\n";
+    if (!camera) throw std::runtime_error("cannot write '" + dir_ + "/camera.yaml'");
+    camera_written_ = true;
+  }
+  // TUM stores 1/5000 m: millimetres times five (9.5 m max range fits in 16 bits).
+  cv::Mat image(in.height, in.width, CV_16UC1);
+  for (int v = 0; v < in.height; ++v) {
+    auto* row = image.ptr<std::uint16_t>(v);
+    for (int u = 0; u < in.width; ++u) {
+      const unsigned units = frame.at(u, v) * 5u;
+      row[u] = static_cast<std::uint16_t>(units <= 65535u ? units : 0u);
+    }
+  }
+  char name[64];
+  std::snprintf(name, sizeof name, "depth/%06llu.png", static_cast<unsigned long long>(frame.index));
+  if (!cv::imwrite((fs::path(dir_) / name).string(), image)) {
+    throw std::runtime_error("cannot write '" + dir_ + "/" + name + "'");
+  }
+  std::ofstream list(fs::path(dir_) / "depth.txt", std::ios::app);
+  char line[128];
+  std::snprintf(line, sizeof line, "%.6f %s\n", frame.source_time_s, name);
+  list << line;
+  if (!list) throw std::runtime_error("cannot append to '" + dir_ + "/depth.txt'");
+}
+
+void writeTruthJson(const std::string& path, const Scene& scene, const std::vector<GroundTruth>& truth) {
+  nlohmann::json frames = nlohmann::json::array();
+  for (const GroundTruth& t : truth) {
+    nlohmann::json entry{{"frame", t.frame_index},
+                         {"t", scene.start_time_s + t.time_s},
+                         {"has_ball", t.has_ball}};
+    if (t.has_ball) {
+      entry["ball"] = {t.ball_center_R.x(), t.ball_center_R.y(), t.ball_center_R.z()};
+      entry["velocity"] = {t.ball_velocity_R.x(), t.ball_velocity_R.y(), t.ball_velocity_R.z()};
+      entry["state"] = t.airborne ? "air" : "ground";
+      entry["visible_pixels"] = t.visible_pixels;
+      entry["clearance_m"] = std::isfinite(t.clearance_m) ? nlohmann::json(t.clearance_m) : nlohmann::json(nullptr);
+    }
+    frames.push_back(entry);
+  }
+  const nlohmann::json document{{"scene", scene.name},
+                                {"frame_rate_hz", scene.fps},
+                                {"ball_radius_m", scene.physics.radius_m},
+                                {"frame", "robot"},
+                                {"frames", frames}};
+  std::ofstream out(path);
+  out << document.dump(1) << "\n";
+  if (!out) throw std::runtime_error("cannot write '" + path + "'");
+}
+
+}  // namespace kinect3d::sim

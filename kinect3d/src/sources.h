@@ -1,0 +1,18 @@
+// Constructors of the concrete sources, for openDepthSource() only. The rest of the code sees the
+// DepthSource interface.
+#pragma once
+
+#include <memory>
+#include <string>
+
+#include "kinect3d/depth_source.h"
+
+namespace kinect3d {
+
+std::unique_ptr<DepthSource> openTumSequence(const std::string& dir, const SourceOptions& options);
+std::unique_ptr<DepthSource> openSimulation(const std::string& scene, const SourceOptions& options);
+std::unique_ptr<DepthSource> openOpenNI2Device(const std::string& device_uri,
+                                               const SourceOptions& options);
+std::unique_ptr<DepthSource> openOniRecording(const std::string& path, const SourceOptions& options);
+
+}  // namespace kinect3d

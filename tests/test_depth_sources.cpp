@@ -1,0 +1,173 @@
+#include <gtest/gtest.h>
+
+#include <opencv2/imgcodecs.hpp>
+
+#include <filesystem>
+#include <fstream>
+
+#include "kinect3d/depth_source.h"
+#include "kinect3d/kinect_disparity.h"
+#include "kinect3d/sim/kinect_simulator.h"
+#include "kinect3d/sim/sequence_writer.h"
+
+namespace {
+
+namespace fs = std::filesystem;
+using kinect3d::DepthFrame;
+using kinect3d::DepthSourceError;
+using kinect3d::ReadResult;
+
+const std::string kRealTum = std::string(REAL_DEPTH_DIR) + "/tum_depth.png";
+
+class TumDir : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    char pattern[] = "/tmp/tum_test_XXXXXX";
+    dir_ = mkdtemp(pattern);
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+  void write(const std::string& name, const std::string& text) { std::ofstream(dir_ / name) << text; }
+  std::string errorOpening() {
+    try {
+      auto source = kinect3d::openDepthSource("tum:" + dir_.string());
+      DepthFrame frame;
+      while (source->read(frame) == ReadResult::kFrame) {
+      }
+    } catch (const DepthSourceError& e) {
+      return e.what();
+    }
+    ADD_FAILURE() << "expected a DepthSourceError";
+    return "";
+  }
+  fs::path dir_;
+};
+
+TEST_F(TumDir, ReadsTheRealKinectFrame) {
+  write("depth.txt", "# real frame\n1305031102.160407 " + kRealTum + "\n");
+  auto source = kinect3d::openDepthSource(dir_.string());  // a bare folder path works too
+  DepthFrame frame;
+  ASSERT_EQ(source->read(frame), ReadResult::kFrame);
+  EXPECT_EQ(frame.width(), 640);
+  EXPECT_EQ(frame.intrinsics.fx, 525.0) << "TUM default intrinsics without camera.yaml";
+  EXPECT_DOUBLE_EQ(frame.source_time_s, 1305031102.160407);
+  const kinect3d::DepthStats stats = kinect3d::computeStats(frame);
+  EXPECT_NEAR(stats.invalid_fraction, 0.19, 0.01);
+  EXPECT_NEAR(stats.min_m, 1.46, 0.01);
+  EXPECT_NEAR(stats.max_m, 9.33, 0.01);
+  const cv::Mat raw = cv::imread(kRealTum, cv::IMREAD_UNCHANGED);
+  EXPECT_EQ(frame.at(320, 240), std::lround(raw.at<std::uint16_t>(240, 320) / 5.0));
+  EXPECT_EQ(source->read(frame), ReadResult::kEnd);
+}
+
+TEST_F(TumDir, CameraFileSetsIntrinsicsAndScale) {
+  write("depth.txt", "0.0 " + kRealTum + "\n");
+  write("camera.yaml", "width: 640\nheight: 480\nfx: 591.1\nfy: 590.1\ncx: 331.0\ncy: 234.0\ndepth_scale: 2500\n");
+  auto source = kinect3d::openDepthSource("tum:" + dir_.string());
+  DepthFrame frame;
+  ASSERT_EQ(source->read(frame), ReadResult::kFrame);
+  EXPECT_DOUBLE_EQ(frame.intrinsics.fx, 591.1);
+  EXPECT_NEAR(kinect3d::computeStats(frame).max_m, 2 * 9.33, 0.02);
+}
+
+TEST_F(TumDir, BadInputNamesTheFileAndLine) {
+  write("depth.txt", "0.0 a.png\nnot-a-line\n");
+  EXPECT_NE(errorOpening().find("depth.txt:2: expected 'timestamp filename'"), std::string::npos);
+  write("depth.txt", "0.0 a.png extra\n");
+  EXPECT_NE(errorOpening().find("depth.txt:1:"), std::string::npos);
+  write("depth.txt", "# nothing\n");
+  EXPECT_NE(errorOpening().find("lists no frames"), std::string::npos);
+  write("depth.txt", "0.0 " + kRealTum + "\n");
+  write("camera.yaml", "width: 640\nheight: 480\nfx: 5\nfy: 500\ncx: 320\ncy: 240\ndepth_scale: 5000\n");
+  EXPECT_NE(errorOpening().find("camera.yaml:3: fx = 5 is out of range"), std::string::npos);
+  write("camera.yaml", "width: 640\nheigth: 480\n");
+  EXPECT_NE(errorOpening().find("camera.yaml:2: heigth is an unknown key"), std::string::npos);
+  fs::remove(dir_ / "depth.txt");
+  EXPECT_NE(errorOpening().find("has no depth.txt"), std::string::npos);
+}
+
+TEST_F(TumDir, UnreadableFramesAreReportedAndSkipped) {
+  cv::imwrite((dir_ / "small.png").string(), cv::Mat(240, 320, CV_16UC1, cv::Scalar(1000)));
+  cv::imwrite((dir_ / "eight_bit.png").string(), cv::Mat(480, 640, CV_8UC1, cv::Scalar(10)));
+  write("depth.txt", "0.0 " + kRealTum + "\n0.033 small.png\n0.066 missing.png\n0.1 eight_bit.png\n0.133 " +
+                         kRealTum + "\n");
+  auto source = kinect3d::openDepthSource("tum:" + dir_.string());
+  DepthFrame frame;
+  int frames = 0;
+  while (source->read(frame) == ReadResult::kFrame) ++frames;
+  EXPECT_EQ(frames, 2);
+  EXPECT_EQ(source->counters().skipped, 3u);
+  EXPECT_EQ(source->counters().dropped, 0u) << "skipped frames are not dropped frames";
+
+  write("depth.txt", "0.0 small.png\n");
+  EXPECT_NE(errorOpening().find("none of the 1 listed frames could be read"), std::string::npos);
+}
+
+TEST(DepthSource, UnknownSchemeAndMissingPaths) {
+  auto errorOf = [](const std::string& uri) {
+    try {
+      kinect3d::openDepthSource(uri);
+    } catch (const DepthSourceError& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  EXPECT_NE(errorOf("kinect:foo").find("unknown depth source scheme 'kinect:'"), std::string::npos);
+  EXPECT_NE(errorOf("tum:/nonexistent").find("'/nonexistent' does not exist"), std::string::npos);
+  EXPECT_NE(errorOf("/nonexistent/rec.oni").find("recording '/nonexistent/rec.oni' does not exist"),
+            std::string::npos);
+  EXPECT_NE(errorOf("sim:no_such_scene").find("no built-in scene 'no_such_scene'"), std::string::npos);
+  EXPECT_NE(errorOf("/tmp").find("neither an .oni file nor a folder holding depth.txt"),
+            std::string::npos);
+}
+
+TEST(RawDisparity, ConvertsTheRealNyuFrame) {
+  EXPECT_EQ(kinect3d::rawDisparityToMetres(2047), 0.0);
+  EXPECT_NEAR(kinect3d::rawDisparityToMetres(700), 1.0 / (700 * -0.0030711016 + 3.3309495161), 1e-12);
+  const DepthFrame frame = kinect3d::loadRawDisparityPgm(std::string(REAL_DEPTH_DIR) + "/nyu_raw_disparity.pgm");
+  const kinect3d::DepthStats stats = kinect3d::computeStats(frame);
+  EXPECT_NEAR(stats.invalid_fraction, 0.07, 0.02);
+  EXPECT_GT(stats.min_m, 0.4);
+  EXPECT_LT(stats.max_m, 10.0);
+  EXPECT_THROW(kinect3d::loadRawDisparityPgm(kRealTum), DepthSourceError);
+}
+
+TEST(SimSource, DeliversTheSceneThenEnds) {
+  auto source = kinect3d::openDepthSource("sim:hung_3m");
+  EXPECT_EQ(source->frameCount(), 90u);
+  DepthFrame frame;
+  std::uint64_t frames = 0;
+  double first_t = 0;
+  while (source->read(frame) == ReadResult::kFrame) {
+    if (frames++ == 0) first_t = frame.source_time_s;
+  }
+  EXPECT_EQ(frames, 90u);
+  EXPECT_NEAR(frame.source_time_s - first_t, 89.0 / 30.0, 1e-6);  // epoch-scale doubles
+  EXPECT_EQ(frame.sensor_id, "sim:hung_3m");
+}
+
+TEST(SimSource, WrittenSequenceReadsBackIdentically) {
+  char pattern[] = "/tmp/sim_seq_XXXXXX";
+  const std::string dir = mkdtemp(pattern);
+  kinect3d::sim::KinectSimulator simulator(kinect3d::sim::loadScene("kick_away"));
+  kinect3d::sim::TumSequenceWriter writer(dir);
+  std::vector<DepthFrame> written(4);
+  std::vector<kinect3d::sim::GroundTruth> truth(4);
+  for (int i = 0; i < 4; ++i) {
+    simulator.render(i, written[i], truth[i]);
+    writer.write(written[i]);
+  }
+  kinect3d::sim::writeTruthJson(dir + "/truth.json", simulator.scene(), truth);
+  auto source = kinect3d::openDepthSource("tum:" + dir);
+  DepthFrame frame;
+  for (int i = 0; i < 4; ++i) {
+    ASSERT_EQ(source->read(frame), ReadResult::kFrame);
+    EXPECT_EQ(frame.depth_mm, written[i].depth_mm);
+    EXPECT_EQ(frame.intrinsics, written[i].intrinsics);
+    EXPECT_NEAR(frame.source_time_s, written[i].source_time_s, 1e-6);
+  }
+  EXPECT_EQ(source->read(frame), ReadResult::kEnd);
+  EXPECT_TRUE(fs::file_size(dir + "/truth.json") > 100);
+  fs::remove_all(dir);
+}
+
+}  // namespace

@@ -1,0 +1,212 @@
+// The simulator against the Kinect v1 facts in shared/reference/kinect-v1-depth.md.
+#include <gtest/gtest.h>
+
+#include <opencv2/imgcodecs.hpp>
+
+#include <cmath>
+#include <map>
+#include <set>
+
+#include "kinect3d/sim/kinect_simulator.h"
+#include "sim_test_scenes.h"
+
+namespace {
+
+using kinect3d::DepthFrame;
+using kinect3d::sim::GroundTruth;
+using kinect3d::sim::KinectSimulator;
+using kinect3d::sim::Scene;
+
+double nguyenSigma_m(double z) { return 0.0012 + 0.0019 * (z - 0.4) * (z - 0.4); }
+
+// Depths (m) of the valid pixels in the central third of the image over `frames` frames.
+std::vector<double> centralDepths(const Scene& scene, int frames) {
+  KinectSimulator simulator(scene);
+  DepthFrame frame;
+  GroundTruth truth;
+  std::vector<double> depths;
+  for (int i = 0; i < frames; ++i) {
+    simulator.render(i, frame, truth);
+    for (int v = 160; v < 320; ++v) {
+      for (int u = 213; u < 427; ++u) {
+        if (frame.at(u, v) > 0) depths.push_back(frame.at(u, v) / 1000.0);
+      }
+    }
+  }
+  return depths;
+}
+
+TEST(Simulator, DepthLevelsAreSpacedLikeKinectQuantisation) {
+  for (const double z : {2.0, 3.0, 4.0, 5.0, 6.0}) {
+    SCOPED_TRACE("wall at " + std::to_string(z) + " m");
+    Scene scene = testing_scenes::wallAt(z);
+    scene.noise.shadows = false;
+    const std::vector<double> depths = centralDepths(scene, 2);
+    std::map<double, int> levels;
+    for (const double d : depths) ++levels[d];
+    // The gap between the two most populated neighbouring levels around the wall.
+    std::vector<double> populated;
+    for (const auto& [depth, count] : levels) {
+      if (count > static_cast<int>(depths.size() / 50)) populated.push_back(depth);
+    }
+    ASSERT_GE(populated.size(), 3u) << "noise should spread the wall over several levels";
+    double gap_sum = 0.0;
+    for (std::size_t i = 1; i < populated.size(); ++i) gap_sum += populated[i] - populated[i - 1];
+    const double c = gap_sum / (populated.size() - 1) / (z * z);
+    EXPECT_NEAR(c, 0.0030, 0.0003) << "spacing dz = c z^2";
+  }
+}
+
+TEST(Simulator, AxialNoiseMatchesNguyenSigma) {
+  for (const double z : {2.0, 4.0}) {
+    SCOPED_TRACE("wall at " + std::to_string(z) + " m");
+    const std::vector<double> depths = centralDepths(testing_scenes::wallAt(z), 3);
+    double mean = 0.0, square = 0.0;
+    for (const double d : depths) mean += d;
+    mean /= depths.size();
+    for (const double d : depths) square += (d - mean) * (d - mean);
+    const double sigma = std::sqrt(square / depths.size());
+    EXPECT_NEAR(sigma, nguyenSigma_m(z), 0.25 * nguyenSigma_m(z));
+    EXPECT_NEAR(mean, z, 0.01);
+  }
+}
+
+// Pixels with no data in the columns just left and just right of a near object's image.
+struct ShadowSides {
+  int left = 0;
+  int right = 0;
+};
+ShadowSides shadowBesideBox(const kinect3d::sim::KinectNoise& noise) {
+  Scene scene = testing_scenes::wallAt(5.0);
+  scene.noise = noise;
+  kinect3d::sim::SceneObject pillar;
+  pillar.shapes.push_back({kinect3d::sim::Shape::Kind::kBox, {0.0, 2.0, 0.7}, {0.3, 0.3, 0.6}, 0.0, 0.0});
+  scene.objects.push_back(pillar);
+  KinectSimulator simulator(scene);
+  DepthFrame frame;
+  GroundTruth truth;
+  simulator.render(0, frame, truth);
+  // The pillar spans x in [-0.15, 0.15] at y = 1.85: columns 319.5 -+ 575.8 * 0.15 / 1.85.
+  const int left_edge = static_cast<int>(std::floor(319.5 - 575.8 * 0.15 / 1.85));
+  const int right_edge = static_cast<int>(std::ceil(319.5 + 575.8 * 0.15 / 1.85));
+  ShadowSides sides;
+  for (int v = 230; v < 250; ++v) {
+    for (int u = left_edge - 12; u < left_edge - 1; ++u) sides.left += frame.at(u, v) == 0;
+    for (int u = right_edge + 2; u < right_edge + 13; ++u) sides.right += frame.at(u, v) == 0;
+  }
+  return sides;
+}
+
+TEST(Simulator, ProjectorShadowFallsOnTheSideTheRealSensorShows) {
+  kinect3d::sim::KinectNoise noise = testing_scenes::noNoise();
+  noise.shadows = true;
+  const ShadowSides sides = shadowBesideBox(noise);
+  // Width b f (1/z_near - 1/z_far) = 0.075 * 575.8 * (1/1.85 - 1/5) = 14.7 px: the whole
+  // 11-column band left of the pillar is dark, none right of it.
+  EXPECT_EQ(sides.left, 20 * 11);
+  EXPECT_EQ(sides.right, 0);
+  noise.shadows = false;
+  EXPECT_EQ(shadowBesideBox(noise).left, 0);
+
+  // The real frame: runs of missing depth bounded by a near surface on one side and a far one on
+  // the other have the near surface on their right far more often than on their left.
+  const cv::Mat real = cv::imread(std::string(REAL_DEPTH_DIR) + "/tum_depth.png", cv::IMREAD_UNCHANGED);
+  ASSERT_FALSE(real.empty());
+  int near_right = 0, near_left = 0;
+  for (int v = 0; v < real.rows; ++v) {
+    const auto* row = real.ptr<std::uint16_t>(v);
+    for (int u = 1; u < real.cols;) {
+      if (row[u] != 0 || row[u - 1] == 0) {
+        ++u;
+        continue;
+      }
+      const int start = u;
+      while (u < real.cols && row[u] == 0) ++u;
+      if (u == real.cols || u - start < 2 || u - start >= 40) continue;
+      if (row[u] < 0.85 * row[start - 1]) ++near_right;
+      if (row[start - 1] < 0.85 * row[u]) ++near_left;
+    }
+  }
+  EXPECT_GT(near_right, 2 * near_left) << "real shadows lie left of near objects, as simulated";
+}
+
+TEST(Simulator, FastBallLeavesTrailBehindIt) {
+  auto trailPixels = [](double exposure_s) {
+    Scene scene = testing_scenes::wallAt(6.0);
+    scene.noise = testing_scenes::noNoise();
+    scene.noise.exposure_s = exposure_s;
+    scene.physics.gravity_mps2 = 0.0;
+    scene.physics.drag_per_m = 0.0;
+    scene.ball = kinect3d::sim::BallLaunch{{-1.0, 3.0, 0.7}, {8.0, 0.0, 0.0}, 0.0, false};
+    KinectSimulator simulator(scene);
+    DepthFrame frame;
+    GroundTruth truth;
+    simulator.render(5, frame, truth);  // ball centre at x = -1 + 8 * 5/30 = 0.33 m
+    const double u_ball = 319.5 + 575.8 * truth.ball_center_R.x() / truth.ball_center_R.y();
+    int behind = 0, ahead = 0;
+    for (int v = 200; v < 280; ++v) {
+      for (int u = 0; u < 640; ++u) {
+        const double z = frame.at(u, v) / 1000.0;
+        if (z > 3.0 && z < 5.8) (u < u_ball ? behind : ahead)++;  // between ball surface and wall
+      }
+    }
+    return std::make_pair(behind, ahead);
+  };
+  const auto [behind, ahead] = trailPixels(0.012);
+  EXPECT_GT(behind, 50) << "mixed ball/wall depths must trail the ball";
+  EXPECT_GT(behind, ahead / 2);
+  const auto [still_behind, still_ahead] = trailPixels(0.0);
+  EXPECT_EQ(still_behind + still_ahead, 0) << "no exposure time, no trail";
+}
+
+TEST(Simulator, BallPhysicsFallsBouncesAndRolls) {
+  kinect3d::sim::BallPhysics physics;
+  physics.drag_per_m = 0.0;
+  kinect3d::sim::BallMotion motion({{0, 0, 0.11}, {0, 5, 5}, 0.0, false}, physics, 5.0);
+  // Without drag: apex at t = 5/9.81 s, height 0.11 + 25 / (2 * 9.81).
+  EXPECT_NEAR(motion.positionAt(5.0 / 9.81).z(), 0.11 + 25.0 / 19.62, 0.01);
+  EXPECT_NEAR(motion.positionAt(10.0 / 9.81).y(), 50.0 / 9.81, 0.01);
+  // Just after the first bounce the ball rises at restitution times its landing speed.
+  EXPECT_NEAR(motion.velocityAt(10.0 / 9.81 + 0.01).z(), 0.6 * 5.0 - 9.81 * 0.01, 0.05);
+  EXPECT_NEAR(motion.positionAt(4.9).z(), 0.11, 1e-6) << "comes to rest on the floor";
+  EXPECT_LT(motion.velocityAt(4.9).norm(), motion.velocityAt(3.0).norm());
+
+  physics.drag_per_m = 0.024;
+  kinect3d::sim::BallMotion dragged({{0, 0, 0.11}, {0, 5, 5}, 0.0, false}, physics, 3.0);
+  EXPECT_LT(dragged.positionAt(10.0 / 9.81 - 0.05).y(), motion.positionAt(10.0 / 9.81 - 0.05).y() - 0.1);
+}
+
+TEST(Simulator, TruthAndRepeatability) {
+  Scene scene = kinect3d::sim::loadScene("kick_away");
+  KinectSimulator a(scene), b(scene);
+  DepthFrame fa, fb;
+  GroundTruth ta, tb;
+  a.render(20, fa, ta);
+  b.render(3, fb, tb);
+  b.render(20, fb, tb);
+  EXPECT_EQ(fa.depth_mm, fb.depth_mm) << "same seed and frame, same pixels, in any order";
+  EXPECT_TRUE(ta.has_ball);
+  EXPECT_TRUE(ta.airborne);
+  EXPECT_GT(ta.visible_pixels, 100);
+  EXPECT_GT(ta.clearance_m, 0.6);
+  scene.noise.seed = 2;
+  KinectSimulator c(scene);
+  c.render(20, fb, tb);
+  EXPECT_NE(fa.depth_mm, fb.depth_mm);
+}
+
+TEST(Simulator, EveryBuiltinSceneLoadsAndRenders) {
+  for (const std::string& name : kinect3d::sim::builtinSceneNames()) {
+    SCOPED_TRACE(name);
+    KinectSimulator simulator(kinect3d::sim::loadScene(name));
+    EXPECT_GT(simulator.frameCount(), 10);
+    DepthFrame frame;
+    GroundTruth truth;
+    simulator.render(simulator.frameCount() / 2, frame, truth);
+    const kinect3d::DepthStats stats = kinect3d::computeStats(frame);
+    EXPECT_GT(stats.invalid_fraction, 0.02);
+    EXPECT_LT(stats.invalid_fraction, 0.6);
+  }
+}
+
+}  // namespace
