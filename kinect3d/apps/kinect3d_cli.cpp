@@ -4,10 +4,16 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include <cmath>
 #include <cstdio>
+#include <fstream>
 #include <iostream>
 
+#include "accuracy_report.h"
+#include "framework_api/config.h"
 #include "framework_api/log.h"
+#include "kinect3d/ball_detector.h"
+#include "kinect3d/config_io.h"
 #include "kinect3d/depth_source.h"
 #include "kinect3d/sim/kinect_simulator.h"
 #include "kinect3d/sim/sequence_writer.h"
@@ -105,6 +111,58 @@ int runSnapshot(const std::vector<std::string>& uris, int index, const std::stri
   return 0;
 }
 
+// One detect line: {"frame", "t", "balls": [{"x", "y", "z", "state", "points"}], "process_ms"},
+// positions to 0.1 mm and times to 1 us.
+std::string detectLine(const kinect3d::DepthFrame& frame, const kinect3d::Detections& detections) {
+  char text[256];
+  std::snprintf(text, sizeof text, "{\"frame\": %llu, \"t\": %.6f, \"balls\": [",
+                static_cast<unsigned long long>(frame.index), frame.source_time_s);
+  std::string line = text;
+  for (std::size_t i = 0; i < detections.balls.size(); ++i) {
+    const fw::BallObservation& ball = detections.balls[i];
+    std::snprintf(text, sizeof text,
+                  "%s{\"x\": %.4f, \"y\": %.4f, \"z\": %.4f, \"state\": \"%s\", \"points\": %d}",
+                  i ? ", " : "", ball.position_m.x(), ball.position_m.y(), ball.position_m.z(),
+                  fw::toString(ball.state), ball.support_points);
+    line += text;
+  }
+  std::snprintf(text, sizeof text, "], \"process_ms\": %.3f}", detections.times.total() * 1e3);
+  return line + text;
+}
+
+int runDetect(const std::string& source_uri, const fw::Config& config, const std::string& output,
+              bool realtime) {
+  const fw::ConfigView block = config.block("kinect3d");
+  const std::string uri = source_uri.empty() ? block.getString("source") : source_uri;
+  kinect3d::BallDetector detector(kinect3d::readDetectorConfig(block));
+  kinect3d::SourceOptions options;
+  options.realtime = realtime;
+  auto source = kinect3d::openDepthSource(uri, options);
+
+  std::ofstream file;
+  if (!output.empty()) {
+    file.open(output);
+    if (!file) throw std::runtime_error("cannot write '" + output + "'");
+  }
+  std::ostream& out = output.empty() ? std::cout : file;
+  kinect3d::DepthFrame frame;
+  kinect3d::Detections detections;
+  std::uint64_t frames = 0, with_ball = 0;
+  for (;;) {
+    const kinect3d::ReadResult result = source->read(frame);
+    if (result == kinect3d::ReadResult::kEnd) break;
+    if (result == kinect3d::ReadResult::kNoFrameYet) continue;
+    detector.detect(frame, detections);
+    out << detectLine(frame, detections) << "\n";
+    out.flush();
+    ++frames;
+    with_ball += !detections.balls.empty();
+  }
+  fw::logInfo("detect", source->describe() + ": " + std::to_string(frames) + " frames, ball in " +
+                            std::to_string(with_ball));
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -132,11 +190,42 @@ int main(int argc, char** argv) {
   snapshot->add_option("--frame", snapshot_frame, "Frame number (0 = first)")->check(CLI::NonNegativeNumber);
   snapshot->add_option("--out", snapshot_out, "PNG file to write")->required();
 
+  std::string detect_source, robot_file, detect_output, defaults_dir = KINECT3D_CONFIG_DIR "/defaults";
+  std::vector<std::string> overrides;
+  bool detect_realtime = false;
+  CLI::App* detect = app.add_subcommand("detect", "Detect balls in every frame; one JSON line per frame");
+  detect->add_option("--source", detect_source, "Depth source URI (default: kinect3d.source of the configuration)");
+  detect->add_option("--config", robot_file, "Robot configuration file (default: the shipped defaults)")
+      ->check(CLI::ExistingFile);
+  detect->add_option("--defaults", defaults_dir, "Folder of per-plugin defaults")->capture_default_str();
+  detect->add_option("--set", overrides, "Override a value: --set kinect3d.grid.voxel_m=0.2")->take_all();
+  detect->add_option("--output", detect_output, "Write the JSON lines here instead of stdout");
+  detect->add_flag("--realtime", detect_realtime, "Pace recordings and the simulator at their frame rate");
+
+  kinect3d::ReportOptions report_options;
+  report_options.real_depth_dir = KINECT3D_REAL_DEPTH_DIR;
+  std::string report_out;
+  CLI::App* report = app.add_subcommand("report", "Measure detection accuracy on simulated scenes and real frames");
+  report->add_option("--out", report_out, "Markdown file to write, e.g. docs/accuracy.md")->required();
+  report->add_option("--seeds", report_options.seeds, "Noise seeds per kick/shot scene")->capture_default_str();
+  report->add_option("--clutter-frames", report_options.clutter_frames, "Frames of the clutter scene")->capture_default_str();
+  report->add_option("--real-depth", report_options.real_depth_dir, "Folder of the real Kinect frames")->capture_default_str();
+  report->add_option("--defaults", defaults_dir, "Folder of per-plugin defaults")->capture_default_str();
+
   CLI11_PARSE(app, argc, argv);
   try {
     if (*simulate) return runSimulate(scene, out_dir, frames, seed);
     if (*info) return runInfo(uri);
     if (*snapshot) return runSnapshot(snapshot_uris, snapshot_frame, snapshot_out);
+    if (*report) {
+      kinect3d::writeAccuracyReport(fw::Config::load(defaults_dir, "", {}), report_options, report_out);
+      return 0;
+    }
+    if (*detect) {
+      // The shipped defaults, the robot file if given, then --set overrides.
+      return runDetect(detect_source, fw::Config::load(defaults_dir, robot_file, overrides),
+                       detect_output, detect_realtime);
+    }
   } catch (const std::exception& e) {
     fw::logError("kinect3d", e.what());
     return 2;

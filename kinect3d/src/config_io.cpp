@@ -31,4 +31,43 @@ Intrinsics readIntrinsics(const fw::ConfigView& intrinsics) {
   return result;
 }
 
+DetectorConfig readDetectorConfig(const fw::ConfigView& kinect3d) {
+  DetectorConfig config;
+  const fw::ConfigView sensor = kinect3d.child("sensor");
+  if (sensor.has("pose_in_robot")) config.ground.pose = readSensorPose(sensor.child("pose_in_robot"));
+  config.points.baseline_m = sensor.getDouble("baseline_m", 0.01, 0.5);
+
+  const fw::ConfigView ground = kinect3d.child("ground");
+  config.ground.max_tilt_deg = ground.getDouble("max_tilt_deg", 1.0, 89.0);
+  config.ground.distance_threshold_m = ground.getDouble("distance_threshold_m", 0.005, 0.5);
+  config.ground.refit_interval_frames = ground.getInt("refit_interval_frames", 1, 100000);
+
+  const fw::ConfigView points = kinect3d.child("points");
+  config.points.pixel_stride = points.getInt("pixel_stride", 1, 8);
+  config.points.edge_tolerance_steps = points.getDouble("edge_tolerance_steps", 0.5, 100.0);
+  config.points.min_range_m = points.getDouble("min_range_m", 0.1, 20.0);
+  config.points.max_range_m = points.getDouble("max_range_m", config.points.min_range_m, 20.0);
+  config.points.floor_margin_m = points.getDouble("floor_margin_m", 0.0, 0.5);
+
+  const fw::ConfigView grid = kinect3d.child("grid");
+  config.grid.voxel_m = grid.getDouble("voxel_m", 0.02, 1.0);
+  config.mask.core_voxels = grid.getInt("core_voxels", 1, 15);
+  config.mask.mask_voxels = grid.getInt("mask_voxels", config.mask.core_voxels + 2, 31);
+  if ((config.mask.mask_voxels - config.mask.core_voxels) % 2 != 0) {
+    throw fw::ConfigError(grid.originOf("mask_voxels") + ": kinect3d.grid.mask_voxels = " +
+                          std::to_string(config.mask.mask_voxels) +
+                          " must exceed core_voxels by an even number (an equal shell on each side)");
+  }
+  config.grid.occupied_fraction = grid.getDouble("occupied_fraction", 0.0, 1.0);
+  config.grid.min_points = grid.getInt("min_points", 1, 100000);
+  config.grid.max_range_m = config.points.max_range_m;
+
+  const fw::ConfigView ball = kinect3d.child("ball");
+  config.ball.radius_m = ball.getDouble("radius_m", 0.02, 0.5);
+  config.ball.min_visible_fraction = ball.getDouble("min_visible_fraction", 0.0, 1.0);
+  config.ball.max_size_ratio = ball.getDouble("max_size_ratio", 1.0, 10.0);
+  config.ball.air_min_height_m = ball.getDouble("air_min_height_m", 0.0, 2.0);
+  return config;
+}
+
 }  // namespace kinect3d

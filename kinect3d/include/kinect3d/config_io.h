@@ -3,6 +3,7 @@
 #pragma once
 
 #include "framework_api/config.h"
+#include "kinect3d/ball_detector.h"
 #include "kinect3d/depth_frame.h"
 #include "kinect3d/sensor_pose.h"
 
@@ -13,5 +14,8 @@ SensorPose readSensorPose(const fw::ConfigView& pose);
 // {width, height, fx, fy, cx, cy}; every key is required. The caller checks for unknown keys,
 // since files such as a TUM camera.yaml keep other keys beside these.
 Intrinsics readIntrinsics(const fw::ConfigView& intrinsics);
+
+// The detector's settings from the kinect3d block of a robot configuration.
+DetectorConfig readDetectorConfig(const fw::ConfigView& kinect3d);
 
 }  // namespace kinect3d

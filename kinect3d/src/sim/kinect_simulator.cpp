@@ -5,6 +5,8 @@
 #include <cmath>
 #include <limits>
 
+#include "kinect3d/depth_noise.h"
+
 namespace kinect3d::sim {
 
 namespace {
@@ -16,9 +18,6 @@ constexpr std::int16_t kIdFloor = 0;
 constexpr std::int16_t kIdBall = 30000;
 constexpr std::int16_t kIdTrail = 30001;
 constexpr int kBlurSamples = 8;
-
-// Nguyen, Izadi & Lovell (2012): axial noise of a Kinect v1 for surfaces at 10-60 degrees.
-double nguyenSigma_m(double z_m) { return 0.0012 + 0.0019 * (z_m - 0.4) * (z_m - 0.4); }
 
 // xoshiro256** seeded by splitmix64: fast, and a frame's noise depends only on (seed, frame).
 class Random {
@@ -411,7 +410,7 @@ void KinectSimulator::render(int frame_index, DepthFrame& frame, GroundTruth& tr
     double eighths = 8.0 * d;
     if (noise.axial_noise) {
       const double z = fb / d;
-      double sigma = nguyenSigma_m(z) * 8.0 * fb / (z * z);
+      double sigma = DepthNoiseModel::axialSigma_m(z) * 8.0 * fb / (z * z);
       // Nguyen's sigma was measured on quantised data; rounding adds 1/12 units^2 of its own.
       if (noise.quantisation) sigma = std::sqrt(std::max(sigma * sigma - 1.0 / 12.0, 0.01));
       eighths += sigma * random.normal();

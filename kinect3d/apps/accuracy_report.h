@@ -1,0 +1,19 @@
+// `kinect3d report`: the accuracy report (docs/accuracy.md) from simulated scenes and real frames.
+#pragma once
+
+#include <string>
+
+#include "framework_api/config.h"
+
+namespace kinect3d {
+
+struct ReportOptions {
+  int seeds = 3;              // noise seeds per kick/shot scene
+  int clutter_frames = 1500;  // frames of the clutter scene (for the phantom rate)
+  std::string real_depth_dir; // shared/data/real-depth
+};
+
+// Writes the markdown report to out_path; prints a summary on stderr.
+void writeAccuracyReport(const fw::Config& config, const ReportOptions& options, const std::string& out_path);
+
+}  // namespace kinect3d

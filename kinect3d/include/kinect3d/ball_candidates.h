@@ -1,0 +1,59 @@
+// The paper's mask: a ball is a group of occupied voxels that fits inside a core of
+// core_voxels^3 voxels whose surrounding shell (out to mask_voxels^3) is empty.
+//
+// Equivalent formulation used here: occupied voxels are grouped so that two voxels closer than the
+// shell is thick belong together (any such neighbour would sit in the shell of a core holding the
+// other). A group passes when it fits in the core and some core placement around it has no
+// occupied voxel of another group in its shell. For a ball on the ground the shell's bottom layer
+// lies below the floor, where the floor cut leaves nothing, so the same test finds ground balls.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "kinect3d/occupancy_grid.h"
+
+namespace kinect3d {
+
+struct BallCandidate {
+  VoxelIndex min{0, 0, 0};  // bounding box of its occupied voxels, inclusive
+  VoxelIndex max{0, 0, 0};
+  int voxels = 0;
+  int points = 0;           // points counted in its voxels
+};
+
+class BallCandidateFinder {
+ public:
+  struct Config {
+    int core_voxels = 3;  // the paper's inner 3 voxels
+    int mask_voxels = 5;  // and its mask of 5: a one-voxel empty shell
+  };
+
+  explicit BallCandidateFinder(const Config& config);
+
+  // Appends every group of occupied voxels that passes the mask to `out` (cleared first).
+  void find(const OccupancyGrid& grid, std::vector<BallCandidate>& out) const;
+
+ private:
+  bool shellEmpty(const OccupancyGrid& grid, const BallCandidate& group) const;
+
+  Config config_;
+  int shell_;  // voxels of empty shell on each side
+  // An open-addressing set of voxels, reused between frames so grouping allocates nothing.
+  class VoxelSet {
+   public:
+    void reset(std::size_t expected);
+    bool insert(const VoxelIndex& v);  // false if already there
+
+   private:
+    static constexpr std::uint64_t kEmpty = ~std::uint64_t{0};
+    std::vector<std::uint64_t> slots_;
+    std::size_t mask_ = 0;
+  };
+
+  // Scratch for the grouping, reused between frames.
+  mutable VoxelSet grouped_;
+  mutable std::vector<VoxelIndex> stack_;
+};
+
+}  // namespace kinect3d

@@ -1,0 +1,56 @@
+// Candidate -> ball: the centre beyond the voxel, from all the candidate's pixels at full
+// resolution, and a check that what was found can be a ball of this size at this range.
+//
+// The visible cap's centroid sits in front of the true centre (2/3 of the radius for an evenly
+// seen cap): the centre is the centroid moved back along the viewing ray by the depth of the
+// visible disc, refined by a least-squares fit of a sphere of the known radius where the sensor
+// resolves the cap's shape (see refine()).
+#pragma once
+
+#include <optional>
+#include <vector>
+
+#include <Eigen/Geometry>
+
+#include "framework_api/types.h"
+#include "kinect3d/ball_candidates.h"
+#include "kinect3d/depth_frame.h"
+#include "kinect3d/depth_noise.h"
+#include "kinect3d/point_projector.h"
+
+namespace kinect3d {
+
+struct BallFit {
+  Eigen::Vector3d center_R = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d covariance_m2 = Eigen::Matrix3d::Identity();
+  fw::BallState state = fw::BallState::kAir;
+  int points = 0;
+  double range_m = 0.0;
+  double rms_m = 0.0;  // residual of the sphere fit
+};
+
+class BallRefiner {
+ public:
+  struct Config {
+    double radius_m = 0.11;             // FIFA size 5
+    double min_visible_fraction = 0.25; // of the pixels a whole ball would cover at this range
+    double max_size_ratio = 1.6;        // largest extent across the view over the ball's diameter
+    double air_min_height_m = 0.08;     // centre this far above resting height: in the air
+  };
+
+  BallRefiner(const Config& config, const DepthNoiseModel& noise) : config_(config), noise_(noise) {}
+
+  // The ball the candidate holds, or nothing if it cannot be one.
+  std::optional<BallFit> refine(const BallCandidate& candidate, const OccupancyGrid& grid,
+                                const DepthFrame& frame, const Eigen::Isometry3d& T_R_S,
+                                const PointProjector& surface) const;
+
+ private:
+  Config config_;
+  DepthNoiseModel noise_;
+  // Scratch, reused between candidates.
+  mutable std::vector<Eigen::Vector3d> points_;
+  mutable std::vector<double> radial_;
+};
+
+}  // namespace kinect3d

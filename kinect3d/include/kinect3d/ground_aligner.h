@@ -1,0 +1,50 @@
+// Where the sensor is relative to the floor: either the configured pose, or found from the floor
+// itself by RANSAC on the first frames (the paper's approach), giving height, pitch and roll.
+#pragma once
+
+#include <memory>
+#include <optional>
+
+#include <Eigen/Geometry>
+
+#include "kinect3d/depth_frame.h"
+#include "kinect3d/sensor_pose.h"
+
+namespace kinect3d {
+
+class GroundAligner {
+ public:
+  struct Config {
+    std::optional<SensorPose> pose;  // known mounting; when absent the floor is searched for
+    double max_tilt_deg = 40.0;      // the floor's normal is at most this far from the image's up
+    double distance_threshold_m = 0.04;  // inlier band around the plane (noise at 4-5 m)
+    double max_fit_range_m = 5.0;    // fit on points nearer than this, where depth is precise
+    int refit_interval_frames = 30;  // how often the floor fit is checked
+    double min_inlier_fraction = 0.1;  // of the sampled points; below it the fit has degraded
+  };
+
+  explicit GroundAligner(const Config& config);
+  ~GroundAligner();
+
+  // T_R_S for this frame, or nothing while the floor has not been found. With a configured pose
+  // this is that pose; otherwise the floor is fitted on the first frame that shows enough of it,
+  // checked every refit_interval_frames and refitted when its inliers fall below the minimum.
+  std::optional<Eigen::Isometry3d> update(const DepthFrame& frame);
+
+  // The floor's fit quality at the last check: share of sampled points on the plane.
+  double lastInlierFraction() const { return last_inlier_fraction_; }
+  int fits() const { return fits_; }
+
+ private:
+  // Fits the floor plane; returns the pose it implies (yaw 0, at x = y = 0) or nothing.
+  std::optional<Eigen::Isometry3d> fitFloor(const DepthFrame& frame);
+  double inlierFraction(const DepthFrame& frame, const Eigen::Isometry3d& T_R_S) const;
+
+  Config config_;
+  std::optional<Eigen::Isometry3d> T_R_S_;
+  int frames_since_check_ = 0;
+  double last_inlier_fraction_ = 0.0;
+  int fits_ = 0;
+};
+
+}  // namespace kinect3d

@@ -1,0 +1,77 @@
+// Depth frame -> points in the robot frame, keeping only pixels that lie on a surface.
+//
+// A Kinect pixel at a depth edge is often a mix of the near and the far side ('flying pixel'), and
+// a fast ball leaves a trail of such pixels. They make spurious occupancy in the empty shell around
+// a ball, so a pixel is kept only if all four neighbours agree with its depth to within a few
+// quantisation steps of that range: true of every surface the sensor resolves (the floor at
+// grazing angles changes by about 0.1 px of disparity per row), false across an edge or a trail.
+#pragma once
+
+#include <cmath>
+#include <cstdint>
+#include <vector>
+
+#include <Eigen/Geometry>
+
+#include "kinect3d/depth_frame.h"
+#include "kinect3d/depth_noise.h"
+
+namespace kinect3d {
+
+// Points of one frame in the robot frame (structure of arrays, reused between frames).
+struct PointSet {
+  std::vector<Eigen::Vector3f> p_R;
+  std::vector<float> range_m;  // optical depth, for range-dependent thresholds
+  void clear() {
+    p_R.clear();
+    range_m.clear();
+  }
+  std::size_t size() const { return p_R.size(); }
+};
+
+class PointProjector {
+ public:
+  struct Config {
+    int pixel_stride = 2;          // use every n-th pixel in u and v for the grid (1 = all)
+    double edge_tolerance_steps = 4.0;  // neighbours may differ by this many quantisation steps
+    double min_range_m = 0.5;      // Kinect v1 returns nothing nearer
+    double max_range_m = 9.5;      // steps are 25 cm and more beyond
+    double floor_margin_m = 0.05;  // points below this height are the floor (plus its noise)
+    double baseline_m = 0.075;     // projector to camera, sets the quantisation step
+  };
+
+  explicit PointProjector(const Config& config) : config_(config) {}
+  const Config& config() const { return config_; }
+
+  // Valid, non-edge pixels on the sampling grid, above the floor margin, in the robot frame.
+  // setIntrinsics() must have been called with the frame's intrinsics.
+  void project(const DepthFrame& frame, const Eigen::Isometry3f& T_R_S, PointSet& out) const;
+
+  // Whether pixel (u, v) lies on a resolved surface: valid, in range, and all four neighbours
+  // within tolerance. Border pixels are never surface pixels.
+  bool isSurface(const DepthFrame& frame, int u, int v) const {
+    if (u <= 0 || v <= 0 || u >= frame.width() - 1 || v >= frame.height() - 1) return false;
+    const std::uint16_t* d = &frame.depth_mm[static_cast<std::size_t>(v) * frame.width() + u];
+    const float z_mm = d[0];
+    if (z_mm < min_mm_ || z_mm > max_mm_) return false;
+    // Tolerance in mm: k steps of z^2 / (8 f b), with z in metres.
+    const float tolerance_mm = tolerance_per_m2_ * z_mm * z_mm * 1e-3f;
+    const int stride = frame.width();
+    for (const std::uint16_t n : {d[-1], d[1], d[-stride], d[stride]}) {
+      if (n == 0 || std::abs(float(n) - z_mm) > tolerance_mm) return false;
+    }
+    return true;
+  }
+
+  // Must be called when the intrinsics change (the tolerance depends on the focal length).
+  void setIntrinsics(const Intrinsics& intrinsics);
+
+ private:
+  Config config_;
+  float min_mm_ = 0, max_mm_ = 0;
+  float tolerance_per_m2_ = 0;  // edge_tolerance_steps / (8 f b)
+  Intrinsics intrinsics_{0, 0, 0, 0, 0, 0};
+  std::vector<Eigen::Vector2f> rays_;  // ((u - cx) / fx, (v - cy) / fy) per pixel
+};
+
+}  // namespace kinect3d

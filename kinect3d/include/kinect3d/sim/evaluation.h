@@ -1,0 +1,48 @@
+// Runs the detector on simulated scenes and scores it against the ground truth: the measurements
+// behind docs/accuracy.md and the scenario tests.
+#pragma once
+
+#include <vector>
+
+#include "framework_api/types.h"
+#include "kinect3d/ball_detector.h"
+#include "kinect3d/sim/kinect_simulator.h"
+
+namespace kinect3d::sim {
+
+struct EvaluatedFrame {
+  GroundTruth truth;
+  std::vector<fw::BallObservation> balls;
+  double process_s = 0.0;
+};
+
+// Renders every frame of the scene and runs one detector, configured by `config`, over them.
+std::vector<EvaluatedFrame> runDetectorOnScene(const Scene& scene, const DetectorConfig& config);
+
+// Which frames count: the ball should be found when it is in this range of the sensor, shows at
+// least this share of a whole ball's pixels, and is this far from every other structure.
+struct EvaluationCriteria {
+  double min_range_m = 0.8;
+  double max_range_m = 7.0;
+  double min_visible_fraction = 0.3;
+  double min_clearance_m = 0.6;
+  double match_m = 0.3;  // a reported ball this close to the true one is the ball
+};
+
+struct DetectionScore {
+  int frames = 0;
+  int eligible = 0;        // frames where the ball should be found
+  int found = 0;           // eligible frames with a reported ball within match_m
+  int reported = 0;        // balls reported, in any frame
+  int off_truth = 0;       // reported balls farther than match_m from the true ball (or with none)
+  std::vector<double> errors_m;  // 3D error of the nearest reported ball, eligible found frames
+
+  double recall() const { return eligible ? double(found) / eligible : 1.0; }
+  void add(const DetectionScore& other);
+};
+
+bool shouldBeFound(const GroundTruth& truth, const Scene& scene, const EvaluationCriteria& criteria);
+DetectionScore scoreFrames(const std::vector<EvaluatedFrame>& frames, const Scene& scene,
+                           const EvaluationCriteria& criteria);
+
+}  // namespace kinect3d::sim

@@ -1,0 +1,47 @@
+#include "kinect3d/point_projector.h"
+
+#include <stdexcept>
+
+namespace kinect3d {
+
+void PointProjector::setIntrinsics(const Intrinsics& intrinsics) {
+  if (intrinsics == intrinsics_) return;
+  intrinsics_ = intrinsics;
+  const DepthNoiseModel noise{intrinsics.fx, config_.baseline_m};
+  tolerance_per_m2_ = static_cast<float>(config_.edge_tolerance_steps * noise.quantisationStep_m(1.0));
+  min_mm_ = static_cast<float>(config_.min_range_m * 1000.0);
+  max_mm_ = static_cast<float>(config_.max_range_m * 1000.0);
+  rays_.resize(static_cast<std::size_t>(intrinsics.width) * intrinsics.height);
+  for (int v = 0; v < intrinsics.height; ++v) {
+    for (int u = 0; u < intrinsics.width; ++u) {
+      rays_[static_cast<std::size_t>(v) * intrinsics.width + u] =
+          Eigen::Vector2f((u - intrinsics.cx) / intrinsics.fx, (v - intrinsics.cy) / intrinsics.fy);
+    }
+  }
+}
+
+void PointProjector::project(const DepthFrame& frame, const Eigen::Isometry3f& T_R_S, PointSet& out) const {
+  if (!(frame.intrinsics == intrinsics_)) {
+    throw std::logic_error("PointProjector::project: setIntrinsics() not called for this frame size");
+  }
+  out.clear();
+  const Eigen::Matrix3f R = T_R_S.linear();
+  const Eigen::Vector3f t = T_R_S.translation();
+  const float floor_margin = static_cast<float>(config_.floor_margin_m);
+  const int stride = config_.pixel_stride;
+  // Sample rows and columns offset by half a stride so the grid is centred in the image.
+  for (int v = stride / 2; v < frame.height(); v += stride) {
+    for (int u = stride / 2; u < frame.width(); u += stride) {
+      if (!isSurface(frame, u, v)) continue;
+      const std::size_t i = static_cast<std::size_t>(v) * frame.width() + u;
+      const float z = frame.depth_mm[i] * 0.001f;
+      const Eigen::Vector2f& ray = rays_[i];
+      const Eigen::Vector3f p_R = R * Eigen::Vector3f(ray.x() * z, ray.y() * z, z) + t;
+      if (p_R.z() < floor_margin) continue;
+      out.p_R.push_back(p_R);
+      out.range_m.push_back(z);
+    }
+  }
+}
+
+}  // namespace kinect3d
