@@ -62,10 +62,10 @@ TEST(Host, ReportsEndOfStream) {
                 TEST_PLUGIN_DIR);
   host.start();
   const auto deadline = Clock::now() + std::chrono::seconds(5);
-  while (!host.allFinished() && Clock::now() < deadline) {
+  while (!host.sourcesFinished() && Clock::now() < deadline) {
     std::this_thread::sleep_for(std::chrono::milliseconds(5));
   }
-  EXPECT_TRUE(host.allFinished());
+  EXPECT_TRUE(host.sourcesFinished());
   host.stop();
   EXPECT_EQ(host.summaries().at(0).frames, 3u);
   EXPECT_EQ(host.world().recentBalls("tp_producer").size(), 3u);

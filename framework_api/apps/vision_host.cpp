@@ -80,7 +80,7 @@ int main(int argc, char** argv) {
       const int signal_number = sigtimedwait(&stop_signals, nullptr, &poll);
       if (signal_number > 0) {
         reason = signal_number == SIGINT ? "SIGINT" : "SIGTERM";
-      } else if (host.allFinished()) {
+      } else if (host.sourcesFinished()) {
         reason = "every source ended";
       } else if (duration_s > 0.0 &&
                  std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count() >=

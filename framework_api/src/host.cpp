@@ -70,12 +70,15 @@ void Host::stop() {
   }
 }
 
-bool Host::allFinished() const {
+bool Host::sourcesFinished() const {
+  bool any_source = false;
   for (const auto& plugin : plugins_) {
+    if (plugin->rate_hz > 0.0) continue;
+    any_source = true;
     std::lock_guard<std::mutex> lock(plugin->mutex);
     if (!plugin->summary.end_of_stream) return false;
   }
-  return !plugins_.empty();
+  return any_source;
 }
 
 std::vector<PluginSummary> Host::summaries() const {

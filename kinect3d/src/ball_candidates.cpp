@@ -69,9 +69,10 @@ void BallCandidateFinder::find(const OccupancyGrid& grid, std::vector<BallCandid
   }
 }
 
-// Whether some placement of the core around the group leaves its shell free of occupied voxels.
-// Voxels within the shell distance of the group belong to the group itself, so only the shell
-// parts a placement adds beyond that can hold other groups' voxels.
+// Whether some placement of the core around the group leaves the rest of its window (core and
+// shell) free of other occupied voxels. Every occupied voxel within the shell distance of the
+// group is part of it, so an occupied voxel in the window outside the group's bounding box belongs
+// to something else: then the object in the core is not the group alone, or not alone in the air.
 bool BallCandidateFinder::shellEmpty(const OccupancyGrid& grid, const BallCandidate& group) const {
   const int core = config_.core_voxels;
   VoxelIndex first, last;  // range of the core's lowest corner over placements containing the group
@@ -79,23 +80,25 @@ bool BallCandidateFinder::shellEmpty(const OccupancyGrid& grid, const BallCandid
     first[a] = group.max[a] - core + 1;
     last[a] = group.min[a];
   }
+  auto inGroupBox = [&](int x, int y, int z) {
+    return x >= group.min[0] && x <= group.max[0] && y >= group.min[1] && y <= group.max[1] &&
+           z >= group.min[2] && z <= group.max[2];
+  };
   for (int z0 = first[2]; z0 <= last[2]; ++z0) {
     for (int y0 = first[1]; y0 <= last[1]; ++y0) {
       for (int x0 = first[0]; x0 <= last[0]; ++x0) {
-        bool empty = true;
-        for (int z = z0 - shell_; empty && z < z0 + core + shell_; ++z) {
-          for (int y = y0 - shell_; empty && y < y0 + core + shell_; ++y) {
+        bool clear = true;
+        for (int z = z0 - shell_; clear && z < z0 + core + shell_; ++z) {
+          for (int y = y0 - shell_; clear && y < y0 + core + shell_; ++y) {
             for (int x = x0 - shell_; x < x0 + core + shell_; ++x) {
-              const bool in_core = x >= x0 && x < x0 + core && y >= y0 && y < y0 + core &&
-                                   z >= z0 && z < z0 + core;
-              if (!in_core && grid.occupied({x, y, z})) {
-                empty = false;
+              if (!inGroupBox(x, y, z) && grid.occupied({x, y, z})) {
+                clear = false;
                 break;
               }
             }
           }
         }
-        if (empty) return true;
+        if (clear) return true;
       }
     }
   }

@@ -129,12 +129,14 @@ std::optional<BallFit> BallRefiner::refine(const BallCandidate& candidate, const
   fit.range_m = range;
   fit.state = fit.center_R.z() > r + config_.air_min_height_m ? fw::BallState::kAir : fw::BallState::kGround;
 
-  // Uncertainty: along the ray the depth noise and quantisation (both ~ z^2), across it the
-  // lateral noise, each shrinking with the number of points but never below a tenth of its
-  // per-point value (neighbouring Kinect pixels share their correlation window).
+  // Uncertainty: a random part, the per-point noise over the number of points (at most 100
+  // independent: neighbouring Kinect pixels share their correlation window), and a systematic
+  // part, 1 cm in every direction for the extrinsics plus a quarter of the depth quantisation step
+  // along the ray, which grows with the square of the range.
   const double n_eff = std::max(1.0, std::min(100.0, double(fit.points)));
-  const double along = std::hypot(noise_.axialSigma_m(range), noise_.quantisationStep_m(range) / 2) / std::sqrt(n_eff);
-  const double across = std::max(0.005, noise_.lateralSigma_m(range) / std::sqrt(n_eff));
+  const double along = std::sqrt(std::pow(sigma, 2) / n_eff +
+                                 std::pow(noise_.quantisationStep_m(range) / 4, 2) + 1e-4);
+  const double across = std::sqrt(std::pow(noise_.lateralSigma_m(range), 2) / n_eff + 1e-4);
   Eigen::Matrix3d basis;
   basis << side, up, ray;
   fit.covariance_m2 = basis * Eigen::Vector3d(across * across, across * across, along * along).asDiagonal() * basis.transpose();

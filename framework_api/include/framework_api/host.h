@@ -43,8 +43,9 @@ class Host {
   void start();
   // Asks every plugin thread to stop after its current step and joins them. Idempotent.
   void stop();
-  // True once every plugin has reported end of stream.
-  bool allFinished() const;
+  // True once every source-driven plugin (one without rate_hz) has reported end of stream, and
+  // there is at least one: then nothing new can reach the world state.
+  bool sourcesFinished() const;
 
   std::vector<PluginSummary> summaries() const;
   WorldState& world() { return world_; }

@@ -4,7 +4,7 @@
 // Equivalent formulation used here: occupied voxels are grouped so that two voxels closer than the
 // shell is thick belong together (any such neighbour would sit in the shell of a core holding the
 // other). A group passes when it fits in the core and some core placement around it has no
-// occupied voxel of another group in its shell. For a ball on the ground the shell's bottom layer
+// occupied voxel of anything else in its window (core or shell). For a ball on the ground the shell's bottom layer
 // lies below the floor, where the floor cut leaves nothing, so the same test finds ground balls.
 #pragma once
 

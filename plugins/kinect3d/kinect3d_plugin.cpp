@@ -1,0 +1,54 @@
+// kinect3d: reads depth frames from the configured source, detects balls and publishes them to
+// the world state as observations in the robot frame with covariances from the depth noise model.
+#include <memory>
+
+#include "framework_api/log.h"
+#include "framework_api/plugin.h"
+#include "kinect3d/ball_detector.h"
+#include "kinect3d/config_io.h"
+#include "kinect3d/depth_source.h"
+
+namespace {
+
+class Kinect3dPlugin : public fw::Plugin {
+ public:
+  explicit Kinect3dPlugin(const fw::PluginContext& context)
+      : world_(*context.world), detector_(kinect3d::readDetectorConfig(context.config)) {
+    kinect3d::SourceOptions options;
+    options.realtime = context.config.getBool("realtime");
+    const std::string uri = context.config.getString("source");
+    try {
+      source_ = kinect3d::openDepthSource(uri, options);
+    } catch (const kinect3d::DepthSourceError& e) {
+      throw fw::ConfigError(context.config.originOf("source") + ": kinect3d.source: " + e.what());
+    }
+    fw::logInfo("kinect3d", "reading " + source_->describe());
+  }
+
+  fw::StepResult step() override {
+    switch (source_->read(frame_)) {
+      case kinect3d::ReadResult::kEnd: return fw::StepResult::kEndOfStream;
+      case kinect3d::ReadResult::kNoFrameYet: return fw::StepResult::kIdle;
+      case kinect3d::ReadResult::kFrame: break;
+    }
+    detector_.detect(frame_, detections_);
+    if (detections_.aligned && !reported_alignment_) {
+      fw::logInfo("kinect3d", "sensor aligned with the floor; detecting");
+      reported_alignment_ = true;
+    }
+    for (const fw::BallObservation& ball : detections_.balls) world_.publishBall(ball);
+    return fw::StepResult::kProcessed;
+  }
+
+ private:
+  fw::WorldState& world_;
+  kinect3d::BallDetector detector_;
+  std::unique_ptr<kinect3d::DepthSource> source_;
+  kinect3d::DepthFrame frame_;
+  kinect3d::Detections detections_;
+  bool reported_alignment_ = false;
+};
+
+}  // namespace
+
+FW_REGISTER_PLUGIN(Kinect3dPlugin, "kinect3d", "0.1.0")

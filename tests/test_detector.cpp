@@ -1,0 +1,299 @@
+// The detector: each stage on its own, then the report's accuracy checks on shorter runs.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+
+#include "framework_api/config.h"
+#include "kinect3d/ball_detector.h"
+#include "kinect3d/config_io.h"
+#include "kinect3d/depth_source.h"
+#include "kinect3d/kinect_disparity.h"
+#include "kinect3d/sim/evaluation.h"
+#include "sim_test_scenes.h"
+
+namespace {
+
+using kinect3d::DepthFrame;
+using kinect3d::DetectorConfig;
+namespace sim = kinect3d::sim;
+
+fw::Config shippedConfig(const std::vector<std::string>& overrides = {}) {
+  return fw::Config::load(std::string(PROJECT_CONFIG_DIR) + "/defaults", "", overrides);
+}
+
+DetectorConfig shippedDetector(const sim::Scene& scene) {
+  DetectorConfig config = kinect3d::readDetectorConfig(shippedConfig().block("kinect3d"));
+  config.ground.pose = scene.sensor_pose;
+  return config;
+}
+
+// ---- Surface filter ----------------------------------------------------------------------------
+
+TEST(PointProjector, KeepsSurfacesDropsFlyingPixelsAndFloor) {
+  kinect3d::PointProjector projector({});
+  DepthFrame frame;
+  frame.resize(kinect3d::Intrinsics{});
+  std::fill(frame.depth_mm.begin(), frame.depth_mm.end(), 4000);  // a wall at 4 m
+  projector.setIntrinsics(frame.intrinsics);
+  EXPECT_TRUE(projector.isSurface(frame, 100, 100));
+  // A pixel halfway between a ball at 3 m and the wall, with the ball on its left.
+  for (int v = 0; v < 480; ++v) {
+    for (int u = 0; u < 300; ++u) frame.depth_mm[v * 640 + u] = 3000;
+  }
+  frame.depth_mm[200 * 640 + 300] = 3500;
+  EXPECT_FALSE(projector.isSurface(frame, 300, 200)) << "flying pixel between ball and wall";
+  EXPECT_FALSE(projector.isSurface(frame, 299, 200)) << "edge of the near surface";
+  EXPECT_TRUE(projector.isSurface(frame, 250, 200));
+  // Quantisation noise of one step at 4 m (4.6 cm) is still a surface.
+  frame.depth_mm[300 * 640 + 500] = 4046;
+  EXPECT_TRUE(projector.isSurface(frame, 500, 300));
+  frame.depth_mm[300 * 640 + 500] = 0;
+  EXPECT_FALSE(projector.isSurface(frame, 501, 300)) << "a neighbour with no data";
+}
+
+// ---- Occupancy grid and its OctoMap tree -------------------------------------------------------
+
+TEST(OccupancyGrid, TreeOfRecordFollowsTheCountsFrameByFrame) {
+  kinect3d::OccupancyGrid::Config config;
+  config.min_points = 3;
+  config.occupied_fraction = 0.0;
+  kinect3d::OccupancyGrid grid(config, 575.8, 2);
+  const Eigen::Vector3f sensor(0.0f, 0.0f, 0.7f);
+  kinect3d::PointSet points;
+  auto addPoints = [&](Eigen::Vector3f at, int n) {
+    for (int i = 0; i < n; ++i) {
+      points.p_R.push_back(at);
+      points.range_m.push_back(at.y());
+    }
+  };
+  const Eigen::Vector3f ball(0.1f, 3.0f, 1.0f), wall(0.0f, 7.0f, 1.0f);
+  addPoints(ball, 5);
+  addPoints(wall, 2);
+  grid.update(points, sensor);
+  EXPECT_EQ(grid.treeCount(ball), 5u);
+  EXPECT_EQ(grid.treeCount(wall), 2u);
+  EXPECT_TRUE(grid.occupied(grid.indexOf(ball)));
+  EXPECT_FALSE(grid.occupied(grid.indexOf(wall))) << "below min_points";
+  EXPECT_EQ(grid.occupiedVoxels().size(), 1u);
+
+  points.clear();
+  addPoints(wall, 9);
+  grid.update(points, sensor);
+  EXPECT_EQ(grid.treeCount(ball), 0u) << "a voxel that emptied is zero in the tree";
+  EXPECT_EQ(grid.treeCount(wall), 9u);
+  EXPECT_TRUE(grid.occupied(grid.indexOf(wall)));
+  EXPECT_FALSE(grid.occupied(grid.indexOf(ball)));
+}
+
+TEST(OccupancyGrid, ThresholdFallsWithRange) {
+  kinect3d::OccupancyGrid::Config config;  // occupied_fraction 0.02 of a full face
+  kinect3d::OccupancyGrid grid(config, 575.8, 2);
+  kinect3d::PointSet points;
+  // 30 points: plenty at 6 m (a full face holds ~170), far too few at 1.5 m (~2700).
+  for (const float y : {1.5f, 6.0f}) {
+    for (int i = 0; i < 30; ++i) {
+      points.p_R.emplace_back(0.0f, y, 0.7f);
+      points.range_m.push_back(y);
+    }
+  }
+  grid.update(points, Eigen::Vector3f(0.0f, 0.0f, 0.7f));
+  EXPECT_FALSE(grid.occupied(grid.indexOf({0.0f, 1.5f, 0.7f})));
+  EXPECT_TRUE(grid.occupied(grid.indexOf({0.0f, 6.0f, 0.7f})));
+}
+
+// ---- The mask ---------------------------------------------------------------------------------
+
+class MaskTest : public ::testing::Test {
+ protected:
+  MaskTest() : grid_(gridConfig(), 575.8, 2), finder_({}) {}
+  static kinect3d::OccupancyGrid::Config gridConfig() {
+    kinect3d::OccupancyGrid::Config config;
+    config.occupied_fraction = 0.0;
+    config.min_points = 1;
+    return config;
+  }
+  void occupy(std::initializer_list<Eigen::Vector3f> at) {
+    kinect3d::PointSet points;
+    for (const auto& p : at) {
+      points.p_R.push_back(p);
+      points.range_m.push_back(p.y());
+    }
+    grid_.update(points, Eigen::Vector3f(0.0f, 0.0f, 0.7f));
+    finder_.find(grid_, candidates_);
+  }
+  kinect3d::OccupancyGrid grid_;
+  kinect3d::BallCandidateFinder finder_;
+  std::vector<kinect3d::BallCandidate> candidates_;
+};
+
+TEST_F(MaskTest, IsolatedBlobInTheAirPasses) {
+  occupy({{0.1f, 3.0f, 1.0f}, {0.3f, 3.0f, 1.0f}});  // two neighbouring voxels
+  ASSERT_EQ(candidates_.size(), 1u);
+  EXPECT_EQ(candidates_[0].voxels, 2);
+}
+
+TEST_F(MaskTest, OneEmptyVoxelFromAWallIsEnoughTouchingIsNot) {
+  // The paper: a flying object must be at least one voxel (0.27 m) from any other structure.
+  occupy({{0.1f, 3.0f, 1.0f}, {0.1f, 3.54f, 0.4f}, {0.1f, 3.54f, 0.7f}, {0.1f, 3.54f, 1.0f}, {0.1f, 3.54f, 1.3f}});
+  EXPECT_EQ(candidates_.size(), 1u) << "ball two voxels in front of a wall";
+  occupy({{0.1f, 3.0f, 1.0f}, {0.1f, 3.27f, 0.4f}, {0.1f, 3.27f, 0.7f}, {0.1f, 3.27f, 1.0f}, {0.1f, 3.27f, 1.3f}});
+  EXPECT_TRUE(candidates_.empty()) << "ball against the wall merges with it";
+}
+
+TEST_F(MaskTest, AnotherObjectInsideTheWindowFails) {
+  // Small objects two voxels to either side: every core placement around the middle one holds
+  // one of them in its core or shell.
+  occupy({{-0.5f, 3.0f, 1.0f}, {0.1f, 3.0f, 1.0f}, {0.7f, 3.0f, 1.0f}});
+  for (const auto& candidate : candidates_) {
+    EXPECT_NE(candidate.min[0], grid_.indexOf({0.1f, 3.0f, 1.0f})[0]) << "the middle one must fail";
+  }
+  EXPECT_EQ(candidates_.size(), 2u) << "the outer two have room on their outer side";
+}
+
+TEST_F(MaskTest, BlobLargerThanTheCoreFails) {
+  occupy({{0.1f, 3.0f, 1.0f}, {0.4f, 3.0f, 1.0f}, {0.7f, 3.0f, 1.0f}, {1.0f, 3.0f, 1.0f}});  // 4 voxels wide
+  EXPECT_TRUE(candidates_.empty());
+}
+
+TEST_F(MaskTest, BallOnTheFloorLayerPasses) {
+  occupy({{0.1f, 3.0f, 0.15f}});
+  ASSERT_EQ(candidates_.size(), 1u);
+  EXPECT_EQ(candidates_[0].min[2], 0) << "floor layer";
+}
+
+TEST_F(MaskTest, TwoSeparateBallsAreTwoCandidates) {
+  occupy({{-2.0f, 3.0f, 1.0f}, {2.0f, 3.0f, 1.0f}});
+  EXPECT_EQ(candidates_.size(), 2u);
+}
+
+// ---- Whole detector on the simulator ----------------------------------------------------------
+
+TEST(BallDetector, HungBallMeetsThePaperTable1Targets) {
+  for (const int d : {2, 4, 6}) {
+    SCOPED_TRACE("hung at " + std::to_string(d) + " m");
+    sim::Scene scene = sim::loadScene("hung_" + std::to_string(d) + "m");
+    scene.duration_s = 1.0;
+    const auto frames = sim::runDetectorOnScene(scene, shippedDetector(scene));
+    Eigen::Vector3d sum = Eigen::Vector3d::Zero(), square = Eigen::Vector3d::Zero();
+    double error_sum = 0.0;
+    for (const auto& f : frames) {
+      ASSERT_EQ(f.balls.size(), 1u) << "frame " << f.truth.frame_index;
+      const Eigen::Vector3d p = f.balls[0].position_m;
+      EXPECT_EQ(f.balls[0].state, fw::BallState::kAir);
+      EXPECT_EQ(f.balls[0].frame, fw::Frame::kRobot);
+      sum += p;
+      square += p.cwiseProduct(p);
+      error_sum += (p - f.truth.ball_center_R).norm();
+    }
+    const double n = frames.size();
+    const Eigen::Vector3d std_dev = (square / n - (sum / n).cwiseProduct(sum / n)).cwiseMax(0.0).cwiseSqrt();
+    EXPECT_LE(error_sum / n, d <= 4 ? 0.03 : 0.06);
+    EXPECT_LE(std_dev.maxCoeff(), 0.02);
+  }
+}
+
+TEST(BallDetector, FindsKicksAndShotsAndNothingElse) {
+  sim::DetectionScore total;
+  for (const std::string name : {"kick_away", "ground_kick", "shot_goalkeeper", "lob_goalkeeper"}) {
+    const sim::Scene scene = sim::loadScene(name);
+    const sim::DetectionScore score =
+        sim::scoreFrames(sim::runDetectorOnScene(scene, shippedDetector(scene)), scene, {});
+    EXPECT_EQ(score.off_truth, 0) << name << ": every reported ball within 0.3 m of the truth";
+    EXPECT_GT(score.eligible, 10) << name;
+    total.add(score);
+  }
+  EXPECT_GE(total.recall(), 0.95) << total.found << " of " << total.eligible;
+}
+
+TEST(BallDetector, NoPhantomsInClutter) {
+  sim::Scene scene = sim::loadScene("clutter");
+  scene.duration_s = 6.0;
+  const sim::DetectionScore score = sim::scoreFrames(sim::runDetectorOnScene(scene, shippedDetector(scene)), scene, {});
+  EXPECT_EQ(score.frames, 180);
+  EXPECT_EQ(score.reported, 0);
+}
+
+TEST(BallDetector, NoPhantomsOnRealKinectFrames) {
+  DetectorConfig config = kinect3d::readDetectorConfig(shippedConfig().block("kinect3d"));  // floor search
+  char pattern[] = "/tmp/real_tum_XXXXXX";
+  const std::string dir = mkdtemp(pattern);
+  std::ofstream(dir + "/depth.txt") << "0 " << REAL_DEPTH_DIR << "/tum_depth.png\n";
+  auto source = kinect3d::openDepthSource("tum:" + dir);
+  DepthFrame frame;
+  ASSERT_EQ(source->read(frame), kinect3d::ReadResult::kFrame);
+  kinect3d::Detections detections;
+  kinect3d::BallDetector tum(config);
+  tum.detect(frame, detections);
+  EXPECT_TRUE(detections.aligned) << "the office floor is found";
+  EXPECT_TRUE(detections.balls.empty());
+  kinect3d::BallDetector nyu(config);
+  nyu.detect(kinect3d::loadRawDisparityPgm(std::string(REAL_DEPTH_DIR) + "/nyu_raw_disparity.pgm"), detections);
+  EXPECT_TRUE(detections.aligned) << "the room's floor is found";
+  EXPECT_TRUE(detections.balls.empty());
+  std::filesystem::remove_all(dir);
+}
+
+TEST(BallDetector, FindsTheFloorWhenNoPoseIsConfigured) {
+  const sim::Scene scene = sim::loadScene("hung_4m");
+  DetectorConfig config = shippedDetector(scene);
+  config.ground.pose.reset();
+  kinect3d::BallDetector detector(config);
+  sim::KinectSimulator simulator(scene);
+  DepthFrame frame;
+  sim::GroundTruth truth;
+  kinect3d::Detections detections;
+  simulator.render(0, frame, truth);
+  detector.detect(frame, detections);
+  ASSERT_TRUE(detector.T_R_S().has_value());
+  const kinect3d::SensorPose found = kinect3d::SensorPose::fromTransform(*detector.T_R_S());
+  EXPECT_NEAR(found.z_m, 0.70, 0.02);
+  EXPECT_NEAR(found.pitch_rad, 0.0, 0.01);
+  EXPECT_NEAR(found.roll_rad, 0.0, 0.01);
+  ASSERT_EQ(detections.balls.size(), 1u);
+  EXPECT_LT((detections.balls[0].position_m - truth.ball_center_R).norm(), 0.03);
+}
+
+TEST(BallDetector, CovarianceGrowsWithRangeAlongTheRay) {
+  auto covarianceAt = [](int d) {
+    sim::Scene scene = sim::loadScene("hung_" + std::to_string(d) + "m");
+    scene.duration_s = 0.1;
+    const auto frames = sim::runDetectorOnScene(scene, shippedDetector(scene));
+    return frames.at(0).balls.at(0).covariance_m2;
+  };
+  const Eigen::Matrix3d near = covarianceAt(2), far = covarianceAt(6);
+  // Straight ahead the ray is the robot's y axis.
+  EXPECT_GT(far(1, 1), 4.0 * near(1, 1));
+  EXPECT_GT(near(1, 1), near(0, 0)) << "depth is the least certain direction";
+}
+
+TEST(DetectorConfig, ShippedRobotFilesConfigureTheDetector) {
+  for (const auto& entry : std::filesystem::directory_iterator(std::string(PROJECT_CONFIG_DIR) + "/robots")) {
+    SCOPED_TRACE(entry.path().string());
+    const fw::Config config = fw::Config::load(std::string(PROJECT_CONFIG_DIR) + "/defaults", entry.path().string(), {});
+    const DetectorConfig detector = kinect3d::readDetectorConfig(config.block("kinect3d"));
+    EXPECT_TRUE(detector.ground.pose.has_value());
+  }
+}
+
+TEST(DetectorConfig, BadValuesNameTheKey) {
+  auto errorOf = [](const std::string& assignment) {
+    try {
+      kinect3d::readDetectorConfig(shippedConfig({assignment}).block("kinect3d"));
+    } catch (const fw::ConfigError& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  EXPECT_NE(errorOf("kinect3d.grid.voxel_m=-1").find("kinect3d.grid.voxel_m = -1 is out of range"), std::string::npos);
+  EXPECT_NE(errorOf("kinect3d.grid.mask_voxels=6").find("must exceed core_voxels by an even number"), std::string::npos);
+  EXPECT_NE(errorOf("kinect3d.sensor.pose_in_robot={x: 0, y: 0, z: 0.7, yaw: 0}")
+                .find("kinect3d.sensor.pose_in_robot.yaw is an unknown key"),
+            std::string::npos);
+  EXPECT_NE(errorOf("kinect3d.sensor.pose_in_robot={x: 0, y: 0, z: 0.7}")
+                .find("kinect3d.sensor.pose_in_robot.yaw_deg is missing"),
+            std::string::npos);
+}
+
+}  // namespace

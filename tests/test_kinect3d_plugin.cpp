@@ -1,0 +1,92 @@
+// The Kinect3D plugin inside the real host, and `kinect3d detect` as a user runs it.
+#include <gtest/gtest.h>
+
+#include <nlohmann/json.hpp>
+
+#include <chrono>
+#include <cstdio>
+#include <sys/wait.h>
+#include <thread>
+
+#include "framework_api/host.h"
+
+namespace {
+
+TEST(Kinect3dPlugin, PublishesTheBallToTheWorldState) {
+  const fw::Config config = fw::Config::load(
+      std::string(PROJECT_CONFIG_DIR) + "/defaults", std::string(PROJECT_CONFIG_DIR) + "/robots/demo.yaml",
+      {"host.plugins=[kinect3d]", "kinect3d.source=sim:hung_3m", "kinect3d.realtime=false"});
+  fw::Host host(config, PRODUCT_PLUGIN_DIR);
+  host.start();
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+  while (!host.sourcesFinished() && std::chrono::steady_clock::now() < deadline) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  host.stop();
+  ASSERT_TRUE(host.sourcesFinished());
+  EXPECT_EQ(host.summaries().at(0).frames, 90u);
+  const auto balls = host.world().recentBalls("kinect3d");
+  ASSERT_EQ(balls.size(), fw::WorldState::kHistoryPerSource);
+  for (const fw::BallObservation& ball : balls) {
+    EXPECT_EQ(ball.frame, fw::Frame::kRobot);
+    EXPECT_EQ(ball.state, fw::BallState::kAir);
+    EXPECT_LT((ball.position_m - Eigen::Vector3d(0.0, 3.0, 1.0)).norm(), 0.03);
+    EXPECT_GT(ball.covariance_m2(1, 1), 0.0);
+    EXPECT_GT(ball.stamp.receive_time_s, 1.0e9);
+  }
+}
+
+TEST(Kinect3dPlugin, BadSourceIsAStartupErrorNamingTheKey) {
+  const fw::Config config = fw::Config::load(
+      std::string(PROJECT_CONFIG_DIR) + "/defaults", std::string(PROJECT_CONFIG_DIR) + "/robots/demo.yaml",
+      {"host.plugins=[kinect3d]", "kinect3d.source=tum:/nonexistent"});
+  try {
+    fw::Host host(config, PRODUCT_PLUGIN_DIR);
+    FAIL() << "expected an error";
+  } catch (const std::exception& e) {
+    EXPECT_NE(std::string(e.what()).find("--set kinect3d.source=tum:/nonexistent: kinect3d.source: TUM sequence folder '/nonexistent' does not exist"),
+              std::string::npos) << e.what();
+  }
+}
+
+// Runs a command, returning its exit status and standard output.
+std::pair<int, std::string> run(const std::string& command) {
+  FILE* pipe = popen(command.c_str(), "r");
+  std::string out;
+  char buffer[4096];
+  for (std::size_t n; (n = fread(buffer, 1, sizeof buffer, pipe)) > 0;) out.append(buffer, n);
+  const int status = pclose(pipe);
+  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out};
+}
+
+TEST(DetectCommand, WritesOneJsonLinePerFrame) {
+  const auto [status, out] = run(std::string(KINECT3D_EXE) + " detect --source sim:hung_2m 2>/dev/null");
+  ASSERT_EQ(status, 0);
+  std::istringstream lines(out);
+  int frames = 0;
+  for (std::string line; std::getline(lines, line); ++frames) {
+    const auto json = nlohmann::json::parse(line);
+    EXPECT_EQ(json.at("frame").get<int>(), frames);
+    EXPECT_GT(json.at("t").get<double>(), 1.0e9);
+    EXPECT_GE(json.at("process_ms").get<double>(), 0.0);
+    ASSERT_EQ(json.at("balls").size(), 1u) << line;
+    const auto& ball = json["balls"][0];
+    EXPECT_NEAR(ball.at("y").get<double>(), 2.0, 0.03);
+    EXPECT_NEAR(ball.at("z").get<double>(), 1.0, 0.03);
+    EXPECT_EQ(ball.at("state"), "air");
+    EXPECT_GT(ball.at("points").get<int>(), 500);
+  }
+  EXPECT_EQ(frames, 90);
+}
+
+TEST(DetectCommand, BadSourceOrConfigExitsNonZeroWithAMessage) {
+  const auto [status, out] = run(std::string(KINECT3D_EXE) + " detect --source bogus:thing 2>&1");
+  EXPECT_EQ(status, 2);
+  EXPECT_NE(out.find("unknown depth source scheme 'bogus:'"), std::string::npos) << out;
+  const auto [config_status, config_out] =
+      run(std::string(KINECT3D_EXE) + " detect --source sim:hung_2m --set kinect3d.grid.voxl_m=0.2 2>&1");
+  EXPECT_EQ(config_status, 2);
+  EXPECT_NE(config_out.find("unknown key 'kinect3d.grid.voxl_m'"), std::string::npos) << config_out;
+}
+
+}  // namespace
