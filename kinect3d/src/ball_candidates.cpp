@@ -65,7 +65,11 @@ void BallCandidateFinder::find(const OccupancyGrid& grid, std::vector<BallCandid
         }
       }
     }
-    if (!too_big && shellEmpty(grid, group)) out.push_back(group);
+    if (too_big) continue;
+    const Eigen::Vector3f middle = 0.5f * (grid.centerOf(group.min) + grid.centerOf(group.max));
+    const double range_squared = std::max(0.25, double((middle - grid.sensorPosition()).squaredNorm()));
+    if (group.points < config_.min_points_at_1m / range_squared) continue;
+    if (shellEmpty(grid, group)) out.push_back(group);
   }
 }
 
@@ -80,24 +84,28 @@ bool BallCandidateFinder::shellEmpty(const OccupancyGrid& grid, const BallCandid
     first[a] = group.max[a] - core + 1;
     last[a] = group.min[a];
   }
-  auto inGroupBox = [&](int x, int y, int z) {
-    return x >= group.min[0] && x <= group.max[0] && y >= group.min[1] && y <= group.max[1] &&
-           z >= group.min[2] && z <= group.max[2];
-  };
+  // Occupied voxels outside the group's box anywhere in the union of all windows: with none the
+  // group passes at once (the usual case for a ball in the air); otherwise each placement is
+  // tested against that short list.
+  foreign_.clear();
+  for (int z = first[2] - shell_; z < last[2] + core + shell_; ++z) {
+    for (int y = first[1] - shell_; y < last[1] + core + shell_; ++y) {
+      for (int x = first[0] - shell_; x < last[0] + core + shell_; ++x) {
+        const bool in_group_box = x >= group.min[0] && x <= group.max[0] && y >= group.min[1] &&
+                                  y <= group.max[1] && z >= group.min[2] && z <= group.max[2];
+        if (!in_group_box && grid.occupied({x, y, z})) foreign_.push_back({x, y, z});
+      }
+    }
+  }
+  if (foreign_.empty()) return true;
   for (int z0 = first[2]; z0 <= last[2]; ++z0) {
     for (int y0 = first[1]; y0 <= last[1]; ++y0) {
       for (int x0 = first[0]; x0 <= last[0]; ++x0) {
-        bool clear = true;
-        for (int z = z0 - shell_; clear && z < z0 + core + shell_; ++z) {
-          for (int y = y0 - shell_; clear && y < y0 + core + shell_; ++y) {
-            for (int x = x0 - shell_; x < x0 + core + shell_; ++x) {
-              if (!inGroupBox(x, y, z) && grid.occupied({x, y, z})) {
-                clear = false;
-                break;
-              }
-            }
-          }
-        }
+        const VoxelIndex lo{x0 - shell_, y0 - shell_, z0 - shell_};
+        const bool clear = std::none_of(foreign_.begin(), foreign_.end(), [&](const VoxelIndex& f) {
+          return f[0] >= lo[0] && f[0] < lo[0] + core + 2 * shell_ && f[1] >= lo[1] &&
+                 f[1] < lo[1] + core + 2 * shell_ && f[2] >= lo[2] && f[2] < lo[2] + core + 2 * shell_;
+        });
         if (clear) return true;
       }
     }

@@ -1,6 +1,7 @@
 #include "kinect3d/ball_detector.h"
 
-#include <algorithm>
+#include <cmath>
+#include <utility>
 #include <chrono>
 
 namespace kinect3d {
@@ -23,14 +24,29 @@ double StageTimes::total() const {
   return sum;
 }
 
+namespace {
+// The mask's early plausibility cut: a whole ball of radius r covers pi (f r / z)^2 pixels at
+// range z, 1/stride^2 of them on the grid. A group needs half the share the refiner later demands
+// of the full-resolution pixels (its voxels below the occupancy threshold are not counted).
+BallCandidateFinder::Config maskConfig(const DetectorConfig& config, double focal_px) {
+  BallCandidateFinder::Config mask = config.mask;
+  const double stride = config.points.pixel_stride;
+  mask.min_points_at_1m = 0.5 * config.ball.min_visible_fraction * M_PI *
+                          std::pow(focal_px * config.ball.radius_m / stride, 2);
+  return mask;
+}
+}  // namespace
+
 BallDetector::BallDetector(const DetectorConfig& config)
-    : config_(config), ground_(config.ground), projector_(config.points), finder_(config.mask) {}
+    : config_(config), ground_(config.ground), projector_(config.points) {}
 
 BallDetector::~BallDetector() = default;
 
 void BallDetector::detect(const DepthFrame& frame, Detections& out) {
   out.balls.clear();
   out.times = StageTimes{};
+  out.occupied_voxels = 0;
+  out.candidates = 0;
   Clock::time_point t0 = Clock::now();
 
   T_R_S_ = ground_.update(frame);
@@ -43,6 +59,7 @@ void BallDetector::detect(const DepthFrame& frame, Detections& out) {
     projector_.setIntrinsics(frame.intrinsics);
     projector_intrinsics_ = frame.intrinsics;
     grid_ = std::make_unique<OccupancyGrid>(config_.grid, frame.intrinsics.fx, config_.points.pixel_stride);
+    finder_ = std::make_unique<BallCandidateFinder>(maskConfig(config_, frame.intrinsics.fx));
     refiner_ = std::make_unique<BallRefiner>(config_.ball,
                                              DepthNoiseModel{frame.intrinsics.fx, config_.points.baseline_m});
   }
@@ -55,7 +72,9 @@ void BallDetector::detect(const DepthFrame& frame, Detections& out) {
   Clock::time_point t3 = Clock::now();
   out.times.seconds[StageTimes::kGrid] = secondsBetween(t2, t3);
 
-  finder_.find(*grid_, candidates_);
+  finder_->find(*grid_, candidates_);
+  out.occupied_voxels = static_cast<int>(grid_->occupiedVoxels().size());
+  out.candidates = static_cast<int>(candidates_.size());
   Clock::time_point t4 = Clock::now();
   out.times.seconds[StageTimes::kCandidates] = secondsBetween(t3, t4);
 
@@ -68,10 +87,15 @@ void BallDetector::detect(const DepthFrame& frame, Detections& out) {
     ball.support_points = fit->points;
     out.balls.push_back(ball);
   }
-  // The paper looks for flying balls first: report those before balls on the ground.
-  std::stable_sort(out.balls.begin(), out.balls.end(), [](const auto& a, const auto& b) {
-    return a.state == fw::BallState::kAir && b.state != fw::BallState::kAir;
-  });
+  // The paper looks for flying balls first: report those before balls on the ground. An
+  // insertion pass keeps the order otherwise and, unlike std::stable_sort, allocates nothing.
+  for (std::size_t i = 1; i < out.balls.size(); ++i) {
+    for (std::size_t j = i; j > 0 && out.balls[j].state == fw::BallState::kAir &&
+                            out.balls[j - 1].state != fw::BallState::kAir;
+         --j) {
+      std::swap(out.balls[j], out.balls[j - 1]);
+    }
+  }
   out.times.seconds[StageTimes::kRefine] = secondsBetween(t4, Clock::now());
 }
 

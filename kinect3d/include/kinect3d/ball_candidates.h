@@ -27,6 +27,9 @@ class BallCandidateFinder {
   struct Config {
     int core_voxels = 3;  // the paper's inner 3 voxels
     int mask_voxels = 5;  // and its mask of 5: a one-voxel empty shell
+    // Groups with fewer grid points than this over their squared range (m^2) cannot be a ball
+    // and skip the mask test; BallDetector derives it from the ball's size (0 = test all).
+    double min_points_at_1m = 0.0;
   };
 
   explicit BallCandidateFinder(const Config& config);
@@ -54,6 +57,7 @@ class BallCandidateFinder {
   // Scratch for the grouping, reused between frames.
   mutable VoxelSet grouped_;
   mutable std::vector<VoxelIndex> stack_;
+  mutable std::vector<VoxelIndex> foreign_;
 };
 
 }  // namespace kinect3d

@@ -36,6 +36,8 @@ struct StageTimes {
 struct Detections {
   std::vector<fw::BallObservation> balls;  // robot frame, air first
   bool aligned = false;                    // false while the floor has not been found
+  int occupied_voxels = 0;                 // in the grid this frame
+  int candidates = 0;                      // groups that passed the mask, before refinement
   StageTimes times;
 };
 
@@ -54,8 +56,9 @@ class BallDetector {
   DetectorConfig config_;
   GroundAligner ground_;
   PointProjector projector_;
-  BallCandidateFinder finder_;
-  std::unique_ptr<OccupancyGrid> grid_;  // made for the first frame's focal length
+  // Made for the first frame's focal length.
+  std::unique_ptr<OccupancyGrid> grid_;
+  std::unique_ptr<BallCandidateFinder> finder_;
   std::unique_ptr<BallRefiner> refiner_;
   std::optional<Eigen::Isometry3d> T_R_S_;
   Intrinsics projector_intrinsics_{0, 0, 0, 0, 0, 0};

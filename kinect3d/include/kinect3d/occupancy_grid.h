@@ -49,6 +49,7 @@ class OccupancyGrid {
   VoxelIndex indexOf(const Eigen::Vector3f& p_R) const;
   Eigen::Vector3f centerOf(const VoxelIndex& v) const;
   double voxel_m() const { return config_.voxel_m; }
+  const Eigen::Vector3f& sensorPosition() const { return region_centre_; }
 
   // The OctoMap tree of record: count at a point (0 if none), node count, and export to an
   // OctoMap .ot file for octovis.
