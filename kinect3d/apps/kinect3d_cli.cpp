@@ -80,12 +80,19 @@ int runInfo(const std::string& uri) {
   return 0;
 }
 
-// Frame `index` of each source, colour-mapped on one fixed 0-8 m scale (no data in black), side
-// by side in one PNG, so simulated and real frames can be compared by eye.
-int runSnapshot(const std::vector<std::string>& uris, int index, const std::string& out) {
+// One frame of each source (frame_numbers: one for all, or one per source), colour-mapped on one
+// fixed 0-8 m scale (no data in black), side by side in one PNG, so simulated and real frames can
+// be compared by eye.
+int runSnapshot(const std::vector<std::string>& uris, const std::vector<int>& frame_numbers,
+                const std::string& out) {
+  if (frame_numbers.size() > 1 && frame_numbers.size() != uris.size()) {
+    throw std::runtime_error("--frame: give one frame number, or one per source");
+  }
   constexpr double kMaxDepth_mm = 8000.0;
   std::vector<cv::Mat> panels;
-  for (const std::string& uri : uris) {
+  for (std::size_t i = 0; i < uris.size(); ++i) {
+    const std::string& uri = uris[i];
+    const int index = frame_numbers.empty() ? 0 : frame_numbers[frame_numbers.size() > 1 ? i : 0];
     auto source = kinect3d::openDepthSource(uri);
     kinect3d::DepthFrame frame;
     int seen = 0;
@@ -184,10 +191,11 @@ int main(int argc, char** argv) {
 
   std::vector<std::string> snapshot_uris;
   std::string snapshot_out;
-  int snapshot_frame = 0;
+  std::vector<int> snapshot_frames;
   CLI::App* snapshot = app.add_subcommand("snapshot", "Colour-map one frame of each source, side by side, to a PNG");
   snapshot->add_option("sources", snapshot_uris, "Depth source URIs")->required();
-  snapshot->add_option("--frame", snapshot_frame, "Frame number (0 = first)")->check(CLI::NonNegativeNumber);
+  snapshot->add_option("--frame", snapshot_frames, "Frame number (0 = first): one for all sources, or one per source")
+      ->check(CLI::NonNegativeNumber);
   snapshot->add_option("--out", snapshot_out, "PNG file to write")->required();
 
   std::string detect_source, robot_file, detect_output, defaults_dir = KINECT3D_CONFIG_DIR "/defaults";
@@ -216,7 +224,7 @@ int main(int argc, char** argv) {
   try {
     if (*simulate) return runSimulate(scene, out_dir, frames, seed);
     if (*info) return runInfo(uri);
-    if (*snapshot) return runSnapshot(snapshot_uris, snapshot_frame, snapshot_out);
+    if (*snapshot) return runSnapshot(snapshot_uris, snapshot_frames, snapshot_out);
     if (*report) {
       kinect3d::writeAccuracyReport(fw::Config::load(defaults_dir, "", {}), report_options, report_out);
       return 0;
