@@ -4,9 +4,12 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
+#include <memory>
 #include <iostream>
 
 #include "accuracy_report.h"
@@ -15,22 +18,34 @@
 #include "kinect3d/ball_detector.h"
 #include "kinect3d/config_io.h"
 #include "kinect3d/depth_source.h"
+#include "kinect3d/oni_recording.h"
 #include "kinect3d/sim/kinect_simulator.h"
 #include "kinect3d/sim/sequence_writer.h"
 
 namespace {
 
-int runSimulate(const std::string& scene_name, const std::string& out_dir, int frames, int seed) {
+// The scene as a TUM sequence (frames rendered directly) or as an .oni recording (frames served
+// by the simulated OpenNI2 device and recorded by OpenNI2's Recorder, in real time), with its
+// ground truth in truth.json either way.
+int runSimulate(const std::string& scene_name, const std::string& out_dir, const std::string& format,
+                int frames, int seed) {
   kinect3d::sim::Scene scene = kinect3d::sim::loadScene(scene_name);
   if (seed >= 0) scene.noise.seed = static_cast<std::uint64_t>(seed);
   if (frames > 0) scene.duration_s = frames / scene.fps;
   kinect3d::sim::KinectSimulator simulator(scene);
-  kinect3d::sim::TumSequenceWriter writer(out_dir);
   std::vector<kinect3d::sim::GroundTruth> truth(simulator.frameCount());
   kinect3d::DepthFrame frame;
+  std::unique_ptr<kinect3d::sim::TumSequenceWriter> writer;
+  if (format == "tum") writer = std::make_unique<kinect3d::sim::TumSequenceWriter>(out_dir);
+  std::filesystem::create_directories(out_dir);
   for (int i = 0; i < simulator.frameCount(); ++i) {
     simulator.render(i, frame, truth[i]);
-    writer.write(frame);
+    if (writer) writer->write(frame);
+  }
+  if (format == "oni") {
+    const std::string path = out_dir + "/" + scene.name + ".oni";
+    kinect3d::recordOni(kinect3d::simulatedDeviceUri(scene_name, simulator.frameCount(), seed), path,
+                        simulator.frameCount(), scene.duration_s + 10.0);
   }
   kinect3d::sim::writeTruthJson(out_dir + "/truth.json", scene, truth);
   fw::logInfo("simulate", "wrote " + std::to_string(truth.size()) + " frames of '" + scene.name +
@@ -44,13 +59,17 @@ int runInfo(const std::string& uri) {
   std::uint64_t frames = 0;
   double invalid_sum = 0.0, min_m = 0.0, max_m = 0.0, first_t = 0.0, last_t = 0.0;
   kinect3d::Intrinsics intrinsics;
+  // A live device never ends: one second of frames is enough, two without any is a dead device.
+  const bool live = source->frameCount() == 0;
+  auto last_frame = std::chrono::steady_clock::now();
   for (;;) {
     const kinect3d::ReadResult result = source->read(frame);
     if (result == kinect3d::ReadResult::kEnd) break;
     if (result == kinect3d::ReadResult::kNoFrameYet) {
-      if (source->frameCount() == 0 && frames >= 30) break;  // a live device: one second is enough
+      if (std::chrono::steady_clock::now() - last_frame > std::chrono::seconds(2)) break;
       continue;
     }
+    last_frame = std::chrono::steady_clock::now();
     const kinect3d::DepthStats stats = kinect3d::computeStats(frame);
     if (frames == 0) {
       intrinsics = frame.intrinsics;
@@ -62,7 +81,7 @@ int runInfo(const std::string& uri) {
     invalid_sum += stats.invalid_fraction;
     last_t = frame.source_time_s;
     ++frames;
-    if (source->frameCount() == 0 && frames >= 30) break;
+    if (live && frames >= 30) break;
   }
   if (frames == 0) throw kinect3d::DepthSourceError(uri + ": delivered no frame");
   std::printf("source:            %s\n", source->describe().c_str());
@@ -181,7 +200,7 @@ int main(int argc, char** argv) {
   CLI::App* simulate = app.add_subcommand("simulate", "Render a simulated scene to a sequence on disk");
   simulate->add_option("scene", scene, "Built-in scene name or scene file (.yaml)")->required();
   simulate->add_option("--out", out_dir, "Output folder")->required();
-  simulate->add_option("--format", format, "Sequence format")->check(CLI::IsMember({"tum"}))->capture_default_str();
+  simulate->add_option("--format", format, "Sequence format")->check(CLI::IsMember({"tum", "oni"}))->capture_default_str();
   simulate->add_option("--frames", frames, "Number of frames (default: the scene's duration)")->check(CLI::PositiveNumber);
   simulate->add_option("--seed", seed, "Noise seed (default: the scene's)")->check(CLI::NonNegativeNumber);
 
@@ -222,7 +241,7 @@ int main(int argc, char** argv) {
 
   CLI11_PARSE(app, argc, argv);
   try {
-    if (*simulate) return runSimulate(scene, out_dir, frames, seed);
+    if (*simulate) return runSimulate(scene, out_dir, format, frames, seed);
     if (*info) return runInfo(uri);
     if (*snapshot) return runSnapshot(snapshot_uris, snapshot_frames, snapshot_out);
     if (*report) {

@@ -8,6 +8,7 @@
 #include <thread>
 
 #include "framework_api/log.h"
+#include "kinect3d/oni_recording.h"
 #include "sources.h"
 
 namespace kinect3d {
@@ -231,6 +232,38 @@ std::unique_ptr<DepthSource> openOpenNI2Device(const std::string& device_uri,
                                                const SourceOptions& options) {
   initialiseOpenNI();
   return std::make_unique<OpenNI2Device>(device_uri, options);
+}
+
+std::string simulatedDeviceUri(const std::string& scene, int frames, long seed) {
+  return "kinect3d-sim://" + scene + "?frames=" + std::to_string(frames) +
+         (seed >= 0 ? "&seed=" + std::to_string(seed) : "");
+}
+
+void recordOni(const std::string& device_uri, const std::string& path, int frames, double timeout_s) {
+  initialiseOpenNI();
+  OpenNI2Stream stream;
+  stream.open(device_uri, "openni2:" + device_uri);
+  openni::Recorder recorder;
+  if (recorder.create(path.c_str()) != openni::STATUS_OK ||
+      recorder.attach(stream.stream()) != openni::STATUS_OK || recorder.start() != openni::STATUS_OK) {
+    stream.close();
+    throw DepthSourceError("cannot record to '" + path + "': " + lastError());
+  }
+  // Every frame the stream delivers is recorded; reading them here counts them.
+  const auto deadline = Clock::now() + std::chrono::duration<double>(timeout_s);
+  DepthFrame frame;
+  int recorded = 0;
+  while (recorded < frames && Clock::now() < deadline) {
+    recorded += stream.read(frame, 100, "openni2:" + device_uri) ? 1 : 0;
+  }
+  recorder.stop();
+  recorder.destroy();
+  stream.close();
+  if (recorded < frames) {
+    throw DepthSourceError("openni2:" + device_uri + ": only " + std::to_string(recorded) + " of " +
+                           std::to_string(frames) + " frames arrived within " +
+                           std::to_string(timeout_s) + " s");
+  }
 }
 
 std::unique_ptr<DepthSource> openOniRecording(const std::string& path, const SourceOptions& options) {

@@ -1,0 +1,213 @@
+// An OpenNI2 driver that serves the Kinect v1 simulator as a depth device, so the openni2: and
+// .oni code paths (device enumeration, streams, Recorder, playback) run end to end without a
+// Kinect. It is only ever opened by URI, "kinect3d-sim://<scene>[?frames=N&seed=S]", never enumerated,
+// so "openni2:" (the first device) can never pick it on a robot.
+//
+// The frames are those KinectSimulator renders for the scene, at the scene's frame rate; after
+// `frames` frames (default: the scene's length) the stream goes quiet, as an unplugged camera.
+#include <Driver/OniDriverAPI.h>
+
+#include <atomic>
+#include <chrono>
+#include <cstring>
+#include <memory>
+#include <sstream>
+#include <string>
+#include <thread>
+
+#include "kinect3d/sim/kinect_simulator.h"
+
+// ONI_EXPORT_DRIVER uses OpenNI's internal allocation macros.
+#define XN_NEW(type, arg) new type(arg)
+#define XN_DELETE(pointer) delete pointer
+
+namespace {
+
+constexpr char kUriPrefix[] = "kinect3d-sim://";
+
+// "kinect3d-sim://hung_3m?frames=20&seed=3" -> the scene with that noise seed, limited to 20
+// frames (frames 0 or absent: the scene's length; seed absent: the scene's own).
+bool parseUri(const std::string& uri, kinect3d::sim::Scene& scene, int& frames) {
+  if (uri.rfind(kUriPrefix, 0) != 0) return false;
+  std::string name = uri.substr(sizeof kUriPrefix - 1);
+  std::string query;
+  if (const auto mark = name.find('?'); mark != std::string::npos) {
+    query = name.substr(mark + 1);
+    name.resize(mark);
+  }
+  if (name.empty()) return false;
+  scene = kinect3d::sim::loadScene(name);
+  frames = 0;
+  std::istringstream parameters(query);
+  for (std::string parameter; std::getline(parameters, parameter, '&');) {
+    if (parameter.rfind("frames=", 0) == 0) frames = std::stoi(parameter.substr(7));
+    if (parameter.rfind("seed=", 0) == 0) scene.noise.seed = std::stoull(parameter.substr(5));
+  }
+  return true;
+}
+
+class SimStream : public oni::driver::StreamBase {
+ public:
+  SimStream(const kinect3d::sim::Scene& scene, int frames)
+      : simulator_(scene), frames_(frames > 0 ? std::min(frames, simulator_.frameCount()) : simulator_.frameCount()) {
+    const kinect3d::Intrinsics& in = scene.intrinsics;
+    mode_ = {ONI_PIXEL_FORMAT_DEPTH_1_MM, in.width, in.height, static_cast<int>(scene.fps + 0.5)};
+  }
+  ~SimStream() override { stop(); }
+
+  OniStatus start() override {
+    running_ = true;
+    thread_ = std::thread([this] { produce(); });
+    return ONI_STATUS_OK;
+  }
+  void stop() override {
+    running_ = false;
+    if (thread_.joinable()) thread_.join();
+  }
+
+  OniBool isPropertySupported(int id) override {
+    return id == ONI_STREAM_PROPERTY_VIDEO_MODE || id == ONI_STREAM_PROPERTY_STRIDE ||
+           id == ONI_STREAM_PROPERTY_CROPPING || id == ONI_STREAM_PROPERTY_HORIZONTAL_FOV ||
+           id == ONI_STREAM_PROPERTY_VERTICAL_FOV || id == ONI_STREAM_PROPERTY_MAX_VALUE ||
+           id == ONI_STREAM_PROPERTY_MIN_VALUE || id == ONI_STREAM_PROPERTY_MIRRORING;
+  }
+
+  OniStatus getProperty(int id, void* data, int* size) override {
+    const kinect3d::Intrinsics& in = simulator_.scene().intrinsics;
+    switch (id) {
+      case ONI_STREAM_PROPERTY_VIDEO_MODE: return copyOut(mode_, data, size);
+      // OpenNI2's file player drops every frame of a recording that lacks stride or cropping.
+      case ONI_STREAM_PROPERTY_STRIDE: return copyOut(in.width * 2, data, size);
+      case ONI_STREAM_PROPERTY_CROPPING: return copyOut(OniCropping{FALSE, 0, 0, in.width, in.height}, data, size);
+      case ONI_STREAM_PROPERTY_HORIZONTAL_FOV:
+        return copyOut(static_cast<float>(2.0 * std::atan(in.width / (2.0 * in.fx))), data, size);
+      case ONI_STREAM_PROPERTY_VERTICAL_FOV:
+        return copyOut(static_cast<float>(2.0 * std::atan(in.height / (2.0 * in.fy))), data, size);
+      case ONI_STREAM_PROPERTY_MAX_VALUE:
+        return copyOut(static_cast<int>(simulator_.scene().noise.max_range_m * 1000), data, size);
+      case ONI_STREAM_PROPERTY_MIN_VALUE: return copyOut(0, data, size);
+      case ONI_STREAM_PROPERTY_MIRRORING: return copyOut(static_cast<OniBool>(FALSE), data, size);
+      default: return ONI_STATUS_NOT_SUPPORTED;
+    }
+  }
+
+  OniStatus setProperty(int id, const void* data, int size) override {
+    if (id == ONI_STREAM_PROPERTY_VIDEO_MODE && size == sizeof(OniVideoMode)) {
+      // The simulator renders one mode; accept it and refuse any other.
+      return std::memcmp(data, &mode_, sizeof mode_) == 0 ? ONI_STATUS_OK : ONI_STATUS_NOT_SUPPORTED;
+    }
+    if (id == ONI_STREAM_PROPERTY_MIRRORING && size == sizeof(OniBool)) {
+      return *static_cast<const OniBool*>(data) ? ONI_STATUS_NOT_SUPPORTED : ONI_STATUS_OK;
+    }
+    return ONI_STATUS_NOT_SUPPORTED;
+  }
+
+ private:
+  template <typename T>
+  static OniStatus copyOut(const T& value, void* data, int* size) {
+    if (*size < static_cast<int>(sizeof(T))) return ONI_STATUS_BAD_PARAMETER;
+    std::memcpy(data, &value, sizeof(T));
+    *size = sizeof(T);
+    return ONI_STATUS_OK;
+  }
+
+  // Renders frames at the scene's rate on the stream's own thread, as a camera delivers them.
+  void produce() {
+    const auto period = std::chrono::duration<double>(1.0 / simulator_.scene().fps);
+    auto next = std::chrono::steady_clock::now();
+    kinect3d::DepthFrame depth;
+    kinect3d::sim::GroundTruth truth;
+    for (int i = 0; running_ && i < frames_; ++i) {
+      simulator_.render(i, depth, truth);
+      OniFrame* frame = getServices().acquireFrame();
+      if (frame == nullptr) break;
+      const int bytes = depth.width() * depth.height() * 2;
+      if (frame->dataSize < bytes) {
+        getServices().releaseFrame(frame);
+        break;
+      }
+      std::memcpy(frame->data, depth.depth_mm.data(), bytes);
+      frame->dataSize = bytes;
+      frame->sensorType = ONI_SENSOR_DEPTH;
+      frame->frameIndex = i + 1;  // OpenNI devices count from 1
+      // A device clock in microseconds since the stream started, as real devices stamp frames
+      // (OpenNI2's file player paces playback from zero, so epoch times would stall it).
+      frame->timestamp = static_cast<uint64_t>((i + 1) * 1e6 / simulator_.scene().fps);
+      frame->width = depth.width();
+      frame->height = depth.height();
+      frame->videoMode = mode_;
+      frame->croppingEnabled = FALSE;
+      frame->cropOriginX = frame->cropOriginY = 0;
+      frame->stride = depth.width() * 2;
+      raiseNewFrame(frame);
+      getServices().releaseFrame(frame);
+      next += std::chrono::duration_cast<std::chrono::steady_clock::duration>(period);
+      std::this_thread::sleep_until(next);
+    }
+  }
+
+  kinect3d::sim::KinectSimulator simulator_;
+  const int frames_;
+  OniVideoMode mode_;
+  std::atomic<bool> running_{false};
+  std::thread thread_;
+};
+
+class SimDevice : public oni::driver::DeviceBase {
+ public:
+  SimDevice(kinect3d::sim::Scene scene, int frames) : scene_(std::move(scene)), frames_(frames) {
+    const kinect3d::Intrinsics& in = scene_.intrinsics;
+    mode_ = {ONI_PIXEL_FORMAT_DEPTH_1_MM, in.width, in.height, static_cast<int>(scene_.fps + 0.5)};
+    sensor_ = {ONI_SENSOR_DEPTH, 1, &mode_};
+  }
+
+  OniStatus getSensorInfoList(OniSensorInfo** sensors, int* count) override {
+    *sensors = &sensor_;
+    *count = 1;
+    return ONI_STATUS_OK;
+  }
+  oni::driver::StreamBase* createStream(OniSensorType type) override {
+    return type == ONI_SENSOR_DEPTH ? new SimStream(scene_, frames_) : nullptr;
+  }
+  void destroyStream(oni::driver::StreamBase* stream) override { delete stream; }
+
+ private:
+  kinect3d::sim::Scene scene_;
+  int frames_;
+  OniVideoMode mode_;
+  OniSensorInfo sensor_;
+};
+
+class SimDriver : public oni::driver::DriverBase {
+ public:
+  explicit SimDriver(OniDriverServices* services) : DriverBase(services) {}
+
+  // Called by OpenNI2 for a URI no enumerated device has: announce it if it is ours.
+  OniStatus tryDevice(const char* uri) override {
+    if (std::string(uri).rfind(kUriPrefix, 0) != 0) return ONI_STATUS_ERROR;
+    OniDeviceInfo info{};
+    std::snprintf(info.uri, sizeof info.uri, "%s", uri);
+    std::snprintf(info.vendor, sizeof info.vendor, "Kinect3D");
+    std::snprintf(info.name, sizeof info.name, "Kinect v1 simulator");
+    deviceConnected(&info);
+    return ONI_STATUS_OK;
+  }
+
+  oni::driver::DeviceBase* deviceOpen(const char* uri, const char* /*mode*/) override {
+    try {
+      kinect3d::sim::Scene scene;
+      int frames;
+      if (!parseUri(uri, scene, frames)) return nullptr;
+      return new SimDevice(std::move(scene), frames);
+    } catch (const std::exception& e) {
+      getServices().errorLoggerAppend("%s: %s", uri, e.what());
+      return nullptr;
+    }
+  }
+  void deviceClose(oni::driver::DeviceBase* device) override { delete device; }
+  void shutdown() override {}
+};
+
+}  // namespace
+
+ONI_EXPORT_DRIVER(SimDriver)

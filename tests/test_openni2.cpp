@@ -1,0 +1,115 @@
+// The OpenNI2 code paths end to end, without a Kinect: the simulator served as an OpenNI2 device
+// by kinect3d's driver (build/openni2/OpenNI2/Drivers), recorded with openni::Recorder, played back
+// through OpenNI2's own file device.
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+
+#include "kinect3d/ball_detector.h"
+#include "kinect3d/depth_source.h"
+#include "kinect3d/oni_recording.h"
+#include "kinect3d/sim/kinect_simulator.h"
+
+namespace {
+
+namespace fs = std::filesystem;
+using kinect3d::DepthFrame;
+using kinect3d::ReadResult;
+
+// Up to `count` frames from a source, waiting at most 10 s in all.
+std::vector<DepthFrame> readFrames(kinect3d::DepthSource& source, int count) {
+  std::vector<DepthFrame> frames;
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+  DepthFrame frame;
+  while (static_cast<int>(frames.size()) < count && std::chrono::steady_clock::now() < deadline) {
+    const ReadResult result = source.read(frame);
+    if (result == ReadResult::kEnd) break;
+    if (result == ReadResult::kFrame) frames.push_back(frame);
+  }
+  return frames;
+}
+
+std::vector<DepthFrame> simulatorFrames(const std::string& scene, int count) {
+  kinect3d::sim::KinectSimulator simulator(kinect3d::sim::loadScene(scene));
+  std::vector<DepthFrame> frames(count);
+  kinect3d::sim::GroundTruth truth;
+  for (int i = 0; i < count; ++i) simulator.render(i, frames[i], truth);
+  return frames;
+}
+
+class OniRecording : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    char pattern[] = "/tmp/openni2_test_XXXXXX";
+    dir_ = mkdtemp(pattern);
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+  fs::path dir_;
+};
+
+TEST(OpenNI2Device, DeliversTheSimulatorsFrames) {
+  auto source = kinect3d::openDepthSource("openni2:" + kinect3d::simulatedDeviceUri("hung_3m", 8));
+  EXPECT_EQ(source->frameCount(), 0u) << "a live device has no known length";
+  const std::vector<DepthFrame> live = readFrames(*source, 8);
+  const std::vector<DepthFrame> expected = simulatorFrames("hung_3m", 8);
+  ASSERT_EQ(live.size(), 8u);
+  for (std::size_t i = 0; i < live.size(); ++i) {
+    EXPECT_EQ(live[i].depth_mm, expected[i].depth_mm) << "frame " << i;
+    EXPECT_EQ(live[i].index, i + 1) << "OpenNI2 counts frames from 1";
+  }
+  // Intrinsics come back from the stream's field of view.
+  EXPECT_NEAR(live[0].intrinsics.fx, 575.8, 0.01);
+  EXPECT_NEAR(live[0].intrinsics.cx, 319.5, 1e-9);
+  EXPECT_NEAR(live[1].source_time_s - live[0].source_time_s, 1.0 / 30.0, 1e-5);
+  EXPECT_EQ(source->counters().dropped, 0u);
+}
+
+TEST_F(OniRecording, RecordingPlaysBackIdentically) {
+  const std::string path = (dir_ / "hung_3m.oni").string();
+  kinect3d::recordOni(kinect3d::simulatedDeviceUri("hung_3m", 10), path, 10, 10.0);
+  auto playback = kinect3d::openDepthSource(path);
+  EXPECT_EQ(playback->describe(), "oni:" + path);
+  EXPECT_EQ(playback->frameCount(), 10u);
+  const std::vector<DepthFrame> played = readFrames(*playback, 20);
+  const std::vector<DepthFrame> expected = simulatorFrames("hung_3m", 10);
+  ASSERT_EQ(played.size(), 10u) << "and then the end of the recording";
+  for (std::size_t i = 0; i < played.size(); ++i) EXPECT_EQ(played[i].depth_mm, expected[i].depth_mm) << "frame " << i;
+  DepthFrame frame;
+  EXPECT_EQ(playback->read(frame), ReadResult::kEnd);
+
+  // The detector reads a recording like any other source.
+  kinect3d::DetectorConfig config;
+  config.ground.pose = kinect3d::SensorPose{0.0, 0.0, 0.7, 0.0, 0.0, 0.0};
+  kinect3d::BallDetector detector(config);
+  kinect3d::Detections detections;
+  detector.detect(played[5], detections);
+  ASSERT_EQ(detections.balls.size(), 1u);
+  EXPECT_LT((detections.balls[0].position_m - Eigen::Vector3d(0.0, 3.0, 1.0)).norm(), 0.03);
+}
+
+TEST_F(OniRecording, TruncatedRecordingIsAnErrorNamingTheFile) {
+  const std::string path = (dir_ / "full.oni").string();
+  kinect3d::recordOni(kinect3d::simulatedDeviceUri("hung_3m", 6), path, 6, 10.0);
+  const std::string cut = (dir_ / "cut.oni").string();
+  {
+    std::ifstream in(path, std::ios::binary);
+    std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    std::ofstream(cut, std::ios::binary) << bytes.substr(0, bytes.size() / 3);
+  }
+  try {
+    auto playback = kinect3d::openDepthSource("oni:" + cut);
+    readFrames(*playback, 10);
+    FAIL() << "a truncated recording must not read as complete";
+  } catch (const kinect3d::DepthSourceError& e) {
+    EXPECT_NE(std::string(e.what()).find(cut), std::string::npos) << e.what();
+  }
+}
+
+TEST(OpenNI2Device, UnknownDeviceIsAnError) {
+  EXPECT_THROW(kinect3d::openDepthSource("openni2:kinect3d-sim://no_such_scene"), kinect3d::DepthSourceError);
+  EXPECT_THROW(kinect3d::openDepthSource("openni2:/dev/no-such-device"), kinect3d::DepthSourceError);
+}
+
+}  // namespace
