@@ -107,6 +107,28 @@ TEST_F(OniRecording, TruncatedRecordingIsAnErrorNamingTheFile) {
   }
 }
 
+TEST(OpenNI2Device, CountsDroppedFrames) {
+  // Every 4th frame of 12 never arrives: indices 4, 8 and 12. The first two show as gaps.
+  auto source = kinect3d::openDepthSource("openni2:kinect3d-sim://hung_3m?frames=12&drop=4");
+  const std::vector<DepthFrame> frames = readFrames(*source, 9);
+  ASSERT_EQ(frames.size(), 9u);
+  EXPECT_EQ(frames[3].index, 5u);
+  EXPECT_EQ(source->counters().dropped, 2u);
+  EXPECT_EQ(source->counters().frames, 9u);
+}
+
+TEST(OpenNI2Device, QuietDeviceIsReopenedWithoutStoppingTheReader) {
+  // The device sends 3 frames and goes quiet, as an unplugged Kinect does; after a second of
+  // silence the source reopens it and frames flow again, counted from the start.
+  auto source = kinect3d::openDepthSource("openni2:kinect3d-sim://hung_3m?frames=3");
+  const std::vector<DepthFrame> frames = readFrames(*source, 6);
+  ASSERT_EQ(frames.size(), 6u);
+  EXPECT_GE(source->counters().reconnects, 1u);
+  EXPECT_EQ(frames[3].index, 1u);
+  EXPECT_EQ(frames[3].depth_mm, frames[0].depth_mm);
+  EXPECT_EQ(source->counters().dropped, 0u) << "a restarted counter is not a gap";
+}
+
 TEST(OpenNI2Device, UnknownDeviceIsAnError) {
   EXPECT_THROW(kinect3d::openDepthSource("openni2:kinect3d-sim://no_such_scene"), kinect3d::DepthSourceError);
   EXPECT_THROW(kinect3d::openDepthSource("openni2:/dev/no-such-device"), kinect3d::DepthSourceError);

@@ -1,6 +1,6 @@
 // An OpenNI2 driver that serves the Kinect v1 simulator as a depth device, so the openni2: and
 // .oni code paths (device enumeration, streams, Recorder, playback) run end to end without a
-// Kinect. It is only ever opened by URI, "kinect3d-sim://<scene>[?frames=N&seed=S]", never enumerated,
+// Kinect. It is only ever opened by URI, "kinect3d-sim://<scene>[?frames=N&seed=S&drop=K]", never enumerated,
 // so "openni2:" (the first device) can never pick it on a robot.
 //
 // The frames are those KinectSimulator renders for the scene, at the scene's frame rate; after
@@ -25,9 +25,14 @@ namespace {
 
 constexpr char kUriPrefix[] = "kinect3d-sim://";
 
-// "kinect3d-sim://hung_3m?frames=20&seed=3" -> the scene with that noise seed, limited to 20
-// frames (frames 0 or absent: the scene's length; seed absent: the scene's own).
-bool parseUri(const std::string& uri, kinect3d::sim::Scene& scene, int& frames) {
+struct StreamOptions {
+  int frames = 0;      // stop after this many (0: the scene's length)
+  int drop_every = 0;  // leave out every n-th frame, as a busy USB bus does (0: none)
+};
+
+// "kinect3d-sim://hung_3m?frames=20&seed=3&drop=5" -> the scene with that noise seed, 20 frames,
+// every 5th one dropped (seed absent: the scene's own).
+bool parseUri(const std::string& uri, kinect3d::sim::Scene& scene, StreamOptions& options) {
   if (uri.rfind(kUriPrefix, 0) != 0) return false;
   std::string name = uri.substr(sizeof kUriPrefix - 1);
   std::string query;
@@ -37,10 +42,11 @@ bool parseUri(const std::string& uri, kinect3d::sim::Scene& scene, int& frames) 
   }
   if (name.empty()) return false;
   scene = kinect3d::sim::loadScene(name);
-  frames = 0;
+  options = StreamOptions{};
   std::istringstream parameters(query);
   for (std::string parameter; std::getline(parameters, parameter, '&');) {
-    if (parameter.rfind("frames=", 0) == 0) frames = std::stoi(parameter.substr(7));
+    if (parameter.rfind("frames=", 0) == 0) options.frames = std::stoi(parameter.substr(7));
+    if (parameter.rfind("drop=", 0) == 0) options.drop_every = std::stoi(parameter.substr(5));
     if (parameter.rfind("seed=", 0) == 0) scene.noise.seed = std::stoull(parameter.substr(5));
   }
   return true;
@@ -48,8 +54,10 @@ bool parseUri(const std::string& uri, kinect3d::sim::Scene& scene, int& frames) 
 
 class SimStream : public oni::driver::StreamBase {
  public:
-  SimStream(const kinect3d::sim::Scene& scene, int frames)
-      : simulator_(scene), frames_(frames > 0 ? std::min(frames, simulator_.frameCount()) : simulator_.frameCount()) {
+  SimStream(const kinect3d::sim::Scene& scene, const StreamOptions& options)
+      : simulator_(scene),
+        frames_(options.frames > 0 ? std::min(options.frames, simulator_.frameCount()) : simulator_.frameCount()),
+        drop_every_(options.drop_every) {
     const kinect3d::Intrinsics& in = scene.intrinsics;
     mode_ = {ONI_PIXEL_FORMAT_DEPTH_1_MM, in.width, in.height, static_cast<int>(scene.fps + 0.5)};
   }
@@ -118,6 +126,11 @@ class SimStream : public oni::driver::StreamBase {
     kinect3d::DepthFrame depth;
     kinect3d::sim::GroundTruth truth;
     for (int i = 0; running_ && i < frames_; ++i) {
+      next += std::chrono::duration_cast<std::chrono::steady_clock::duration>(period);
+      if (drop_every_ > 0 && (i + 1) % drop_every_ == 0) {
+        std::this_thread::sleep_until(next);  // the frame is lost on the way; its index is used up
+        continue;
+      }
       simulator_.render(i, depth, truth);
       OniFrame* frame = getServices().acquireFrame();
       if (frame == nullptr) break;
@@ -141,13 +154,13 @@ class SimStream : public oni::driver::StreamBase {
       frame->stride = depth.width() * 2;
       raiseNewFrame(frame);
       getServices().releaseFrame(frame);
-      next += std::chrono::duration_cast<std::chrono::steady_clock::duration>(period);
       std::this_thread::sleep_until(next);
     }
   }
 
   kinect3d::sim::KinectSimulator simulator_;
   const int frames_;
+  const int drop_every_;
   OniVideoMode mode_;
   std::atomic<bool> running_{false};
   std::thread thread_;
@@ -155,7 +168,7 @@ class SimStream : public oni::driver::StreamBase {
 
 class SimDevice : public oni::driver::DeviceBase {
  public:
-  SimDevice(kinect3d::sim::Scene scene, int frames) : scene_(std::move(scene)), frames_(frames) {
+  SimDevice(kinect3d::sim::Scene scene, const StreamOptions& options) : scene_(std::move(scene)), options_(options) {
     const kinect3d::Intrinsics& in = scene_.intrinsics;
     mode_ = {ONI_PIXEL_FORMAT_DEPTH_1_MM, in.width, in.height, static_cast<int>(scene_.fps + 0.5)};
     sensor_ = {ONI_SENSOR_DEPTH, 1, &mode_};
@@ -167,13 +180,13 @@ class SimDevice : public oni::driver::DeviceBase {
     return ONI_STATUS_OK;
   }
   oni::driver::StreamBase* createStream(OniSensorType type) override {
-    return type == ONI_SENSOR_DEPTH ? new SimStream(scene_, frames_) : nullptr;
+    return type == ONI_SENSOR_DEPTH ? new SimStream(scene_, options_) : nullptr;
   }
   void destroyStream(oni::driver::StreamBase* stream) override { delete stream; }
 
  private:
   kinect3d::sim::Scene scene_;
-  int frames_;
+  StreamOptions options_;
   OniVideoMode mode_;
   OniSensorInfo sensor_;
 };
@@ -196,9 +209,9 @@ class SimDriver : public oni::driver::DriverBase {
   oni::driver::DeviceBase* deviceOpen(const char* uri, const char* /*mode*/) override {
     try {
       kinect3d::sim::Scene scene;
-      int frames;
-      if (!parseUri(uri, scene, frames)) return nullptr;
-      return new SimDevice(std::move(scene), frames);
+      StreamOptions options;
+      if (!parseUri(uri, scene, options)) return nullptr;
+      return new SimDevice(std::move(scene), options);
     } catch (const std::exception& e) {
       getServices().errorLoggerAppend("%s: %s", uri, e.what());
       return nullptr;

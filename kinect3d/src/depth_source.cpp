@@ -44,6 +44,11 @@ void DepthSource::paceToRealTime(const DepthFrame& frame) {
   if (wait_s > 0.0) std::this_thread::sleep_for(std::chrono::duration<double>(wait_s));
 }
 
+void DepthSource::reportReconnected() {
+  ++counters_.reconnects;
+  has_last_index_ = false;  // a reopened device counts its frames from the start
+}
+
 void DepthSource::reportSkipped(const std::string& what) {
   ++counters_.skipped;
   ++skipped_since_last_frame_;

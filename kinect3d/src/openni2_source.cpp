@@ -134,13 +134,15 @@ class OpenNI2Stream {
   int fps_ = 30;
 };
 
-// A live device. If it disappears (unplugged, USB reset) the source reports it and tries to reopen
-// it every second, delivering no frames meanwhile, without stopping the host.
+// A live device. If it fails, or sends nothing for a second (an unplugged Kinect goes quiet rather
+// than failing), it is reported and reopened every second, delivering no frames meanwhile,
+// without stopping the host.
 class OpenNI2Device : public DepthSource {
  public:
   OpenNI2Device(std::string uri, const SourceOptions& options)
       : DepthSource(options), uri_(std::move(uri)) {
     stream_.open(uri_, describe());
+    last_frame_ = Clock::now();
     fw::logInfo("openni2", describe() + ": streaming " + std::to_string(stream_.intrinsics().width) +
                                "x" + std::to_string(stream_.intrinsics().height));
   }
@@ -150,19 +152,30 @@ class OpenNI2Device : public DepthSource {
   std::string describe() const override { return "openni2:" + uri_; }
 
  private:
+  static constexpr std::chrono::seconds kSilenceLimit{1};
+  static constexpr std::chrono::seconds kReopenInterval{1};
+
   ReadResult readFrame(DepthFrame& frame) override {
     const int wait_ms = static_cast<int>(options().max_wait_s * 1000.0);
     if (!stream_.isOpen()) return reopen(wait_ms);
     try {
-      if (!stream_.read(frame, wait_ms, describe())) return ReadResult::kNoFrameYet;
+      if (!stream_.read(frame, wait_ms, describe())) {
+        if (Clock::now() - last_frame_ > kSilenceLimit) lose("no frame for a second");
+        return ReadResult::kNoFrameYet;
+      }
     } catch (const DepthSourceError& e) {
-      fw::logError("openni2", std::string(e.what()) + "; reopening every second");
-      stream_.close();
-      next_attempt_ = Clock::now() + std::chrono::seconds(1);
+      lose(e.what());
       return ReadResult::kNoFrameYet;
     }
+    last_frame_ = Clock::now();
     frame.sensor_id = describe();
     return ReadResult::kFrame;
+  }
+
+  void lose(const std::string& why) {
+    fw::logError("openni2", describe() + ": " + why + "; reopening every second");
+    stream_.close();
+    next_attempt_ = Clock::now() + kReopenInterval;
   }
 
   ReadResult reopen(int wait_ms) {
@@ -174,15 +187,18 @@ class OpenNI2Device : public DepthSource {
     }
     try {
       stream_.open(uri_, describe());
+      last_frame_ = Clock::now();
+      reportReconnected();
       fw::logInfo("openni2", describe() + ": reopened");
-    } catch (const DepthSourceError& e) {
-      next_attempt_ = Clock::now() + std::chrono::seconds(1);
+    } catch (const DepthSourceError&) {
+      next_attempt_ = Clock::now() + kReopenInterval;
     }
     return ReadResult::kNoFrameYet;
   }
 
   std::string uri_;
   OpenNI2Stream stream_;
+  Clock::time_point last_frame_;
   Clock::time_point next_attempt_{};
 };
 

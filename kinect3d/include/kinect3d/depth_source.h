@@ -41,6 +41,7 @@ struct SourceCounters {
   std::uint64_t frames = 0;   // delivered
   std::uint64_t dropped = 0;  // gaps in the source's frame indices
   std::uint64_t skipped = 0;  // unreadable frames reported and skipped
+  std::uint64_t reconnects = 0;  // a live device lost and opened again
 };
 
 class DepthSource {
@@ -64,6 +65,8 @@ class DepthSource {
   const SourceOptions& options() const { return options_; }
   // Sources report an unreadable frame they skipped through this, then go on to the next.
   void reportSkipped(const std::string& what);
+  // A live source that reopened its device: its frame counter starts again.
+  void reportReconnected();
 
  private:
   virtual ReadResult readFrame(DepthFrame& frame) = 0;
