@@ -14,6 +14,14 @@ namespace {
 
 double radians(double degrees) { return degrees * M_PI / 180.0; }
 
+// Optional keys: absent keeps the default in `value`, present is checked like any other value.
+void readOptional(const fw::ConfigView& view, const std::string& key, double& value, double min, double max) {
+  if (view.has(key)) value = view.getDouble(key, min, max);
+}
+void readOptional(const fw::ConfigView& view, const std::string& key, bool& value) {
+  if (view.has(key)) value = view.getBool(key);
+}
+
 Eigen::Vector3d vector3(const fw::ConfigView& view, const std::string& key) {
   const std::vector<double> v = view.getDoubleList(key, 3);
   return {v[0], v[1], v[2]};
@@ -78,18 +86,18 @@ KinectNoise readNoise(const fw::ConfigView& view) {
                         "edge_dropout", "flying_pixels", "exposure_s", "trail_dropout",
                         "random_dropout", "min_range_m", "max_range_m", "seed"});
   KinectNoise n;
-  if (view.has("baseline_m")) n.baseline_m = view.getDouble("baseline_m", 0.01, 0.5);
-  if (view.has("quantisation")) n.quantisation = view.getBool("quantisation");
-  if (view.has("axial_noise")) n.axial_noise = view.getBool("axial_noise");
-  if (view.has("lateral_noise_px")) n.lateral_noise_px = view.getDouble("lateral_noise_px", 0.0, 5.0);
-  if (view.has("shadows")) n.shadows = view.getBool("shadows");
-  if (view.has("edge_dropout")) n.edge_dropout = view.getDouble("edge_dropout", 0.0, 1.0);
-  if (view.has("flying_pixels")) n.flying_pixels = view.getDouble("flying_pixels", 0.0, 1.0);
-  if (view.has("exposure_s")) n.exposure_s = view.getDouble("exposure_s", 0.0, 0.033);
-  if (view.has("trail_dropout")) n.trail_dropout = view.getDouble("trail_dropout", 0.0, 1.0);
-  if (view.has("random_dropout")) n.random_dropout = view.getDouble("random_dropout", 0.0, 1.0);
-  if (view.has("min_range_m")) n.min_range_m = view.getDouble("min_range_m", 0.1, 20.0);
-  if (view.has("max_range_m")) n.max_range_m = view.getDouble("max_range_m", n.min_range_m, 20.0);
+  readOptional(view, "baseline_m", n.baseline_m, 0.01, 0.5);
+  readOptional(view, "quantisation", n.quantisation);
+  readOptional(view, "axial_noise", n.axial_noise);
+  readOptional(view, "lateral_noise_px", n.lateral_noise_px, 0.0, 5.0);
+  readOptional(view, "shadows", n.shadows);
+  readOptional(view, "edge_dropout", n.edge_dropout, 0.0, 1.0);
+  readOptional(view, "flying_pixels", n.flying_pixels, 0.0, 1.0);
+  readOptional(view, "exposure_s", n.exposure_s, 0.0, 0.033);
+  readOptional(view, "trail_dropout", n.trail_dropout, 0.0, 1.0);
+  readOptional(view, "random_dropout", n.random_dropout, 0.0, 1.0);
+  readOptional(view, "min_range_m", n.min_range_m, 0.1, 20.0);
+  readOptional(view, "max_range_m", n.max_range_m, n.min_range_m, 20.0);
   if (view.has("seed")) n.seed = static_cast<std::uint64_t>(view.getInt("seed", 0, 2147483647));
   return n;
 }
@@ -100,8 +108,8 @@ Scene readScene(const fw::ConfigView& root) {
   Scene scene;
   scene.name = root.getString("name");
   scene.duration_s = root.getDouble("duration_s", 0.0, 3600.0);
-  if (root.has("fps")) scene.fps = root.getDouble("fps", 1.0, 120.0);
-  if (root.has("start_time_s")) scene.start_time_s = root.getDouble("start_time_s", 0.0, 1e10);
+  readOptional(root, "fps", scene.fps, 1.0, 120.0);
+  readOptional(root, "start_time_s", scene.start_time_s, 0.0, 1e10);
   const fw::ConfigView sensor = root.child("sensor");
   sensor.requireOnlyKeys({"pose_in_robot", "intrinsics"});
   scene.sensor_pose = readSensorPose(sensor.child("pose_in_robot"));
@@ -110,7 +118,7 @@ Scene readScene(const fw::ConfigView& root) {
     scene.intrinsics = readIntrinsics(sensor.child("intrinsics"));
   }
   if (root.has("noise")) scene.noise = readNoise(root.child("noise"));
-  if (root.has("floor")) scene.floor = root.getBool("floor");
+  readOptional(root, "floor", scene.floor);
   if (root.has("objects")) {
     for (const fw::ConfigView& object : root.childList("objects")) {
       scene.objects.push_back(readObject(object));
@@ -122,8 +130,8 @@ Scene readScene(const fw::ConfigView& root) {
     BallLaunch launch;
     launch.position_m = vector3(ball, "position");
     if (ball.has("velocity")) launch.velocity_mps = vector3(ball, "velocity");
-    if (ball.has("launch_time_s")) launch.launch_time_s = ball.getDouble("launch_time_s", 0.0, 3600.0);
-    if (ball.has("hanging")) launch.hanging = ball.getBool("hanging");
+    readOptional(ball, "launch_time_s", launch.launch_time_s, 0.0, 3600.0);
+    readOptional(ball, "hanging", launch.hanging);
     scene.ball = launch;
   }
   if (root.has("physics")) {
@@ -131,12 +139,12 @@ Scene readScene(const fw::ConfigView& root) {
     physics.requireOnlyKeys({"radius_m", "gravity_mps2", "drag_per_m", "restitution",
                              "bounce_friction", "rolling_decel_mps2"});
     BallPhysics& p = scene.physics;
-    if (physics.has("radius_m")) p.radius_m = physics.getDouble("radius_m", 0.01, 1.0);
-    if (physics.has("gravity_mps2")) p.gravity_mps2 = physics.getDouble("gravity_mps2", 0.0, 20.0);
-    if (physics.has("drag_per_m")) p.drag_per_m = physics.getDouble("drag_per_m", 0.0, 1.0);
-    if (physics.has("restitution")) p.restitution = physics.getDouble("restitution", 0.0, 1.0);
-    if (physics.has("bounce_friction")) p.bounce_friction = physics.getDouble("bounce_friction", 0.0, 1.0);
-    if (physics.has("rolling_decel_mps2")) p.rolling_decel_mps2 = physics.getDouble("rolling_decel_mps2", 0.0, 10.0);
+    readOptional(physics, "radius_m", p.radius_m, 0.01, 1.0);
+    readOptional(physics, "gravity_mps2", p.gravity_mps2, 0.0, 20.0);
+    readOptional(physics, "drag_per_m", p.drag_per_m, 0.0, 1.0);
+    readOptional(physics, "restitution", p.restitution, 0.0, 1.0);
+    readOptional(physics, "bounce_friction", p.bounce_friction, 0.0, 1.0);
+    readOptional(physics, "rolling_decel_mps2", p.rolling_decel_mps2, 0.0, 10.0);
   }
   return scene;
 }
