@@ -1,6 +1,7 @@
 #include "framework_api/types.h"
 
 #include <chrono>
+#include <algorithm>
 #include <cmath>
 
 namespace fw {
@@ -47,6 +48,53 @@ bool BallObservation::isApprox(const BallObservation& other, double tol_m) const
 Eigen::Vector3d OmniBallObservation::groundPoint_R() const {
   // Bearing 0 looks along +y; positive turns towards -x (counter-clockwise seen from above).
   return {-distance_m * std::sin(bearing_rad), distance_m * std::cos(bearing_rad), 0.0};
+}
+
+void BallTrajectory::propagate(double t_s, Eigen::Vector3d& p, Eigen::Vector3d& v) const {
+  p = position_m;
+  v = velocity_mps;
+  const double dt = t_s - time_s;
+  if (state == BallState::kGround) {
+    // Rolling: constant deceleration along the velocity until the ball stops.
+    const double speed = v.head<2>().norm();
+    if (speed <= 0.0 || rolling_decel_mps2 <= 0.0) {
+      p += v * dt;
+      return;
+    }
+    const double rolling_s = dt > 0.0 ? std::min(dt, speed / rolling_decel_mps2) : dt;
+    const Eigen::Vector3d direction = v / speed;
+    p += direction * (speed * rolling_s - 0.5 * rolling_decel_mps2 * rolling_s * std::abs(rolling_s));
+    v = direction * std::max(0.0, speed - rolling_decel_mps2 * rolling_s);
+    return;
+  }
+  const Eigen::Vector3d g(0.0, 0.0, -gravity_mps2);
+  if (drag_per_m <= 0.0) {
+    p += v * dt + 0.5 * g * dt * dt;
+    v += g * dt;
+    return;
+  }
+  // Quadratic drag has no closed form: midpoint steps of at most 5 ms (errors well under 1 mm
+  // over a second of flight at MSL speeds).
+  const int steps = std::max(1, static_cast<int>(std::ceil(std::abs(dt) / 0.005)));
+  const double h = dt / steps;
+  auto acceleration = [&](const Eigen::Vector3d& velocity) { return g - drag_per_m * velocity.norm() * velocity; };
+  for (int i = 0; i < steps; ++i) {
+    const Eigen::Vector3d v_mid = v + 0.5 * h * acceleration(v);
+    p += h * v_mid;
+    v += h * acceleration(v_mid);
+  }
+}
+
+Eigen::Vector3d BallTrajectory::positionAt(double t_s) const {
+  Eigen::Vector3d p, v;
+  propagate(t_s, p, v);
+  return p;
+}
+
+Eigen::Vector3d BallTrajectory::velocityAt(double t_s) const {
+  Eigen::Vector3d p, v;
+  propagate(t_s, p, v);
+  return v;
 }
 
 }  // namespace fw

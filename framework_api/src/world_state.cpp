@@ -20,6 +20,24 @@ void WorldState::publishOmniBall(const OmniBallObservation& observation) {
   ++version_;
 }
 
+void WorldState::publishTrajectory(const BallTrajectory& trajectory) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  trajectories_[trajectory.source] = trajectory;
+  ++version_;
+}
+
+void WorldState::clearTrajectory(const std::string& source) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (trajectories_.erase(source) > 0) ++version_;
+}
+
+std::optional<BallTrajectory> WorldState::trajectory(const std::string& source) const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  const auto found = trajectories_.find(source);
+  if (found == trajectories_.end()) return std::nullopt;
+  return found->second;
+}
+
 void WorldState::publishFusedBall(const FusedBall& ball) {
   std::lock_guard<std::mutex> lock(mutex_);
   fused_ball_ = ball;

@@ -10,6 +10,7 @@
 #include <filesystem>
 #include <fstream>
 #include <memory>
+#include <optional>
 #include <iostream>
 
 #include "accuracy_report.h"
@@ -19,6 +20,7 @@
 #include "kinect3d/config_io.h"
 #include "kinect3d/depth_source.h"
 #include "kinect3d/oni_recording.h"
+#include "kinect3d/trajectory.h"
 #include "kinect3d/sim/kinect_simulator.h"
 #include "kinect3d/sim/sequence_writer.h"
 
@@ -137,10 +139,12 @@ int runSnapshot(const std::vector<std::string>& uris, const std::vector<int>& fr
   return 0;
 }
 
-// One detect line: {"frame", "t", "balls": [{"x", "y", "z", "state", "points"}], "process_ms"},
-// positions to 0.1 mm and times to 1 us.
-std::string detectLine(const kinect3d::DepthFrame& frame, const kinect3d::Detections& detections) {
-  char text[256];
+// One detect line: {"frame", "t", "balls": [{"x", "y", "z", "state", "points"}], "process_ms",
+// "trajectory": null or {"p", "v", "state", "support", "rms_m", "touchdown", "crossing"}};
+// positions to 0.1 mm, times to 1 us (docs/cli.md).
+std::string detectLine(const kinect3d::DepthFrame& frame, const kinect3d::Detections& detections,
+                       const std::optional<fw::BallTrajectory>& trajectory) {
+  char text[512];
   std::snprintf(text, sizeof text, "{\"frame\": %llu, \"t\": %.6f, \"balls\": [",
                 static_cast<unsigned long long>(frame.index), frame.source_time_s);
   std::string line = text;
@@ -152,8 +156,33 @@ std::string detectLine(const kinect3d::DepthFrame& frame, const kinect3d::Detect
                   fw::toString(ball.state), ball.support_points);
     line += text;
   }
-  std::snprintf(text, sizeof text, "], \"process_ms\": %.3f}", detections.times.total() * 1e3);
-  return line + text;
+  std::snprintf(text, sizeof text, "], \"process_ms\": %.3f, \"trajectory\": ", detections.times.total() * 1e3);
+  line += text;
+  if (!trajectory) return line + "null}";
+  const Eigen::Vector3d& p = trajectory->position_m;
+  const Eigen::Vector3d& v = trajectory->velocity_mps;
+  std::snprintf(text, sizeof text,
+                "{\"p\": [%.4f, %.4f, %.4f], \"v\": [%.4f, %.4f, %.4f], \"state\": \"%s\", "
+                "\"support\": %d, \"rms_m\": %.4f, \"touchdown\": ",
+                p.x(), p.y(), p.z(), v.x(), v.y(), v.z(), fw::toString(trajectory->state), trajectory->support,
+                trajectory->rms_m);
+  line += text;
+  if (const auto& touchdown = trajectory->touchdown) {
+    std::snprintf(text, sizeof text, "{\"x\": %.4f, \"y\": %.4f, \"t\": %.6f, \"sigma_m\": %.4f}",
+                  touchdown->point_m.x(), touchdown->point_m.y(), touchdown->time_s, touchdown->sigma_m);
+    line += text;
+  } else {
+    line += "null";
+  }
+  line += ", \"crossing\": ";
+  if (const auto& crossing = trajectory->crossing) {
+    std::snprintf(text, sizeof text, "{\"x\": %.4f, \"z\": %.4f, \"t\": %.6f}", crossing->x_m, crossing->z_m,
+                  crossing->time_s);
+    line += text;
+  } else {
+    line += "null";
+  }
+  return line + "}}";
 }
 
 int runDetect(const std::string& source_uri, const fw::Config& config, const std::string& output,
@@ -161,6 +190,7 @@ int runDetect(const std::string& source_uri, const fw::Config& config, const std
   const fw::ConfigView block = config.block("kinect3d");
   const std::string uri = source_uri.empty() ? block.getString("source") : source_uri;
   kinect3d::BallDetector detector(kinect3d::readDetectorConfig(block));
+  const auto trajectory = kinect3d::makeTrajectoryEstimator(kinect3d::readTrajectoryConfig(block));
   kinect3d::SourceOptions options;
   options.realtime = realtime;
   auto source = kinect3d::openDepthSource(uri, options);
@@ -179,7 +209,7 @@ int runDetect(const std::string& source_uri, const fw::Config& config, const std
     if (result == kinect3d::ReadResult::kEnd) break;
     if (result == kinect3d::ReadResult::kNoFrameYet) continue;
     detector.detect(frame, detections);
-    out << detectLine(frame, detections) << "\n";
+    out << detectLine(frame, detections, trajectory->update(frame.source_time_s, detections.balls)) << "\n";
     out.flush();
     ++frames;
     with_ball += !detections.balls.empty();

@@ -70,4 +70,21 @@ DetectorConfig readDetectorConfig(const fw::ConfigView& kinect3d) {
   return config;
 }
 
+TrajectoryConfig readTrajectoryConfig(const fw::ConfigView& kinect3d) {
+  TrajectoryConfig config;
+  config.ball_radius_m = kinect3d.child("ball").getDouble("radius_m", 0.02, 0.5);
+  const fw::ConfigView trajectory = kinect3d.child("trajectory");
+  config.mode = trajectoryModeFromString(trajectory.getChoice("mode", {"ballistic", "paper"}));
+  config.drag_per_m = trajectory.getDouble("drag_per_m", 0.0, 1.0);
+  config.rolling_decel_mps2 = trajectory.getDouble("rolling_decel_mps2", 0.0, 10.0);
+  config.gate_sigma = trajectory.getDouble("gate_sigma", 1.0, 20.0);
+  config.model_sigma_m = trajectory.getDouble("model_sigma_m", 0.0, 1.0);
+  config.max_gravity_error_mps2 = trajectory.getDouble("max_gravity_error_mps2", 0.5, 9.81);
+  config.min_flight_speed_mps = trajectory.getDouble("min_flight_speed_mps", 0.0, 20.0);
+  config.min_support = trajectory.getInt("min_support", 3, 30);
+  config.max_gap_s = trajectory.getDouble("max_gap_s", 0.01, 5.0);
+  config.history = trajectory.getInt("history", 3, 300);
+  return config;
+}
+
 }  // namespace kinect3d

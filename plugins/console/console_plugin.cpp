@@ -13,6 +13,23 @@ std::string formatPosition(const Eigen::Vector3d& p) {
   return text;
 }
 
+// ", lands at (+0.31, +6.20) m in 0.42 s (+-0.05 m)" and/or ", crosses y = 0 at x +0.20 z +0.95 in 0.30 s".
+std::string describe(const fw::BallTrajectory& trajectory) {
+  char text[160];
+  std::string result;
+  if (const auto& touchdown = trajectory.touchdown) {
+    std::snprintf(text, sizeof text, ", lands at (%+.2f, %+.2f) m in %.2f s (+-%.2f m)", touchdown->point_m.x(),
+                  touchdown->point_m.y(), touchdown->time_s - trajectory.time_s, touchdown->sigma_m);
+    result += text;
+  }
+  if (const auto& crossing = trajectory.crossing) {
+    std::snprintf(text, sizeof text, ", crosses y = 0 at x %+.2f z %+.2f in %.2f s", crossing->x_m, crossing->z_m,
+                  crossing->time_s - trajectory.time_s);
+    result += text;
+  }
+  return result;
+}
+
 class Console : public fw::Plugin {
  public:
   explicit Console(const fw::PluginContext& context)
@@ -30,6 +47,7 @@ class Console : public fw::Plugin {
       if (recent.empty() || now_s - recent.front().stamp.receive_time_s > max_age_s_) continue;
       const fw::BallObservation& ball = recent.front();
       line += " " + source + ": " + fw::toString(ball.state) + " " + formatPosition(ball.position_m);
+      if (const auto trajectory = world_.trajectory(source)) line += describe(*trajectory);
     }
     if (const auto fused = world_.fusedBall();
         fused && now_s - fused->stamp.receive_time_s <= max_age_s_) {

@@ -1,5 +1,6 @@
 // kinect3d: reads depth frames from the configured source, detects balls and publishes them to
-// the world state as observations in the robot frame with covariances from the depth noise model.
+// the world state as observations in the robot frame with covariances from the depth noise model,
+// and the ball's trajectory (touchdown, crossing of the robot's line) while it has one.
 #include <memory>
 
 #include "framework_api/log.h"
@@ -7,13 +8,16 @@
 #include "kinect3d/ball_detector.h"
 #include "kinect3d/config_io.h"
 #include "kinect3d/depth_source.h"
+#include "kinect3d/trajectory.h"
 
 namespace {
 
 class Kinect3dPlugin : public fw::Plugin {
  public:
   explicit Kinect3dPlugin(const fw::PluginContext& context)
-      : world_(*context.world), detector_(kinect3d::readDetectorConfig(context.config)) {
+      : world_(*context.world),
+        detector_(kinect3d::readDetectorConfig(context.config)),
+        trajectory_(kinect3d::makeTrajectoryEstimator(kinect3d::readTrajectoryConfig(context.config))) {
     kinect3d::SourceOptions options;
     options.realtime = context.config.getBool("realtime");
     const std::string uri = context.config.getString("source");
@@ -37,12 +41,18 @@ class Kinect3dPlugin : public fw::Plugin {
       reported_alignment_ = true;
     }
     for (const fw::BallObservation& ball : detections_.balls) world_.publishBall(ball);
+    if (const auto trajectory = trajectory_->update(frame_.source_time_s, detections_.balls)) {
+      world_.publishTrajectory(*trajectory);
+    } else {
+      world_.clearTrajectory("kinect3d");
+    }
     return fw::StepResult::kProcessed;
   }
 
  private:
   fw::WorldState& world_;
   kinect3d::BallDetector detector_;
+  std::unique_ptr<kinect3d::TrajectoryEstimator> trajectory_;
   std::unique_ptr<kinect3d::DepthSource> source_;
   kinect3d::DepthFrame frame_;
   kinect3d::Detections detections_;

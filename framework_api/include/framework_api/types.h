@@ -3,6 +3,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <optional>
 #include <string>
 
 namespace fw {
@@ -73,6 +74,47 @@ struct OmniBallObservation {
 
   // The ground point the camera reports, in the robot frame (z = 0).
   Eigen::Vector3d groundPoint_R() const;
+};
+
+// Where a ball in flight will land: the centre's ground point when its height comes down to
+// the ball's radius, in the robot frame, with a 1-sigma radius from the fit's uncertainty.
+struct Touchdown {
+  Eigen::Vector2d point_m = Eigen::Vector2d::Zero();
+  double time_s = 0.0;   // source clock
+  double sigma_m = 0.0;
+};
+
+// Where and when the ball crosses the robot's own line (the plane y = 0 of the robot frame, where
+// a goalkeeper stands).
+struct LineCrossing {
+  double x_m = 0.0;
+  double z_m = 0.0;
+  double time_s = 0.0;  // source clock
+};
+
+// A ball's estimated motion, in the robot frame, valid around time_s (source clock). In the air
+// the ball falls with gravity and, when drag_per_m > 0, quadratic air drag; on the ground it rolls,
+// slowing by rolling_decel_mps2 until it stops.
+struct BallTrajectory {
+  double time_s = 0.0;
+  Eigen::Vector3d position_m = Eigen::Vector3d::Zero();   // at time_s
+  Eigen::Vector3d velocity_mps = Eigen::Vector3d::Zero();  // at time_s
+  BallState state = BallState::kAir;
+  double gravity_mps2 = 9.81;
+  double drag_per_m = 0.0;
+  double rolling_decel_mps2 = 0.0;
+  int support = 0;       // detections the current fit rests on
+  double rms_m = 0.0;    // their residual to it
+  std::optional<Touchdown> touchdown;
+  std::optional<LineCrossing> crossing;
+  std::string source;
+
+  // Position and velocity predicted at time t (before or after time_s), by the motion model.
+  Eigen::Vector3d positionAt(double t_s) const;
+  Eigen::Vector3d velocityAt(double t_s) const;
+
+ private:
+  void propagate(double t_s, Eigen::Vector3d& p, Eigen::Vector3d& v) const;
 };
 
 // The world model's best ball: one estimate from every source, in the robot frame.

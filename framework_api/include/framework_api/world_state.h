@@ -22,12 +22,15 @@ class WorldState {
   void publishBall(const BallObservation& observation);
   void publishOmniBall(const OmniBallObservation& observation);
   void publishFusedBall(const FusedBall& ball);
+  void publishTrajectory(const BallTrajectory& trajectory);  // replaces that source's last one
+  void clearTrajectory(const std::string& source);          // the source lost the ball
   void publishRobotPose(const RobotPose& pose);
 
   // Newest first.
   std::vector<BallObservation> recentBalls(const std::string& source) const;
   std::vector<OmniBallObservation> recentOmniBalls(const std::string& source) const;
   std::vector<std::string> ballSources() const;
+  std::optional<BallTrajectory> trajectory(const std::string& source) const;
   std::optional<FusedBall> fusedBall() const;
   std::optional<RobotPose> robotPose() const;
 
@@ -41,6 +44,7 @@ class WorldState {
   mutable std::mutex mutex_;
   std::map<std::string, std::deque<BallObservation>> balls_;
   std::map<std::string, std::deque<OmniBallObservation>> omni_balls_;
+  std::map<std::string, BallTrajectory> trajectories_;
   std::optional<FusedBall> fused_ball_;
   std::optional<RobotPose> robot_pose_;
   std::uint64_t version_ = 0;

@@ -6,6 +6,7 @@
 #include "kinect3d/ball_detector.h"
 #include "kinect3d/depth_frame.h"
 #include "kinect3d/sensor_pose.h"
+#include "kinect3d/trajectory.h"
 
 namespace kinect3d {
 
@@ -17,5 +18,7 @@ Intrinsics readIntrinsics(const fw::ConfigView& intrinsics);
 
 // The detector's settings from the kinect3d block of a robot configuration.
 DetectorConfig readDetectorConfig(const fw::ConfigView& kinect3d);
+// The trajectory estimator's, from the same block (kinect3d.trajectory and kinect3d.ball).
+TrajectoryConfig readTrajectoryConfig(const fw::ConfigView& kinect3d);
 
 }  // namespace kinect3d

@@ -1,0 +1,324 @@
+#include <Eigen/Dense>
+
+#include <cmath>
+#include <deque>
+
+#include "trajectory_estimators.h"
+
+namespace kinect3d {
+
+namespace {
+
+using Vector6d = Eigen::Matrix<double, 6, 1>;
+using Matrix6d = Eigen::Matrix<double, 6, 6>;
+
+// Faster than any kick in the league (about 10 m/s): a detection that would need more is a new ball.
+constexpr double kMaxSpeed_mps = 20.0;
+
+class BallisticEstimator : public TrajectoryEstimator {
+ public:
+  explicit BallisticEstimator(const TrajectoryConfig& config) : config_(config) {}
+
+  std::optional<fw::BallTrajectory> update(double t_s, const std::vector<fw::BallObservation>& balls) override {
+    if (!segment_.empty() && t_s - segment_.back().stamp.source_time_s > config_.max_gap_s) {
+      segment_.clear();  // lost: too long without a detection
+      pending_.clear();
+      fitted_ = false;
+    }
+    if (const fw::BallObservation* ball = choose(t_s, balls)) add(*ball);
+    return current(t_s);
+  }
+
+  int resets() const override { return resets_; }
+
+ private:
+  // The detection nearest the prediction (Mahalanobis), or with no fit the first one (air first).
+  const fw::BallObservation* choose(double t_s, const std::vector<fw::BallObservation>& balls) const {
+    if (balls.empty()) return nullptr;
+    if (!fitted_) return &balls.front();
+    const fw::BallObservation* best = &balls.front();
+    double best_distance = INFINITY;
+    for (const fw::BallObservation& ball : balls) {
+      const double distance = mahalanobisSquared(ball, t_s);
+      if (distance < best_distance) best_distance = distance, best = &ball;
+    }
+    return best;
+  }
+
+  void add(const fw::BallObservation& ball) {
+    const double t = ball.stamp.source_time_s;
+    if (!fitted_) {
+      if (!segment_.empty()) {
+        const fw::BallObservation& last = segment_.back();
+        const double dt = std::max(t - last.stamp.source_time_s, 1e-3);
+        if ((ball.position_m - last.position_m).norm() > kMaxSpeed_mps * dt + 0.3) segment_.clear();
+      }
+      push(ball);
+      if (segment_.size() >= 3) fit();
+      return;
+    }
+    if (mahalanobisSquared(ball, t) <= config_.gate_sigma * config_.gate_sigma) {
+      pending_.clear();
+      push(ball);
+      fit();
+      return;
+    }
+    if (airborne_ && bouncedBefore(t)) {
+      // Ground contact with the vertical velocity reversing: the flight ends, a new segment starts.
+      restartWith({ball});
+      return;
+    }
+    // Not supporting: an outlier, unless the next one does not support either; then the ball is
+    // doing something else and the track restarts from these two.
+    pending_.push_back(ball);
+    if (pending_.size() >= 2) {
+      ++resets_;
+      restartWith({pending_.begin(), pending_.end()});
+    }
+  }
+
+  void push(const fw::BallObservation& ball) {
+    segment_.push_back(ball);
+    while (static_cast<int>(segment_.size()) > config_.history) segment_.pop_front();
+  }
+
+  void restartWith(const std::vector<fw::BallObservation>& start) {
+    segment_.assign(start.begin(), start.end());
+    pending_.clear();
+    fitted_ = false;
+    if (segment_.size() >= 3) fit();
+  }
+
+  // The fitted flight reached the floor since the last detection: the centre came down to the
+  // ball's radius while falling.
+  bool bouncedBefore(double t_s) const {
+    const fw::BallTrajectory last = state(segment_.back().stamp.source_time_s);
+    const double ground = config_.ball_radius_m + 0.03;
+    return last.velocity_mps.z() < 0.0 && last.positionAt(t_s).z() < ground;
+  }
+
+  // The least-squares flight (or roll) through the segment, each detection weighted by its
+  // covariance plus the model error.
+  void fit() {
+    t_ref_ = segment_.front().stamp.source_time_s;
+    airborne_ = false;
+    for (const fw::BallObservation& ball : segment_) airborne_ = airborne_ || ball.state == fw::BallState::kAir;
+    const Eigen::Vector3d g = airborne_ ? Eigen::Vector3d(0, 0, -config_.gravity_mps2) : Eigen::Vector3d::Zero();
+    Matrix6d normal = Matrix6d::Zero();
+    Vector6d rhs = Vector6d::Zero();
+    for (const fw::BallObservation& ball : segment_) {
+      const double tau = ball.stamp.source_time_s - t_ref_;
+      const Eigen::Matrix3d W = weight(ball);
+      Eigen::Matrix<double, 3, 6> A;
+      A << Eigen::Matrix3d::Identity(), tau * Eigen::Matrix3d::Identity();
+      normal += A.transpose() * W * A;
+      rhs += A.transpose() * W * (ball.position_m - 0.5 * g * tau * tau);
+    }
+    theta_ = normal.ldlt().solve(rhs);
+    covariance_ = normal.inverse();
+    if (airborne_ && config_.drag_per_m > 0.0) refineWithDrag();
+    double squares = 0.0;
+    for (const fw::BallObservation& ball : segment_) {
+      squares += (ball.position_m - model(theta_).positionAt(ball.stamp.source_time_s)).squaredNorm();
+    }
+    rms_ = std::sqrt(squares / segment_.size());
+    fitted_ = true;
+  }
+
+  Eigen::Matrix3d weight(const fw::BallObservation& ball) const {
+    const double model_variance = config_.model_sigma_m * config_.model_sigma_m;
+    return (ball.covariance_m2 + model_variance * Eigen::Matrix3d::Identity()).inverse();
+  }
+
+  // Gauss-Newton on (p0, v0) under gravity and quadratic drag, from the drag-free solution.
+  void refineWithDrag() {
+    for (int iteration = 0; iteration < 3; ++iteration) {
+      Matrix6d normal = Matrix6d::Zero();
+      Vector6d rhs = Vector6d::Zero();
+      for (const fw::BallObservation& ball : segment_) {
+        const double t = ball.stamp.source_time_s;
+        const Eigen::Vector3d predicted = model(theta_).positionAt(t);
+        Eigen::Matrix<double, 3, 6> J;
+        for (int k = 0; k < 6; ++k) {
+          Vector6d nudged = theta_;
+          nudged[k] += 1e-4;
+          J.col(k) = (model(nudged).positionAt(t) - predicted) / 1e-4;
+        }
+        const Eigen::Matrix3d W = weight(ball);
+        normal += J.transpose() * W * J;
+        rhs += J.transpose() * W * (ball.position_m - predicted);
+      }
+      const Vector6d step = normal.ldlt().solve(rhs);
+      theta_ += step;
+      covariance_ = normal.inverse();
+      if (step.norm() < 1e-4) break;
+    }
+  }
+
+  // The motion model with parameters theta = (p0, v0) at t_ref_. A roll is fitted as constant
+  // velocity over the short history; its slowing only matters for predictions further ahead.
+  fw::BallTrajectory model(const Vector6d& theta) const {
+    fw::BallTrajectory m;
+    m.time_s = t_ref_;
+    m.position_m = theta.head<3>();
+    m.velocity_mps = theta.tail<3>();
+    m.state = airborne_ ? fw::BallState::kAir : fw::BallState::kGround;
+    m.gravity_mps2 = config_.gravity_mps2;
+    m.drag_per_m = airborne_ ? config_.drag_per_m : 0.0;
+    return m;
+  }
+
+  // The fitted model moved to time t_s, as a trajectory of its own.
+  fw::BallTrajectory state(double t_s) const {
+    const fw::BallTrajectory m = model(theta_);
+    fw::BallTrajectory at = m;
+    at.time_s = t_s;
+    at.position_m = m.positionAt(t_s);
+    at.velocity_mps = m.velocityAt(t_s);
+    if (!airborne_) at.rolling_decel_mps2 = config_.rolling_decel_mps2;
+    return at;
+  }
+
+  // Covariance of the predicted position at t_s (drag-free propagation of the fit's covariance)
+  // plus the model error.
+  Eigen::Matrix3d predictionCovariance(double t_s) const {
+    const double tau = t_s - t_ref_;
+    Eigen::Matrix<double, 3, 6> J;
+    J << Eigen::Matrix3d::Identity(), tau * Eigen::Matrix3d::Identity();
+    return J * covariance_ * J.transpose() +
+           config_.model_sigma_m * config_.model_sigma_m * Eigen::Matrix3d::Identity();
+  }
+
+  double mahalanobisSquared(const fw::BallObservation& ball, double t_s) const {
+    const Eigen::Vector3d innovation = ball.position_m - model(theta_).positionAt(t_s);
+    const Eigen::Matrix3d S = predictionCovariance(t_s) + ball.covariance_m2;
+    return innovation.dot(S.ldlt().solve(innovation));
+  }
+
+  // A flight that does not fall with gravity is not a ball (a lamp, a poster, a head): with free
+  // acceleration fitted, its vertical part must be near -g.
+  bool fallsWithGravity() const {
+    const double span = segment_.back().stamp.source_time_s - t_ref_;
+    if (static_cast<int>(segment_.size()) < 6 || span < 0.15) return true;  // too short to tell
+    Eigen::Matrix<double, 9, 9> normal = Eigen::Matrix<double, 9, 9>::Zero();
+    Eigen::Matrix<double, 9, 1> rhs = Eigen::Matrix<double, 9, 1>::Zero();
+    for (const fw::BallObservation& ball : segment_) {
+      const double tau = ball.stamp.source_time_s - t_ref_;
+      Eigen::Matrix<double, 3, 9> A;
+      A << Eigen::Matrix3d::Identity(), tau * Eigen::Matrix3d::Identity(),
+          0.5 * tau * tau * Eigen::Matrix3d::Identity();
+      const Eigen::Matrix3d W = weight(ball);
+      normal += A.transpose() * W * A;
+      rhs += A.transpose() * W * ball.position_m;
+    }
+    const double a_z = normal.ldlt().solve(rhs)[8];
+    return std::abs(a_z + config_.gravity_mps2) <= config_.max_gravity_error_mps2;
+  }
+
+  // Enough detections, moving, and falling with gravity: only then is an airborne track a ball
+  // in flight. A ball hung or lying on a robot does not move; a poster carried past does not fall.
+  bool isFlight() const {
+    if (static_cast<int>(segment_.size()) < config_.min_support) return false;
+    const fw::BallObservation& first = segment_.front();
+    const fw::BallObservation& last = segment_.back();
+    const double span = last.stamp.source_time_s - first.stamp.source_time_s;
+    if ((last.position_m - first.position_m).norm() < config_.min_flight_speed_mps * span) return false;
+    return fallsWithGravity();
+  }
+
+  std::optional<fw::BallTrajectory> current(double t_s) const {
+    if (!fitted_ || (airborne_ && !isFlight())) return std::nullopt;
+    fw::BallTrajectory trajectory = state(t_s);
+    trajectory.support = static_cast<int>(segment_.size());
+    trajectory.rms_m = rms_;
+    trajectory.source = segment_.back().source;
+    if (airborne_) trajectory.touchdown = touchdown(trajectory);
+    trajectory.crossing = crossing(trajectory);
+    return trajectory;
+  }
+
+  // When the centre comes down to the ball's radius, and where; the 1-sigma radius propagates the
+  // fit's covariance through the drag-free touchdown.
+  std::optional<fw::Touchdown> touchdown(const fw::BallTrajectory& now) const {
+    const double r = config_.ball_radius_m, g = config_.gravity_mps2;
+    auto dragFreeLanding = [&](const Vector6d& theta, Eigen::Vector2d& point, double& time) {
+      const double z0 = theta[2] - r, vz = theta[5];
+      const double disc = vz * vz + 2.0 * g * z0;
+      if (disc < 0.0) return false;
+      const double tau = (vz + std::sqrt(disc)) / g;
+      time = t_ref_ + tau;
+      point = theta.head<2>() + tau * theta.segment<2>(3);
+      return true;
+    };
+    Eigen::Vector2d point;
+    double time;
+    if (!dragFreeLanding(theta_, point, time) || time < now.time_s) return std::nullopt;
+    Eigen::Matrix<double, 2, 6> J;
+    for (int k = 0; k < 6; ++k) {
+      Vector6d nudged = theta_;
+      nudged[k] += 1e-5;
+      Eigen::Vector2d moved;
+      double moved_time;
+      if (!dragFreeLanding(nudged, moved, moved_time)) return std::nullopt;
+      J.col(k) = (moved - point) / 1e-5;
+    }
+    fw::Touchdown result;
+    result.sigma_m = std::sqrt((J * covariance_ * J.transpose()).eigenvalues().real().maxCoeff());
+    result.point_m = point;
+    result.time_s = time;
+    if (config_.drag_per_m > 0.0) {
+      // With drag there is no closed form: walk the model down to the floor in 5 ms steps.
+      constexpr double kStep_s = 0.005;
+      Eigen::Vector3d p = now.position_m;
+      for (double t = now.time_s; t < now.time_s + 5.0; t += kStep_s) {
+        const Eigen::Vector3d next = now.positionAt(t + kStep_s);
+        if (next.z() <= r) {
+          const double w = (p.z() - r) / (p.z() - next.z());
+          result.time_s = t + w * kStep_s;
+          result.point_m = (p + w * (next - p)).head<2>();
+          break;
+        }
+        p = next;
+      }
+    }
+    return result;
+  }
+
+  // Where the ball crosses y = 0 of the robot frame, if it is heading there (before touchdown).
+  std::optional<fw::LineCrossing> crossing(const fw::BallTrajectory& now) const {
+    if (now.position_m.y() <= 0.0 || now.velocity_mps.y() >= -0.1) return std::nullopt;
+    double t = now.time_s - now.position_m.y() / now.velocity_mps.y();  // exact without drag
+    for (int i = 0; i < 4; ++i) {  // with drag or rolling friction, a few Newton steps
+      const double y = now.positionAt(t).y(), vy = now.velocityAt(t).y();
+      if (std::abs(y) < 1e-4 || vy >= -1e-3) break;
+      t -= y / vy;
+    }
+    const Eigen::Vector3d p = now.positionAt(t);
+    if (std::abs(p.y()) > 0.01 || t < now.time_s || t - now.time_s > 3.0) return std::nullopt;
+    if (airborne_ && p.z() < config_.ball_radius_m) return std::nullopt;  // lands first
+    fw::LineCrossing result;
+    result.x_m = p.x();
+    result.z_m = p.z();
+    result.time_s = t;
+    return result;
+  }
+
+  TrajectoryConfig config_;
+  std::deque<fw::BallObservation> segment_;
+  std::vector<fw::BallObservation> pending_;
+  bool fitted_ = false;
+  bool airborne_ = false;
+  double t_ref_ = 0.0;
+  Vector6d theta_ = Vector6d::Zero();
+  Matrix6d covariance_ = Matrix6d::Identity();
+  double rms_ = 0.0;
+  int resets_ = 0;
+};
+
+}  // namespace
+
+std::unique_ptr<TrajectoryEstimator> makeBallisticEstimator(const TrajectoryConfig& config) {
+  return std::make_unique<BallisticEstimator>(config);
+}
+
+}  // namespace kinect3d

@@ -1,0 +1,183 @@
+#include <gtest/gtest.h>
+
+#include <random>
+
+#include "kinect3d/sim/ball_motion.h"
+#include "kinect3d/trajectory.h"
+
+namespace {
+
+using kinect3d::TrajectoryConfig;
+
+constexpr double kFrame_s = 1.0 / 30.0;
+
+fw::BallObservation observe(double t, const Eigen::Vector3d& p, double sigma_m = 0.001) {
+  const fw::BallState state = p.z() > 0.11 + 0.08 ? fw::BallState::kAir : fw::BallState::kGround;
+  return fw::BallObservation::inRobotFrame(p, sigma_m * sigma_m * Eigen::Matrix3d::Identity(), state,
+                                           "kinect3d", fw::Stamp{t, t});
+}
+
+// A drag-free flight from p0 with v0 at t = 0.
+Eigen::Vector3d flight(const Eigen::Vector3d& p0, const Eigen::Vector3d& v0, double t) {
+  return p0 + v0 * t + Eigen::Vector3d(0, 0, -0.5 * 9.81 * t * t);
+}
+
+TrajectoryConfig ballistic() { return TrajectoryConfig{}; }
+
+TEST(BallisticTrajectory, RecoversANoiseFreeFlightExactly) {
+  const Eigen::Vector3d p0(0.2, 2.0, 0.3), v0(0.5, 6.0, 4.5);
+  auto estimator = kinect3d::makeTrajectoryEstimator(ballistic());
+  std::optional<fw::BallTrajectory> trajectory;
+  for (int i = 0; i < 8; ++i) trajectory = estimator->update(i * kFrame_s, {observe(i * kFrame_s, flight(p0, v0, i * kFrame_s), 1e-4)});
+  ASSERT_TRUE(trajectory);
+  const double t = 7 * kFrame_s;
+  EXPECT_LT((trajectory->position_m - flight(p0, v0, t)).norm(), 1e-6);
+  EXPECT_LT((trajectory->velocity_mps - (v0 + Eigen::Vector3d(0, 0, -9.81 * t))).norm(), 1e-5);
+  EXPECT_EQ(trajectory->support, 8);
+  // Touchdown: 0.3 + 4.5 t - 4.905 t^2 = 0.11.
+  const double t_land = (4.5 + std::sqrt(4.5 * 4.5 + 2 * 9.81 * (0.3 - 0.11))) / 9.81;
+  ASSERT_TRUE(trajectory->touchdown);
+  EXPECT_NEAR(trajectory->touchdown->time_s, t_land, 1e-6);
+  EXPECT_LT((trajectory->touchdown->point_m - flight(p0, v0, t_land).head<2>()).norm(), 1e-5);
+  EXPECT_FALSE(trajectory->crossing) << "flying away from the robot's line";
+  EXPECT_LT((trajectory->positionAt(0.5) - flight(p0, v0, 0.5)).norm(), 1e-5);
+}
+
+TEST(BallisticTrajectory, StaysWithinItsUncertaintyWithNoise) {
+  const Eigen::Vector3d p0(-0.3, 6.0, 0.5), v0(0.4, -7.0, 4.5);  // a chip at the goalkeeper
+  std::mt19937 rng(7);
+  std::normal_distribution<double> noise(0.0, 0.01);
+  auto estimator = kinect3d::makeTrajectoryEstimator(ballistic());
+  std::optional<fw::BallTrajectory> trajectory;
+  for (int i = 0; i < 12; ++i) {
+    const double t = i * kFrame_s;
+    trajectory = estimator->update(t, {observe(t, flight(p0, v0, t) + Eigen::Vector3d(noise(rng), noise(rng), noise(rng)), 0.01)});
+  }
+  ASSERT_TRUE(trajectory && trajectory->touchdown && trajectory->crossing);
+  const double t_land = (4.5 + std::sqrt(4.5 * 4.5 + 2 * 9.81 * 0.39)) / 9.81;
+  const double error = (trajectory->touchdown->point_m - flight(p0, v0, t_land).head<2>()).norm();
+  EXPECT_LT(error, 0.10);
+  EXPECT_LT(error, 3.0 * trajectory->touchdown->sigma_m + 0.02);
+  const double t_cross = 6.0 / 7.0;
+  EXPECT_NEAR(trajectory->crossing->time_s, t_cross, 0.03);
+  EXPECT_NEAR(trajectory->crossing->z_m, flight(p0, v0, t_cross).z(), 0.08);
+  EXPECT_NEAR(trajectory->crossing->x_m, flight(p0, v0, t_cross).x(), 0.08);
+}
+
+TEST(BallisticTrajectory, RejectsAnOutlierWithoutRestarting) {
+  const Eigen::Vector3d p0(0.0, 2.0, 0.4), v0(0.0, 6.0, 4.0);
+  auto estimator = kinect3d::makeTrajectoryEstimator(ballistic());
+  std::optional<fw::BallTrajectory> trajectory;
+  for (int i = 0; i < 10; ++i) {
+    const double t = i * kFrame_s;
+    Eigen::Vector3d p = flight(p0, v0, t);
+    if (i == 6) p += Eigen::Vector3d(0.6, -0.4, 0.5);  // a phantom
+    trajectory = estimator->update(t, {observe(t, p, 0.01)});
+  }
+  ASSERT_TRUE(trajectory);
+  EXPECT_EQ(trajectory->support, 9);
+  EXPECT_EQ(estimator->resets(), 0);
+  EXPECT_LT((trajectory->position_m - flight(p0, v0, 9 * kFrame_s)).norm(), 0.02);
+}
+
+TEST(BallisticTrajectory, ABounceStartsANewSegment) {
+  kinect3d::sim::BallPhysics physics;
+  physics.drag_per_m = 0.0;
+  const kinect3d::sim::BallMotion motion({{0, 2, 0.11}, {0, 5, 3.0}, 0.0, false}, physics, 2.0);
+  const double first_bounce = 2 * 3.0 / 9.81;
+  auto estimator = kinect3d::makeTrajectoryEstimator(ballistic());
+  std::optional<fw::BallTrajectory> before, after;
+  for (int i = 1; i < 45; ++i) {
+    const double t = i * kFrame_s;
+    const auto trajectory = estimator->update(t, {observe(t, motion.positionAt(t), 0.005)});
+    if (t < first_bounce) before = trajectory;
+    if (t > first_bounce + 8 * kFrame_s && !after) after = trajectory;
+  }
+  ASSERT_TRUE(before && after);
+  EXPECT_GE(before->support, 15);
+  EXPECT_LE(after->support, 9) << "the segment restarted at the bounce";
+  EXPECT_EQ(estimator->resets(), 0) << "a bounce is not a reset";
+  EXPECT_NEAR(after->velocity_mps.z(), motion.velocityAt(after->time_s).z(), 0.3);
+  EXPECT_LT((after->position_m - motion.positionAt(after->time_s)).norm(), 0.03);
+}
+
+TEST(BallisticTrajectory, HungBallIsNotReportedAsFlying) {
+  auto estimator = kinect3d::makeTrajectoryEstimator(ballistic());
+  for (int i = 0; i < 60; ++i) {
+    const double t = i * kFrame_s;
+    const auto trajectory = estimator->update(t, {observe(t, {0.0, 3.0, 1.0}, 0.005)});
+    EXPECT_FALSE(trajectory.has_value()) << "frame " << i;
+  }
+}
+
+TEST(BallisticTrajectory, FakeFlyingObjectIsRejected) {
+  // Something ball-sized gliding level through the air at 2 m/s (a poster on a moving person).
+  auto estimator = kinect3d::makeTrajectoryEstimator(ballistic());
+  std::optional<fw::BallTrajectory> trajectory;
+  for (int i = 0; i < 30; ++i) {
+    const double t = i * kFrame_s;
+    trajectory = estimator->update(t, {observe(t, {-1.0 + 2.0 * t, 4.0, 1.5}, 0.01)});
+  }
+  EXPECT_FALSE(trajectory.has_value());
+}
+
+TEST(BallisticTrajectory, RollingBallSlowsAndCrossesTheLine) {
+  TrajectoryConfig config = ballistic();
+  config.rolling_decel_mps2 = 0.4;
+  auto estimator = kinect3d::makeTrajectoryEstimator(config);
+  std::optional<fw::BallTrajectory> trajectory;
+  for (int i = 0; i < 10; ++i) {
+    const double t = i * kFrame_s;
+    trajectory = estimator->update(t, {observe(t, {0.3 - 0.2 * t, 3.0 - 3.0 * t, 0.11}, 0.01)});
+  }
+  ASSERT_TRUE(trajectory);
+  EXPECT_EQ(trajectory->state, fw::BallState::kGround);
+  EXPECT_FALSE(trajectory->touchdown);
+  EXPECT_NEAR(trajectory->velocity_mps.y(), -3.0, 0.05);
+  ASSERT_TRUE(trajectory->crossing);
+  // At the last frame (t = 0.3 s) y = 2.1 m, closing at 3 m/s and slowing by 0.4 m/s^2 along
+  // the velocity, (3 / |v|) of it along y: 2.1 = 3 tau - a_y tau^2 / 2.
+  const double a_y = 0.4 * 3.0 / std::hypot(0.2, 3.0);
+  const double tau = (3.0 - std::sqrt(9.0 - 2.0 * a_y * 2.1)) / a_y;
+  EXPECT_NEAR(trajectory->crossing->time_s - trajectory->time_s, tau, 0.03);
+  EXPECT_NEAR(trajectory->crossing->z_m, 0.11, 0.01);
+}
+
+TEST(BallisticTrajectory, DragOptionFitsDraggedFlights) {
+  kinect3d::sim::BallPhysics physics;  // drag 0.024 per metre
+  const kinect3d::sim::BallMotion motion({{0, 1.5, 0.11}, {0, 9, 5.0}, 0.0, false}, physics, 2.0);
+  double t_land = 0.5;  // the first time the centre comes down to the radius
+  while (t_land < 2.0 && motion.positionAt(t_land).z() > 0.11 + 1e-6) t_land += 0.0005;
+  ASSERT_LT(t_land, 2.0);
+  auto touchdownError = [&](double drag) {
+    TrajectoryConfig config = ballistic();
+    config.drag_per_m = drag;
+    auto estimator = kinect3d::makeTrajectoryEstimator(config);
+    std::optional<fw::BallTrajectory> trajectory;
+    for (int i = 1; i <= 12; ++i) trajectory = estimator->update(i * kFrame_s, {observe(i * kFrame_s, motion.positionAt(i * kFrame_s), 0.002)});
+    return (trajectory->touchdown->point_m - motion.positionAt(t_land).head<2>()).norm();
+  };
+  EXPECT_LT(touchdownError(0.024), 0.03);
+  EXPECT_GT(touchdownError(0.0), 2.0 * touchdownError(0.024));
+}
+
+TEST(PaperTrajectory, FitsANoiseFreeParabola) {
+  TrajectoryConfig config;
+  config.mode = TrajectoryConfig::Mode::kPaper;
+  const Eigen::Vector3d p0(0.2, 2.0, 0.3), v0(0.5, 6.0, 4.5);
+  auto estimator = kinect3d::makeTrajectoryEstimator(config);
+  std::optional<fw::BallTrajectory> trajectory;
+  for (int i = 0; i < 8; ++i) trajectory = estimator->update(i * kFrame_s, {observe(i * kFrame_s, flight(p0, v0, i * kFrame_s), 1e-4)});
+  ASSERT_TRUE(trajectory && trajectory->touchdown);
+  const double t_land = (4.5 + std::sqrt(4.5 * 4.5 + 2 * 9.81 * 0.19)) / 9.81;
+  EXPECT_LT((trajectory->touchdown->point_m - flight(p0, v0, t_land).head<2>()).norm(), 0.01);
+  EXPECT_NEAR(trajectory->touchdown->time_s, t_land, 0.01);
+  EXPECT_EQ(trajectory->support, 8);
+}
+
+TEST(TrajectoryConfig, ModeNames) {
+  EXPECT_EQ(kinect3d::trajectoryModeFromString("paper"), TrajectoryConfig::Mode::kPaper);
+  EXPECT_THROW(kinect3d::trajectoryModeFromString("kalman"), std::invalid_argument);
+}
+
+}  // namespace
