@@ -79,6 +79,31 @@ TEST(DetectCommand, WritesOneJsonLinePerFrame) {
   EXPECT_EQ(frames, 90);
 }
 
+TEST(DetectCommand, ReportsTheTrajectoryAndTouchdownOfAKick) {
+  const auto [status, out] = run(std::string(KINECT3D_EXE) + " detect --source sim:kick_away 2>/dev/null");
+  ASSERT_EQ(status, 0);
+  std::istringstream lines(out);
+  int with_touchdown = 0, frames = 0;
+  for (std::string line; std::getline(lines, line); ++frames) {
+    const auto json = nlohmann::json::parse(line);
+    ASSERT_TRUE(json.contains("trajectory")) << line;
+    const auto& trajectory = json["trajectory"];
+    if (trajectory.is_null()) continue;
+    EXPECT_EQ(trajectory.at("p").size(), 3u);
+    EXPECT_EQ(trajectory.at("v").size(), 3u);
+    EXPECT_GE(trajectory.at("support").get<int>(), 3);
+    // Predictions during the first flight (the ball lands about 6 m out and hops on to 7.7 m).
+    if (trajectory.at("state") == "air" && !trajectory.at("touchdown").is_null() &&
+        trajectory["p"][1].get<double>() < 5.5) {
+      ++with_touchdown;
+      EXPECT_NEAR(trajectory["touchdown"].at("y").get<double>(), 6.0, 0.5);
+      EXPECT_GT(trajectory["touchdown"].at("t").get<double>(), json.at("t").get<double>());
+    }
+  }
+  EXPECT_EQ(frames, 45);
+  EXPECT_GE(with_touchdown, 8);
+}
+
 TEST(DetectCommand, BadSourceOrConfigExitsNonZeroWithAMessage) {
   const auto [status, out] = run(std::string(KINECT3D_EXE) + " detect --source bogus:thing 2>&1");
   EXPECT_EQ(status, 2);

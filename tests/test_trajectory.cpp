@@ -2,7 +2,10 @@
 
 #include <random>
 
+#include "framework_api/config.h"
+#include "kinect3d/config_io.h"
 #include "kinect3d/sim/ball_motion.h"
+#include "kinect3d/sim/evaluation.h"
 #include "kinect3d/trajectory.h"
 
 namespace {
@@ -173,6 +176,32 @@ TEST(PaperTrajectory, FitsANoiseFreeParabola) {
   EXPECT_LT((trajectory->touchdown->point_m - flight(p0, v0, t_land).head<2>()).norm(), 0.01);
   EXPECT_NEAR(trajectory->touchdown->time_s, t_land, 0.01);
   EXPECT_EQ(trajectory->support, 8);
+}
+
+TEST(TrajectoryScenario, GoalkeeperSeesWhereAShotCrossesItsLine) {
+  // Shipped settings end to end: simulated Kinect frames -> detector -> trajectory.
+  const fw::Config config = fw::Config::load(std::string(PROJECT_CONFIG_DIR) + "/defaults", "", {});
+  const kinect3d::sim::Scene scene = kinect3d::sim::loadScene("shot_goalkeeper");
+  kinect3d::DetectorConfig detector = kinect3d::readDetectorConfig(config.block("kinect3d"));
+  detector.ground.pose = scene.sensor_pose;
+  const auto frames = kinect3d::sim::runDetectorOnScene(scene, detector);
+  const kinect3d::sim::BallMotion motion(*scene.ball, scene.physics, scene.duration_s);
+  double t_cross = scene.ball->launch_time_s;
+  while (motion.positionAt(t_cross).y() > 0.0) t_cross += 0.0005;
+  const Eigen::Vector3d truth = motion.positionAt(t_cross);
+
+  auto estimator = kinect3d::makeTrajectoryEstimator(kinect3d::readTrajectoryConfig(config.block("kinect3d")));
+  int early_predictions = 0;
+  for (const auto& frame : frames) {
+    const double t = scene.start_time_s + frame.truth.time_s;  // the source clock the detections carry
+    const auto trajectory = estimator->update(t, frame.balls);
+    if (!trajectory || !trajectory->crossing || t_cross - frame.truth.time_s < 0.3) continue;
+    ++early_predictions;
+    EXPECT_NEAR(trajectory->crossing->x_m, truth.x(), 0.15);
+    EXPECT_NEAR(trajectory->crossing->z_m, truth.z(), 0.15);
+    EXPECT_NEAR(trajectory->crossing->time_s - scene.start_time_s, t_cross, 0.03);
+  }
+  EXPECT_GE(early_predictions, 3) << "the crossing is known at least 0.3 s ahead";
 }
 
 TEST(TrajectoryConfig, ModeNames) {

@@ -14,6 +14,7 @@
 #include <iostream>
 
 #include "accuracy_report.h"
+#include "trajectory_report.h"
 #include "framework_api/config.h"
 #include "framework_api/log.h"
 #include "kinect3d/ball_detector.h"
@@ -261,12 +262,15 @@ int main(int argc, char** argv) {
 
   kinect3d::ReportOptions report_options;
   report_options.real_depth_dir = KINECT3D_REAL_DEPTH_DIR;
-  std::string report_out;
-  CLI::App* report = app.add_subcommand("report", "Measure detection accuracy on simulated scenes and real frames");
+  std::string report_out, report_kind;
+  CLI::App* report = app.add_subcommand("report", "Measure detection accuracy or trajectory prediction on simulated scenes");
+  report->add_option("kind", report_kind, "detection (docs/accuracy.md) or trajectory (docs/trajectory.md)")
+      ->required()
+      ->check(CLI::IsMember({"detection", "trajectory"}));
   report->add_option("--out", report_out, "Markdown file to write, e.g. docs/accuracy.md")->required();
-  report->add_option("--seeds", report_options.seeds, "Noise seeds per kick/shot scene")->capture_default_str();
-  report->add_option("--clutter-frames", report_options.clutter_frames, "Frames of the clutter scene")->capture_default_str();
-  report->add_option("--real-depth", report_options.real_depth_dir, "Folder of the real Kinect frames")->capture_default_str();
+  report->add_option("--seeds", report_options.seeds, "detection: noise seeds per kick/shot scene")->capture_default_str();
+  report->add_option("--clutter-frames", report_options.clutter_frames, "detection: frames of the clutter scene")->capture_default_str();
+  report->add_option("--real-depth", report_options.real_depth_dir, "detection: folder of the real Kinect frames")->capture_default_str();
   report->add_option("--defaults", defaults_dir, "Folder of per-plugin defaults")->capture_default_str();
 
   CLI11_PARSE(app, argc, argv);
@@ -275,7 +279,12 @@ int main(int argc, char** argv) {
     if (*info) return runInfo(uri);
     if (*snapshot) return runSnapshot(snapshot_uris, snapshot_frames, snapshot_out);
     if (*report) {
-      kinect3d::writeAccuracyReport(fw::Config::load(defaults_dir, "", {}), report_options, report_out);
+      const fw::Config config = fw::Config::load(defaults_dir, "", {});
+      if (report_kind == "trajectory") {
+        kinect3d::writeTrajectoryReport(config, report_out);
+      } else {
+        kinect3d::writeAccuracyReport(config, report_options, report_out);
+      }
       return 0;
     }
     if (*detect) {

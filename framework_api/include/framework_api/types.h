@@ -112,6 +112,8 @@ struct BallTrajectory {
   // Position and velocity predicted at time t (before or after time_s), by the motion model.
   Eigen::Vector3d positionAt(double t_s) const;
   Eigen::Vector3d velocityAt(double t_s) const;
+  // This trajectory with its state moved to t_s (position and velocity in one propagation).
+  BallTrajectory movedTo(double t_s) const;
 
  private:
   void propagate(double t_s, Eigen::Vector3d& p, Eigen::Vector3d& v) const;

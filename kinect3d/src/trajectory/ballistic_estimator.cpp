@@ -68,6 +68,11 @@ class BallisticEstimator : public TrajectoryEstimator {
       restartWith({ball});
       return;
     }
+    if (!airborne_ && ball.state == fw::BallState::kAir) {
+      // A ball on the floor that leaves it was kicked: a flight starts.
+      restartWith({ball});
+      return;
+    }
     // Not supporting: an outlier, unless the next one does not support either; then the ball is
     // doing something else and the track restarts from these two.
     pending_.push_back(ball);
@@ -98,61 +103,65 @@ class BallisticEstimator : public TrajectoryEstimator {
   }
 
   // The least-squares flight (or roll) through the segment, each detection weighted by its
-  // covariance plus the model error.
+  // covariance plus the model error. Without drag the model is linear in (p0, v0) and this is
+  // one solve. With drag, the model's departure from the drag-free flight is computed in one pass
+  // along the current fit and the linear solve repeated on the detections minus it: the
+  // departure hardly depends on the fit, so two rounds settle it.
   void fit() {
     t_ref_ = segment_.front().stamp.source_time_s;
     airborne_ = false;
     for (const fw::BallObservation& ball : segment_) airborne_ = airborne_ || ball.state == fw::BallState::kAir;
-    const Eigen::Vector3d g = airborne_ ? Eigen::Vector3d(0, 0, -config_.gravity_mps2) : Eigen::Vector3d::Zero();
-    Matrix6d normal = Matrix6d::Zero();
-    Vector6d rhs = Vector6d::Zero();
-    for (const fw::BallObservation& ball : segment_) {
-      const double tau = ball.stamp.source_time_s - t_ref_;
-      const Eigen::Matrix3d W = weight(ball);
-      Eigen::Matrix<double, 3, 6> A;
-      A << Eigen::Matrix3d::Identity(), tau * Eigen::Matrix3d::Identity();
-      normal += A.transpose() * W * A;
-      rhs += A.transpose() * W * (ball.position_m - 0.5 * g * tau * tau);
+    drag_offsets_.assign(segment_.size(), Eigen::Vector3d::Zero());
+    solve();
+    if (airborne_ && config_.drag_per_m > 0.0) {
+      for (int round = 0; round < 2; ++round) {
+        fw::BallTrajectory along = model(theta_);
+        for (std::size_t i = 0; i < segment_.size(); ++i) {
+          along = along.movedTo(segment_[i].stamp.source_time_s);
+          drag_offsets_[i] = along.position_m - dragFree(theta_, segment_[i].stamp.source_time_s);
+        }
+        solve();
+      }
     }
-    theta_ = normal.ldlt().solve(rhs);
-    covariance_ = normal.inverse();
-    if (airborne_ && config_.drag_per_m > 0.0) refineWithDrag();
     double squares = 0.0;
-    for (const fw::BallObservation& ball : segment_) {
-      squares += (ball.position_m - model(theta_).positionAt(ball.stamp.source_time_s)).squaredNorm();
+    for (std::size_t i = 0; i < segment_.size(); ++i) {
+      const double t = segment_[i].stamp.source_time_s;
+      squares += (segment_[i].position_m - dragFree(theta_, t) - drag_offsets_[i]).squaredNorm();
     }
     rms_ = std::sqrt(squares / segment_.size());
     fitted_ = true;
   }
 
+  // p0 + v0 tau + g tau^2 / 2 (g only in the air).
+  Eigen::Vector3d dragFree(const Vector6d& theta, double t_s) const {
+    const double tau = t_s - t_ref_;
+    const double g = airborne_ ? config_.gravity_mps2 : 0.0;
+    return theta.head<3>() + tau * theta.tail<3>() + Eigen::Vector3d(0.0, 0.0, -0.5 * g * tau * tau);
+  }
+
+  // Weighted least squares for (p0, v0) against the detections minus the drag offsets.
+  void solve() {
+    const double g = airborne_ ? config_.gravity_mps2 : 0.0;
+    Matrix6d normal = Matrix6d::Zero();
+    Vector6d rhs = Vector6d::Zero();
+    for (std::size_t i = 0; i < segment_.size(); ++i) {
+      const fw::BallObservation& ball = segment_[i];
+      const double tau = ball.stamp.source_time_s - t_ref_;
+      const Eigen::Matrix3d W = weight(ball);
+      Eigen::Matrix<double, 3, 6> A;
+      A << Eigen::Matrix3d::Identity(), tau * Eigen::Matrix3d::Identity();
+      const Eigen::Vector3d target =
+          ball.position_m - drag_offsets_[i] + Eigen::Vector3d(0.0, 0.0, 0.5 * g * tau * tau);
+      normal += A.transpose() * W * A;
+      rhs += A.transpose() * W * target;
+    }
+    theta_ = normal.ldlt().solve(rhs);
+    covariance_ = normal.inverse();
+  }
+
   Eigen::Matrix3d weight(const fw::BallObservation& ball) const {
     const double model_variance = config_.model_sigma_m * config_.model_sigma_m;
     return (ball.covariance_m2 + model_variance * Eigen::Matrix3d::Identity()).inverse();
-  }
-
-  // Gauss-Newton on (p0, v0) under gravity and quadratic drag, from the drag-free solution.
-  void refineWithDrag() {
-    for (int iteration = 0; iteration < 3; ++iteration) {
-      Matrix6d normal = Matrix6d::Zero();
-      Vector6d rhs = Vector6d::Zero();
-      for (const fw::BallObservation& ball : segment_) {
-        const double t = ball.stamp.source_time_s;
-        const Eigen::Vector3d predicted = model(theta_).positionAt(t);
-        Eigen::Matrix<double, 3, 6> J;
-        for (int k = 0; k < 6; ++k) {
-          Vector6d nudged = theta_;
-          nudged[k] += 1e-4;
-          J.col(k) = (model(nudged).positionAt(t) - predicted) / 1e-4;
-        }
-        const Eigen::Matrix3d W = weight(ball);
-        normal += J.transpose() * W * J;
-        rhs += J.transpose() * W * (ball.position_m - predicted);
-      }
-      const Vector6d step = normal.ldlt().solve(rhs);
-      theta_ += step;
-      covariance_ = normal.inverse();
-      if (step.norm() < 1e-4) break;
-    }
   }
 
   // The motion model with parameters theta = (p0, v0) at t_ref_. A roll is fitted as constant
@@ -170,11 +179,7 @@ class BallisticEstimator : public TrajectoryEstimator {
 
   // The fitted model moved to time t_s, as a trajectory of its own.
   fw::BallTrajectory state(double t_s) const {
-    const fw::BallTrajectory m = model(theta_);
-    fw::BallTrajectory at = m;
-    at.time_s = t_s;
-    at.position_m = m.positionAt(t_s);
-    at.velocity_mps = m.velocityAt(t_s);
+    fw::BallTrajectory at = model(theta_).movedTo(t_s);
     if (!airborne_) at.rolling_decel_mps2 = config_.rolling_decel_mps2;
     return at;
   }
@@ -267,18 +272,18 @@ class BallisticEstimator : public TrajectoryEstimator {
     result.point_m = point;
     result.time_s = time;
     if (config_.drag_per_m > 0.0) {
-      // With drag there is no closed form: walk the model down to the floor in 5 ms steps.
-      constexpr double kStep_s = 0.005;
-      Eigen::Vector3d p = now.position_m;
-      for (double t = now.time_s; t < now.time_s + 5.0; t += kStep_s) {
-        const Eigen::Vector3d next = now.positionAt(t + kStep_s);
-        if (next.z() <= r) {
-          const double w = (p.z() - r) / (p.z() - next.z());
-          result.time_s = t + w * kStep_s;
-          result.point_m = (p + w * (next - p)).head<2>();
+      // With drag there is no closed form: step the model down to the floor, 10 ms at a time.
+      constexpr double kStep_s = 0.01;
+      fw::BallTrajectory walk = now;
+      for (int i = 0; i < 500; ++i) {
+        const fw::BallTrajectory next = walk.movedTo(walk.time_s + kStep_s);
+        if (next.position_m.z() <= r) {
+          const double w = (walk.position_m.z() - r) / (walk.position_m.z() - next.position_m.z());
+          result.time_s = walk.time_s + w * kStep_s;
+          result.point_m = (walk.position_m + w * (next.position_m - walk.position_m)).head<2>();
           break;
         }
-        p = next;
+        walk = next;
       }
     }
     return result;
@@ -289,7 +294,8 @@ class BallisticEstimator : public TrajectoryEstimator {
     if (now.position_m.y() <= 0.0 || now.velocity_mps.y() >= -0.1) return std::nullopt;
     double t = now.time_s - now.position_m.y() / now.velocity_mps.y();  // exact without drag
     for (int i = 0; i < 4; ++i) {  // with drag or rolling friction, a few Newton steps
-      const double y = now.positionAt(t).y(), vy = now.velocityAt(t).y();
+      const fw::BallTrajectory there = now.movedTo(t);
+      const double y = there.position_m.y(), vy = there.velocity_mps.y();
       if (std::abs(y) < 1e-4 || vy >= -1e-3) break;
       t -= y / vy;
     }
@@ -310,6 +316,7 @@ class BallisticEstimator : public TrajectoryEstimator {
   bool airborne_ = false;
   double t_ref_ = 0.0;
   Vector6d theta_ = Vector6d::Zero();
+  std::vector<Eigen::Vector3d> drag_offsets_;  // drag model minus drag-free flight, per detection
   Matrix6d covariance_ = Matrix6d::Identity();
   double rms_ = 0.0;
   int resets_ = 0;
