@@ -34,8 +34,9 @@ std::string lastError() { return openni::OpenNI::getExtendedError(); }
 class OpenNI2Stream {
  public:
   // Opens uri (a device URI, a file, or empty for the first device) and starts depth at VGA 30 Hz
-  // in millimetres where the device offers that mode.
-  void open(const std::string& uri, const std::string& label) {
+  // in millimetres where the device offers that mode. With start false the stream is created but
+  // not started (so a recorder can be attached before the first frame); call start() then.
+  void open(const std::string& uri, const std::string& label, bool start = true) {
     close();
     if (device_.open(uri.empty() ? openni::ANY_DEVICE : uri.c_str()) != openni::STATUS_OK) {
       throw DepthSourceError(label + ": cannot open: " + lastError());
@@ -45,6 +46,10 @@ class OpenNI2Stream {
       throw DepthSourceError(label + ": has no depth stream: " + lastError());
     }
     if (!device_.isFile()) selectVgaMillimetres(label);
+    if (start) this->start(label);
+  }
+
+  void start(const std::string& label) {
     if (stream_.start() != openni::STATUS_OK) {
       close();
       throw DepthSourceError(label + ": cannot start the depth stream: " + lastError());
@@ -257,26 +262,29 @@ std::string simulatedDeviceUri(const std::string& scene, int frames, long seed) 
 
 void recordOni(const std::string& device_uri, const std::string& path, int frames, double timeout_s) {
   initialiseOpenNI();
+  const std::string label = "openni2:" + device_uri;
   OpenNI2Stream stream;
-  stream.open(device_uri, "openni2:" + device_uri);
+  stream.open(device_uri, label, false);
+  // The recorder runs before the stream starts, so it sees the first frame too.
   openni::Recorder recorder;
   if (recorder.create(path.c_str()) != openni::STATUS_OK ||
       recorder.attach(stream.stream()) != openni::STATUS_OK || recorder.start() != openni::STATUS_OK) {
     stream.close();
     throw DepthSourceError("cannot record to '" + path + "': " + lastError());
   }
+  stream.start(label);
   // Every frame the stream delivers is recorded; reading them here counts them.
   const auto deadline = Clock::now() + std::chrono::duration<double>(timeout_s);
   DepthFrame frame;
   int recorded = 0;
   while (recorded < frames && Clock::now() < deadline) {
-    recorded += stream.read(frame, 100, "openni2:" + device_uri) ? 1 : 0;
+    recorded += stream.read(frame, 100, label) ? 1 : 0;
   }
   recorder.stop();
   recorder.destroy();
   stream.close();
   if (recorded < frames) {
-    throw DepthSourceError("openni2:" + device_uri + ": only " + std::to_string(recorded) + " of " +
+    throw DepthSourceError(label + ": only " + std::to_string(recorded) + " of " +
                            std::to_string(frames) + " frames arrived within " +
                            std::to_string(timeout_s) + " s");
   }
