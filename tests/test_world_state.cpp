@@ -44,6 +44,45 @@ TEST(WorldState, ConcurrentWritersAndReadersSeeWholeValues) {
   EXPECT_DOUBLE_EQ(world.fusedBall()->position_m.y(), 19999.0);
 }
 
+TEST(WorldState, HoldsRobotPoseOmniBallsAndTrajectories) {
+  fw::WorldState world;
+  EXPECT_FALSE(world.robotPose());
+  world.publishRobotPose({1.0, -2.0, 0.5, {}});
+  EXPECT_DOUBLE_EQ(world.robotPose()->y_m, -2.0);
+  fw::OmniBallObservation omni;
+  omni.distance_m = 3.0;
+  omni.source = "omni";
+  world.publishOmniBall(omni);
+  ASSERT_EQ(world.recentOmniBalls("omni").size(), 1u);
+  EXPECT_DOUBLE_EQ(world.recentOmniBalls("omni")[0].distance_m, 3.0);
+  fw::BallTrajectory trajectory;
+  trajectory.source = "kinect3d";
+  trajectory.support = 7;
+  world.publishTrajectory(trajectory);
+  EXPECT_EQ(world.trajectory("kinect3d")->support, 7);
+  world.clearTrajectory("kinect3d");
+  EXPECT_FALSE(world.trajectory("kinect3d"));
+}
+
+TEST(Types, TrajectoryPropagation) {
+  fw::BallTrajectory flight;
+  flight.time_s = 10.0;
+  flight.position_m = {0.0, 2.0, 1.0};
+  flight.velocity_mps = {0.0, 5.0, 2.0};
+  const Eigen::Vector3d later = flight.positionAt(10.5);
+  EXPECT_TRUE(later.isApprox(Eigen::Vector3d(0.0, 4.5, 1.0 + 1.0 - 0.5 * 9.81 * 0.25), 1e-12));
+  EXPECT_TRUE(flight.movedTo(10.5).position_m.isApprox(later, 1e-12));
+  flight.drag_per_m = 0.024;  // drag shortens the flight
+  EXPECT_LT(flight.positionAt(10.5).y(), later.y() - 0.02);
+  fw::BallTrajectory roll;
+  roll.state = fw::BallState::kGround;
+  roll.position_m = {0.0, 1.0, 0.11};
+  roll.velocity_mps = {0.0, 2.0, 0.0};
+  roll.rolling_decel_mps2 = 0.5;
+  EXPECT_NEAR(roll.positionAt(10.0).y(), 1.0 + 2.0 * 2.0 / (2 * 0.5), 1e-9) << "stops after 4 s, 4 m on";
+  EXPECT_NEAR(roll.velocityAt(10.0).norm(), 0.0, 1e-12);
+}
+
 TEST(Types, RobotToFieldAndOmniGroundPoint) {
   fw::RobotPose pose{1.0, 2.0, M_PI / 2, {}};  // robot faces field -x
   const Eigen::Vector3d ahead_F = pose.fieldFromRobot({0.0, 1.0, 0.3});

@@ -1,6 +1,5 @@
 #include "framework_api/log.h"
 
-#include <atomic>
 #include <chrono>
 #include <cstdio>
 #include <ctime>
@@ -9,12 +8,10 @@
 namespace fw {
 
 namespace {
-std::atomic<LogLevel> g_min_level{LogLevel::kInfo};
 std::mutex g_mutex;
 
 const char* levelName(LogLevel level) {
   switch (level) {
-    case LogLevel::kDebug: return "DEBUG";
     case LogLevel::kInfo: return "INFO ";
     case LogLevel::kWarn: return "WARN ";
     case LogLevel::kError: return "ERROR";
@@ -23,10 +20,7 @@ const char* levelName(LogLevel level) {
 }
 }  // namespace
 
-void setLogLevel(LogLevel level) { g_min_level = level; }
-
 void log(LogLevel level, const std::string& component, const std::string& message) {
-  if (level < g_min_level.load()) return;
   const auto now = std::chrono::system_clock::now();
   const std::time_t seconds = std::chrono::system_clock::to_time_t(now);
   const auto millis =

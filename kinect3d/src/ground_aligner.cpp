@@ -42,9 +42,9 @@ std::optional<Eigen::Isometry3d> GroundAligner::update(const DepthFrame& frame) 
   }
   if (++frames_since_check_ >= config_.refit_interval_frames) {
     frames_since_check_ = 0;
-    last_inlier_fraction_ = inlierFraction(frame, *T_R_S_);
-    if (last_inlier_fraction_ < config_.min_inlier_fraction) {
-      fw::logWarn("ground", "floor fit degraded (" + std::to_string(last_inlier_fraction_) +
+    const double on_floor = inlierFraction(frame, *T_R_S_);
+    if (on_floor < config_.min_inlier_fraction) {
+      fw::logWarn("ground", "floor fit degraded (" + std::to_string(on_floor) +
                                 " of points on it); refitting");
       if (auto refit = fitFloor(frame)) T_R_S_ = refit;
     }
@@ -107,8 +107,6 @@ std::optional<Eigen::Isometry3d> GroundAligner::fitFloor(const DepthFrame& frame
   Eigen::Isometry3d T_R_S = Eigen::Isometry3d::Identity();
   T_R_S.linear() = R_S_R.transpose();
   T_R_S.translation() = Eigen::Vector3d(0.0, 0.0, d);  // the sensor is d above the floor
-  ++fits_;
-  last_inlier_fraction_ = fraction;
   const SensorPose pose = SensorPose::fromTransform(T_R_S);
   fw::logInfo("ground", "floor found: sensor " + std::to_string(pose.z_m) + " m up, pitch " +
                             std::to_string(pose.pitch_rad * 180.0 / M_PI) + " deg, roll " +

@@ -132,10 +132,4 @@ unsigned OccupancyGrid::treeCount(const Eigen::Vector3f& p_R) const {
   return node ? node->getCount() : 0;
 }
 
-std::size_t OccupancyGrid::treeNodes() const { return tree_->size(); }
-
-void OccupancyGrid::writeTree(const std::string& path) const {
-  if (!tree_->write(path)) throw std::runtime_error("cannot write OctoMap file '" + path + "'");
-}
-
 }  // namespace kinect3d

@@ -6,7 +6,7 @@
 
 namespace fw {
 
-enum class LogLevel { kDebug, kInfo, kWarn, kError };
+enum class LogLevel { kInfo, kWarn, kError };
 
 void log(LogLevel level, const std::string& component, const std::string& message);
 inline void logInfo(const std::string& component, const std::string& message) {
@@ -18,8 +18,5 @@ inline void logWarn(const std::string& component, const std::string& message) {
 inline void logError(const std::string& component, const std::string& message) {
   log(LogLevel::kError, component, message);
 }
-
-// Messages below this level are dropped. Default: kInfo.
-void setLogLevel(LogLevel level);
 
 }  // namespace fw

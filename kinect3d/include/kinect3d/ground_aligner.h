@@ -31,10 +31,6 @@ class GroundAligner {
   // checked every refit_interval_frames and refitted when its inliers fall below the minimum.
   std::optional<Eigen::Isometry3d> update(const DepthFrame& frame);
 
-  // The floor's fit quality at the last check: share of sampled points on the plane.
-  double lastInlierFraction() const { return last_inlier_fraction_; }
-  int fits() const { return fits_; }
-
  private:
   // Fits the floor plane; returns the pose it implies (yaw 0, at x = y = 0) or nothing.
   std::optional<Eigen::Isometry3d> fitFloor(const DepthFrame& frame);
@@ -43,8 +39,6 @@ class GroundAligner {
   Config config_;
   std::optional<Eigen::Isometry3d> T_R_S_;
   int frames_since_check_ = 0;
-  double last_inlier_fraction_ = 0.0;
-  int fits_ = 0;
 };
 
 }  // namespace kinect3d

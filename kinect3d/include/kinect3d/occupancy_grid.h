@@ -10,7 +10,6 @@
 #include <array>
 #include <cstdint>
 #include <memory>
-#include <string>
 #include <vector>
 
 #include <Eigen/Geometry>
@@ -51,11 +50,8 @@ class OccupancyGrid {
   double voxel_m() const { return config_.voxel_m; }
   const Eigen::Vector3f& sensorPosition() const { return region_centre_; }
 
-  // The OctoMap tree of record: count at a point (0 if none), node count, and export to an
-  // OctoMap .ot file for octovis.
+  // The OctoMap tree of record: the count at a point (0 if none).
   unsigned treeCount(const Eigen::Vector3f& p_R) const;
-  std::size_t treeNodes() const;
-  void writeTree(const std::string& path) const;
 
  private:
   class Tree;
