@@ -204,6 +204,24 @@ TEST(TrajectoryScenario, GoalkeeperSeesWhereAShotCrossesItsLine) {
   EXPECT_GE(early_predictions, 3) << "the crossing is known at least 0.3 s ahead";
 }
 
+TEST(Trajectory, RepeatedTimestampsNeverProduceNaN) {
+  for (const auto mode : {TrajectoryConfig::Mode::kBallistic, TrajectoryConfig::Mode::kPaper}) {
+    TrajectoryConfig config;
+    config.mode = mode;
+    auto estimator = kinect3d::makeTrajectoryEstimator(config);
+    for (int i = 0; i < 20; ++i) {
+      // A recording whose stamps are all zero, then one that moves on.
+      const double t = i < 10 ? 0.0 : (i - 9) * kFrame_s;
+      const auto trajectory =
+          estimator->update(t, {observe(t, flight({0, 2, 0.5}, {0, 6, 4}, i * kFrame_s), 0.01)});
+      if (trajectory) {
+        EXPECT_TRUE(trajectory->position_m.allFinite());
+        EXPECT_TRUE(trajectory->velocity_mps.allFinite());
+      }
+    }
+  }
+}
+
 TEST(TrajectoryConfig, ModeNames) {
   EXPECT_EQ(kinect3d::trajectoryModeFromString("paper"), TrajectoryConfig::Mode::kPaper);
   EXPECT_THROW(kinect3d::trajectoryModeFromString("kalman"), std::invalid_argument);

@@ -47,6 +47,8 @@ class BallisticEstimator : public TrajectoryEstimator {
 
   void add(const fw::BallObservation& ball) {
     const double t = ball.stamp.source_time_s;
+    // Time must move on: a repeated or older stamp (a careless recording) cannot be fitted.
+    if (!segment_.empty() && t <= segment_.back().stamp.source_time_s) return;
     if (!fitted_) {
       if (!segment_.empty()) {
         const fw::BallObservation& last = segment_.back();

@@ -39,6 +39,8 @@ class PaperEstimator : public TrajectoryEstimator {
 
  private:
   void add(const fw::BallObservation& ball) {
+    // Time must move on: a repeated or older stamp (a careless recording) cannot be fitted.
+    if (!history_.empty() && ball.stamp.source_time_s <= history_.back().stamp.source_time_s) return;
     history_.push_back(ball);
     if (history_.size() > kHistory) history_.pop_front();
     const bool supports = support_.size() >= kRestartFrom && distanceToCurve(ball.position_m) < kSupport_m;
