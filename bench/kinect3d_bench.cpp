@@ -180,8 +180,10 @@ int main(int argc, char** argv) {
   int iterations = 600, baseline_frames = 20;
   std::string defaults_dir = KINECT3D_CONFIG_DIR "/defaults";
   app.add_option("--scene", scene_name, "Simulated scene whose frames are timed")->capture_default_str();
-  app.add_option("--iterations", iterations, "Detector frames timed per voxel size")->capture_default_str();
-  app.add_option("--baseline-frames", baseline_frames, "Frames timed per baseline (they are slow)")->capture_default_str();
+  app.add_option("--iterations", iterations, "Detector frames timed per voxel size")
+      ->check(CLI::PositiveNumber)->capture_default_str();
+  app.add_option("--baseline-frames", baseline_frames, "Frames timed per baseline (they are slow)")
+      ->check(CLI::PositiveNumber)->capture_default_str();
   app.add_option("--out", out_path, "Also write the table to this markdown file");
   CLI11_PARSE(app, argc, argv);
 

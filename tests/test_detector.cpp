@@ -63,10 +63,7 @@ TEST(OccupancyGrid, TreeOfRecordFollowsTheCountsFrameByFrame) {
   const Eigen::Vector3f sensor(0.0f, 0.0f, 0.7f);
   kinect3d::PointSet points;
   auto addPoints = [&](Eigen::Vector3f at, int n) {
-    for (int i = 0; i < n; ++i) {
-      points.p_R.push_back(at);
-      points.range_m.push_back(at.y());
-    }
+    for (int i = 0; i < n; ++i) points.push_back(at);
   };
   const Eigen::Vector3f ball(0.1f, 3.0f, 1.0f), wall(0.0f, 7.0f, 1.0f);
   addPoints(ball, 5);
@@ -93,10 +90,7 @@ TEST(OccupancyGrid, ThresholdFallsWithRange) {
   kinect3d::PointSet points;
   // 30 points: plenty at 6 m (a full face holds ~170), far too few at 1.5 m (~2700).
   for (const float y : {1.5f, 6.0f}) {
-    for (int i = 0; i < 30; ++i) {
-      points.p_R.emplace_back(0.0f, y, 0.7f);
-      points.range_m.push_back(y);
-    }
+    for (int i = 0; i < 30; ++i) points.emplace_back(0.0f, y, 0.7f);
   }
   grid.update(points, Eigen::Vector3f(0.0f, 0.0f, 0.7f));
   EXPECT_FALSE(grid.occupied(grid.indexOf({0.0f, 1.5f, 0.7f})));
@@ -116,10 +110,7 @@ class MaskTest : public ::testing::Test {
   }
   void occupy(std::initializer_list<Eigen::Vector3f> at) {
     kinect3d::PointSet points;
-    for (const auto& p : at) {
-      points.p_R.push_back(p);
-      points.range_m.push_back(p.y());
-    }
+    for (const auto& p : at) points.push_back(p);
     grid_.update(points, Eigen::Vector3f(0.0f, 0.0f, 0.7f));
     finder_.find(grid_, candidates_);
   }

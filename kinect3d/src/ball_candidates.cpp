@@ -78,39 +78,60 @@ void BallCandidateFinder::find(const OccupancyGrid& grid, std::vector<BallCandid
 // group is part of it, so an occupied voxel in the window outside the group's bounding box belongs
 // to something else: then the object in the core is not the group alone, or not alone in the air.
 bool BallCandidateFinder::shellEmpty(const OccupancyGrid& grid, const BallCandidate& group) const {
-  const int core = config_.core_voxels;
-  VoxelIndex first, last;  // range of the core's lowest corner over placements containing the group
+  const int core = config_.core_voxels, reach = core + 2 * shell_;  // window size per axis
+  VoxelIndex first, count;  // the core's lowest corner over placements containing the group
   for (int a = 0; a < 3; ++a) {
     first[a] = group.max[a] - core + 1;
-    last[a] = group.min[a];
+    count[a] = group.min[a] - first[a] + 1;
   }
-  // Occupied voxels outside the group's box anywhere in the union of all windows: with none the
-  // group passes at once (the usual case for a ball in the air); otherwise each placement is
-  // tested against that short list.
-  foreign_.clear();
-  for (int z = first[2] - shell_; z < last[2] + core + shell_; ++z) {
-    for (int y = first[1] - shell_; y < last[1] + core + shell_; ++y) {
-      for (int x = first[0] - shell_; x < last[0] + core + shell_; ++x) {
-        const bool in_group_box = x >= group.min[0] && x <= group.max[0] && y >= group.min[1] &&
-                                  y <= group.max[1] && z >= group.min[2] && z <= group.max[2];
-        if (!in_group_box && grid.occupied({x, y, z})) foreign_.push_back({x, y, z});
+  // Each occupied voxel outside the group's box blocks the placements whose window holds it.
+  // The union of all windows is scanned block by block (skipping empty blocks), and the group
+  // fails as soon as every placement is blocked: for pieces of walls and people, after a few.
+  blocked_.assign(static_cast<std::size_t>(count[0]) * count[1] * count[2], 0);
+  std::size_t unblocked = blocked_.size();
+  auto block = [&](int x, int y, int z) {
+    const VoxelIndex f{x, y, z};
+    VoxelIndex from, to;  // placements p with p - shell <= f < p - shell + reach
+    for (int a = 0; a < 3; ++a) {
+      from[a] = std::max(0, f[a] + shell_ - reach + 1 - first[a]);
+      to[a] = std::min(count[a] - 1, f[a] + shell_ - first[a]);
+      if (from[a] > to[a]) return;
+    }
+    for (int k = from[2]; k <= to[2]; ++k) {
+      for (int j = from[1]; j <= to[1]; ++j) {
+        for (int i = from[0]; i <= to[0]; ++i) {
+          std::uint8_t& b = blocked_[(static_cast<std::size_t>(k) * count[1] + j) * count[0] + i];
+          if (!b) b = 1, --unblocked;
+        }
+      }
+    }
+  };
+  constexpr int B = OccupancyGrid::kBlock;
+  auto blockOf = [](int v) { return v >= 0 ? v / B : -1; };  // voxels below 0 are outside the grid
+  VoxelIndex lo, hi;  // the union of all windows, inclusive
+  for (int a = 0; a < 3; ++a) {
+    lo[a] = first[a] - shell_;
+    hi[a] = first[a] + count[a] - 1 - shell_ + reach - 1;
+  }
+  for (int bz = blockOf(lo[2]); bz <= blockOf(hi[2]); ++bz) {
+    for (int by = blockOf(lo[1]); by <= blockOf(hi[1]); ++by) {
+      for (int bx = blockOf(lo[0]); bx <= blockOf(hi[0]); ++bx) {
+        if (!grid.blockOccupied(bx, by, bz)) continue;
+        for (int z = std::max(lo[2], bz * B); z <= std::min(hi[2], bz * B + B - 1); ++z) {
+          for (int y = std::max(lo[1], by * B); y <= std::min(hi[1], by * B + B - 1); ++y) {
+            for (int x = std::max(lo[0], bx * B); x <= std::min(hi[0], bx * B + B - 1); ++x) {
+              const bool in_group_box = x >= group.min[0] && x <= group.max[0] && y >= group.min[1] &&
+                                        y <= group.max[1] && z >= group.min[2] && z <= group.max[2];
+              if (in_group_box || !grid.occupied({x, y, z})) continue;
+              block(x, y, z);
+              if (unblocked == 0) return false;
+            }
+          }
+        }
       }
     }
   }
-  if (foreign_.empty()) return true;
-  for (int z0 = first[2]; z0 <= last[2]; ++z0) {
-    for (int y0 = first[1]; y0 <= last[1]; ++y0) {
-      for (int x0 = first[0]; x0 <= last[0]; ++x0) {
-        const VoxelIndex lo{x0 - shell_, y0 - shell_, z0 - shell_};
-        const bool clear = std::none_of(foreign_.begin(), foreign_.end(), [&](const VoxelIndex& f) {
-          return f[0] >= lo[0] && f[0] < lo[0] + core + 2 * shell_ && f[1] >= lo[1] &&
-                 f[1] < lo[1] + core + 2 * shell_ && f[2] >= lo[2] && f[2] < lo[2] + core + 2 * shell_;
-        });
-        if (clear) return true;
-      }
-    }
-  }
-  return false;
+  return true;
 }
 
 }  // namespace kinect3d

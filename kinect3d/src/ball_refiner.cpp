@@ -10,11 +10,10 @@ namespace {
 // Gauss-Newton for the centre of a sphere of known radius; points farther than gate_m from the
 // current surface are left out of each step.
 Eigen::Vector3d fitSphere(const std::vector<Eigen::Vector3d>& points, Eigen::Vector3d center,
-                          double radius, double gate_m, double& rms_m) {
+                          double radius, double gate_m) {
   for (int iteration = 0; iteration < 8; ++iteration) {
     Eigen::Matrix3d JtJ = Eigen::Matrix3d::Zero();
     Eigen::Vector3d Jtr = Eigen::Vector3d::Zero();
-    double squares = 0.0;
     int used = 0;
     for (const Eigen::Vector3d& p : points) {
       const Eigen::Vector3d offset = p - center;
@@ -24,11 +23,9 @@ Eigen::Vector3d fitSphere(const std::vector<Eigen::Vector3d>& points, Eigen::Vec
       const Eigen::Vector3d J = -offset / distance;  // d residual / d centre
       JtJ += J * J.transpose();
       Jtr += J * residual;
-      squares += residual * residual;
       ++used;
     }
     if (used < 4) break;
-    rms_m = std::sqrt(squares / used);
     const Eigen::Vector3d step = JtJ.ldlt().solve(-Jtr);
     center += step;
     if (step.norm() < 1e-5) break;
@@ -120,13 +117,12 @@ std::optional<BallFit> BallRefiner::refine(const BallCandidate& candidate, const
   const double sigma = noise_.axialSigma_m(range);
   if (sigma + noise_.quantisationStep_m(range) / 2 < r / 4) {
     const double gate = std::max(0.5 * r, 3.0 * (sigma + noise_.quantisationStep_m(range)));
-    const Eigen::Vector3d sphere = fitSphere(points_, fit.center_R, std::hypot(r, sigma), gate, fit.rms_m);
+    const Eigen::Vector3d sphere = fitSphere(points_, fit.center_R, std::hypot(r, sigma), gate);
     if ((sphere - fit.center_R).norm() < r / 3) fit.center_R = sphere;
   }
   // A ball cannot sink into the floor: its centre stays near one radius up.
   if (fit.center_R.z() < 0.5 * r) return std::nullopt;
   fit.points = static_cast<int>(points_.size());
-  fit.range_m = range;
   fit.state = fit.center_R.z() > r + config_.air_min_height_m ? fw::BallState::kAir : fw::BallState::kGround;
 
   // Uncertainty: a random part, the per-point noise over the number of points (at most 100

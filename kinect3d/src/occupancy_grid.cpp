@@ -43,6 +43,8 @@ OccupancyGrid::OccupancyGrid(const Config& config, double focal_px, int pixel_st
   counts_.assign(cells, 0);
   previous_counts_.assign(cells, 0);
   occupied_.assign(cells, 0);
+  for (int a = 0; a < 3; ++a) blocks_[a] = (size_[a] + kBlock - 1) / kBlock;
+  block_counts_.assign(static_cast<std::size_t>(blocks_[0]) * blocks_[1] * blocks_[2], 0);
 }
 
 OccupancyGrid::~OccupancyGrid() = default;
@@ -56,6 +58,7 @@ void OccupancyGrid::recentre(const Eigen::Vector3f& sensor_R) {
   std::fill(counts_.begin(), counts_.end(), 0);
   std::fill(previous_counts_.begin(), previous_counts_.end(), 0);
   std::fill(occupied_.begin(), occupied_.end(), 0);
+  std::fill(block_counts_.begin(), block_counts_.end(), 0);
   touched_.clear();
   previous_touched_.clear();
   occupied_list_.clear();
@@ -82,11 +85,14 @@ void OccupancyGrid::update(const PointSet& points, const Eigen::Vector3f& sensor
   touched_.swap(previous_touched_);
   for (const std::uint32_t i : touched_) counts_[i] = 0;
   touched_.clear();
-  for (const VoxelIndex& v : occupied_list_) occupied_[flat(v)] = 0;
+  for (const VoxelIndex& v : occupied_list_) {
+    occupied_[flat(v)] = 0;
+    --blockCount(v);
+  }
   occupied_list_.clear();
 
   // 1. Aggregate by key.
-  for (const Eigen::Vector3f& p : points.p_R) {
+  for (const Eigen::Vector3f& p : points) {
     const VoxelIndex v = indexOf(p);
     if (!inside(v)) continue;
     std::uint16_t& count = counts_[flat(v)];
@@ -102,6 +108,7 @@ void OccupancyGrid::update(const PointSet& points, const Eigen::Vector3f& sensor
                                            config_.occupied_fraction * full_face_points_at_1m_ / (range * range));
     if (counts_[i] >= needed) {
       occupied_[i] = 1;
+      ++blockCount(v);
       occupied_list_.push_back(v);
     }
   }

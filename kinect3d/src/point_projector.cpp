@@ -38,8 +38,7 @@ void PointProjector::project(const DepthFrame& frame, const Eigen::Isometry3f& T
       const Eigen::Vector2f& ray = rays_[i];
       const Eigen::Vector3f p_R = R * Eigen::Vector3f(ray.x() * z, ray.y() * z, z) + t;
       if (p_R.z() < floor_margin) continue;
-      out.p_R.push_back(p_R);
-      out.range_m.push_back(z);
+      out.push_back(p_R);
     }
   }
 }

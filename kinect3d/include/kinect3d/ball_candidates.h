@@ -57,7 +57,7 @@ class BallCandidateFinder {
   // Scratch for the grouping, reused between frames.
   mutable VoxelSet grouped_;
   mutable std::vector<VoxelIndex> stack_;
-  mutable std::vector<VoxelIndex> foreign_;
+  mutable std::vector<std::uint8_t> blocked_;  // per core placement: holds something else
 };
 
 }  // namespace kinect3d

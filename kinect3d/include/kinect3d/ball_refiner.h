@@ -25,8 +25,6 @@ struct BallFit {
   Eigen::Matrix3d covariance_m2 = Eigen::Matrix3d::Identity();
   fw::BallState state = fw::BallState::kAir;
   int points = 0;
-  double range_m = 0.0;
-  double rms_m = 0.0;  // residual of the sphere fit
 };
 
 class BallRefiner {

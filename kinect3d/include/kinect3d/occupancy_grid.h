@@ -43,6 +43,14 @@ class OccupancyGrid {
     return inside(v) && occupied_[flat(v)] != 0;
   }
   int count(const VoxelIndex& v) const { return inside(v) ? counts_[flat(v)] : 0; }
+
+  // Occupied voxels are also counted per block of kBlock^3 voxels, so scans of a neighbourhood
+  // can skip empty space a block at a time.
+  static constexpr int kBlock = 4;
+  bool blockOccupied(int bx, int by, int bz) const {
+    if (bx < 0 || by < 0 || bz < 0 || bx >= blocks_[0] || by >= blocks_[1] || bz >= blocks_[2]) return false;
+    return block_counts_[(static_cast<std::size_t>(bz) * blocks_[1] + by) * blocks_[0] + bx] != 0;
+  }
   const std::vector<VoxelIndex>& occupiedVoxels() const { return occupied_list_; }
 
   VoxelIndex indexOf(const Eigen::Vector3f& p_R) const;
@@ -62,6 +70,9 @@ class OccupancyGrid {
     return (static_cast<std::size_t>(v[2]) * size_[1] + v[1]) * size_[0] + v[0];
   }
   void recentre(const Eigen::Vector3f& sensor_R);
+  std::uint16_t& blockCount(const VoxelIndex& v) {
+    return block_counts_[(static_cast<std::size_t>(v[2] / kBlock) * blocks_[1] + v[1] / kBlock) * blocks_[0] + v[0] / kBlock];
+  }
 
   Config config_;
   double full_face_points_at_1m_;  // (voxel f / stride)^2: points on a full voxel face at 1 m
@@ -71,6 +82,8 @@ class OccupancyGrid {
   Eigen::Vector3f region_centre_{Eigen::Vector3f::Constant(1e9f)};
   std::vector<std::uint16_t> counts_, previous_counts_;
   std::vector<std::uint8_t> occupied_;
+  VoxelIndex blocks_{0, 0, 0};
+  std::vector<std::uint16_t> block_counts_;
   std::vector<std::uint32_t> touched_, previous_touched_;  // flat indices with a count
   std::vector<VoxelIndex> occupied_list_;
 };

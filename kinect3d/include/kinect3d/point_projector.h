@@ -18,16 +18,8 @@
 
 namespace kinect3d {
 
-// Points of one frame in the robot frame (structure of arrays, reused between frames).
-struct PointSet {
-  std::vector<Eigen::Vector3f> p_R;
-  std::vector<float> range_m;  // optical depth, for range-dependent thresholds
-  void clear() {
-    p_R.clear();
-    range_m.clear();
-  }
-  std::size_t size() const { return p_R.size(); }
-};
+// Points of one frame in the robot frame (reused between frames).
+using PointSet = std::vector<Eigen::Vector3f>;
 
 class PointProjector {
  public:
