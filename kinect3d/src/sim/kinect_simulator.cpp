@@ -77,7 +77,6 @@ struct PlacedShape {
   Eigen::Matrix3d R_L_S;  // sensor directions into the shape's local frame
   Eigen::Vector3d o_L;    // the sensor origin in the local frame
   Eigen::Vector3d half;   // box half extents; cylinder (r, r, height); sphere (r, r, r)
-  double dropout;
 
   // Optical depth of the nearest hit in front of the sensor, or infinity.
   double intersect(const Eigen::Vector3d& d_S) const {
@@ -255,7 +254,7 @@ void KinectSimulator::render(int frame_index, DepthFrame& frame, GroundTruth& tr
       const Eigen::Matrix3d R_L_R =
           Eigen::AngleAxisd(-shape.yaw_rad, Eigen::Vector3d::UnitZ()).toRotationMatrix();
       PlacedShape placed{shape.kind, R_L_R * R_R_S, R_L_R * (o_R - shape.center_m - offset_R),
-                         shape.size_m / 2.0, shape.dropout};
+                         shape.size_m / 2.0};
       if (shape.kind == Shape::Kind::kCylinder) placed.half.z() = shape.size_m.z();
       r.placed.push_back(placed);
       r.shape_dropout.push_back(shape.dropout);
@@ -303,7 +302,7 @@ void KinectSimulator::render(int frame_index, DepthFrame& frame, GroundTruth& tr
       const double tk = samples == 1 ? t : t + noise.exposure_s * (double(k) / (samples - 1) - 0.5);
       ball_at[k] = PlacedShape{Shape::Kind::kSphere, Eigen::Matrix3d::Identity(),
                                -(T_R_S.inverse() * ball_motion_->positionAt(tk)),
-                               Eigen::Vector3d::Constant(radius), 0.0};
+                               Eigen::Vector3d::Constant(radius)};
       const PixelRect rk = rectOf(ball_at[k].corners_S());
       rect = {std::min(rect.u0, rk.u0), std::min(rect.v0, rk.v0), std::max(rect.u1, rk.u1),
               std::max(rect.v1, rk.v1)};
