@@ -24,6 +24,7 @@
 #include "framework_api/config.h"
 #include "kinect3d/ball_detector.h"
 #include "kinect3d/config_io.h"
+#include "kinect3d/sim/evaluation.h"
 #include "kinect3d/sim/kinect_simulator.h"
 
 namespace {
@@ -56,10 +57,8 @@ std::string cpuModel() {
 struct Percentiles {
   double p50_ms, p99_ms;
 };
-Percentiles percentiles(std::vector<double> seconds) {
-  std::sort(seconds.begin(), seconds.end());
-  auto at = [&](double q) { return 1e3 * seconds[std::min(seconds.size() - 1, std::size_t(q * seconds.size()))]; };
-  return {at(0.5), at(0.99)};
+Percentiles percentiles(const std::vector<double>& seconds) {
+  return {1e3 * kinect3d::sim::quantile(seconds, 0.5), 1e3 * kinect3d::sim::quantile(seconds, 0.99)};
 }
 
 // Every valid pixel in the robot frame above the floor margin: what the baselines start from.

@@ -5,6 +5,7 @@
 #include <fstream>
 
 #include "framework_api/config.h"
+#include "scoped_temp_dir.h"
 
 namespace {
 
@@ -14,8 +15,6 @@ namespace fs = std::filesystem;
 class ConfigTest : public ::testing::Test {
  protected:
   void SetUp() override {
-    char pattern[] = "/tmp/config_test_XXXXXX";
-    root_ = mkdtemp(pattern);
     fs::create_directories(root_ / "defaults");
     write("defaults/host.yaml", "host:\n  robot_name: unnamed\n  plugins: []\n");
     write("defaults/sensor.yaml",
@@ -28,7 +27,6 @@ class ConfigTest : public ::testing::Test {
           "  grid:\n"
           "    core_voxels: 3\n");
   }
-  void TearDown() override { fs::remove_all(root_); }
 
   std::string write(const std::string& name, const std::string& text) {
     const fs::path path = root_ / name;
@@ -52,7 +50,8 @@ class ConfigTest : public ::testing::Test {
   }
   std::string robotPath() const { return (root_ / "robot.yaml").string(); }
 
-  fs::path root_;
+  ScopedTempDir temp_;
+  const fs::path root_ = temp_.path();
 };
 
 TEST_F(ConfigTest, MergesDefaultsThenRobotThenCommandLine) {

@@ -9,6 +9,7 @@
 #include "kinect3d/kinect_disparity.h"
 #include "kinect3d/sim/kinect_simulator.h"
 #include "kinect3d/sim/sequence_writer.h"
+#include "scoped_temp_dir.h"
 
 namespace {
 
@@ -21,11 +22,6 @@ const std::string kRealTum = std::string(REAL_DEPTH_DIR) + "/tum_depth.png";
 
 class TumDir : public ::testing::Test {
  protected:
-  void SetUp() override {
-    char pattern[] = "/tmp/tum_test_XXXXXX";
-    dir_ = mkdtemp(pattern);
-  }
-  void TearDown() override { fs::remove_all(dir_); }
   void write(const std::string& name, const std::string& text) { std::ofstream(dir_ / name) << text; }
   std::string errorOpening() {
     try {
@@ -39,7 +35,8 @@ class TumDir : public ::testing::Test {
     ADD_FAILURE() << "expected a DepthSourceError";
     return "";
   }
-  fs::path dir_;
+  ScopedTempDir temp_;
+  const fs::path dir_ = temp_.path();
 };
 
 TEST_F(TumDir, ReadsTheRealKinectFrame) {
@@ -146,8 +143,8 @@ TEST(SimSource, DeliversTheSceneThenEnds) {
 }
 
 TEST(SimSource, WrittenSequenceReadsBackIdentically) {
-  char pattern[] = "/tmp/sim_seq_XXXXXX";
-  const std::string dir = mkdtemp(pattern);
+  const ScopedTempDir temp;
+  const std::string dir = temp.path().string();
   kinect3d::sim::KinectSimulator simulator(kinect3d::sim::loadScene("kick_away"));
   kinect3d::sim::TumSequenceWriter writer(dir);
   std::vector<DepthFrame> written(4);
@@ -167,7 +164,6 @@ TEST(SimSource, WrittenSequenceReadsBackIdentically) {
   }
   EXPECT_EQ(source->read(frame), ReadResult::kEnd);
   EXPECT_TRUE(fs::file_size(dir + "/truth.json") > 100);
-  fs::remove_all(dir);
 }
 
 }  // namespace

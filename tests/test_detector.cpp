@@ -11,6 +11,7 @@
 #include "kinect3d/depth_source.h"
 #include "kinect3d/kinect_disparity.h"
 #include "kinect3d/sim/evaluation.h"
+#include "scoped_temp_dir.h"
 #include "sim_test_scenes.h"
 
 namespace {
@@ -208,8 +209,8 @@ TEST(BallDetector, NoPhantomsInClutter) {
 
 TEST(BallDetector, NoPhantomsOnRealKinectFrames) {
   DetectorConfig config = kinect3d::readDetectorConfig(shippedConfig().block("kinect3d"));  // floor search
-  char pattern[] = "/tmp/real_tum_XXXXXX";
-  const std::string dir = mkdtemp(pattern);
+  const ScopedTempDir temp;
+  const std::string dir = temp.path().string();
   std::ofstream(dir + "/depth.txt") << "0 " << REAL_DEPTH_DIR << "/tum_depth.png\n";
   auto source = kinect3d::openDepthSource("tum:" + dir);
   DepthFrame frame;
@@ -223,7 +224,6 @@ TEST(BallDetector, NoPhantomsOnRealKinectFrames) {
   nyu.detect(kinect3d::loadRawDisparityPgm(std::string(REAL_DEPTH_DIR) + "/nyu_raw_disparity.pgm"), detections);
   EXPECT_TRUE(detections.aligned) << "the room's floor is found";
   EXPECT_TRUE(detections.balls.empty());
-  std::filesystem::remove_all(dir);
 }
 
 TEST(BallDetector, FindsTheFloorWhenNoPoseIsConfigured) {

@@ -11,6 +11,7 @@
 #include "kinect3d/depth_source.h"
 #include "kinect3d/oni_recording.h"
 #include "kinect3d/sim/kinect_simulator.h"
+#include "scoped_temp_dir.h"
 
 namespace {
 
@@ -41,12 +42,8 @@ std::vector<DepthFrame> simulatorFrames(const std::string& scene, int count) {
 
 class OniRecording : public ::testing::Test {
  protected:
-  void SetUp() override {
-    char pattern[] = "/tmp/openni2_test_XXXXXX";
-    dir_ = mkdtemp(pattern);
-  }
-  void TearDown() override { fs::remove_all(dir_); }
-  fs::path dir_;
+  ScopedTempDir temp_;
+  const fs::path dir_ = temp_.path();
 };
 
 TEST(OpenNI2Device, DeliversTheSimulatorsFrames) {

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -21,12 +22,6 @@ std::string format(const char* pattern, double value) {
   char text[64];
   std::snprintf(text, sizeof text, pattern, value);
   return text;
-}
-
-double quantile(std::vector<double> values, double q) {
-  if (values.empty()) return NAN;
-  std::sort(values.begin(), values.end());
-  return values[std::min(values.size() - 1, static_cast<std::size_t>(q * values.size()))];
 }
 
 // The detector as a robot running the scene would be configured: shipped settings, scene pose.
@@ -103,13 +98,13 @@ void kicks(const fw::Config& config, const ReportOptions& options, std::ostream&
     total.add(score);
     md << "| `" << name << "` | " << score.frames << " | " << score.eligible << " | " << score.found
        << format(" (%.1f %%)", 100.0 * score.recall()) << " | " << score.reported << " | " << score.off_truth
-       << " | " << format("%.1f cm", quantile(score.errors_m, 0.5) * 100) << " | "
-       << format("%.1f cm", quantile(score.errors_m, 0.95) * 100) << " |\n";
+       << " | " << format("%.1f cm", sim::quantile(score.errors_m, 0.5) * 100) << " | "
+       << format("%.1f cm", sim::quantile(score.errors_m, 0.95) * 100) << " |\n";
   }
   md << "| **all** | " << total.frames << " | " << total.eligible << " | " << total.found
      << format(" (%.1f %%)", 100.0 * total.recall()) << " | " << total.reported << " | " << total.off_truth
-     << " | " << format("%.1f cm", quantile(total.errors_m, 0.5) * 100) << " | "
-     << format("%.1f cm", quantile(total.errors_m, 0.95) * 100) << " |\n\n"
+     << " | " << format("%.1f cm", sim::quantile(total.errors_m, 0.5) * 100) << " | "
+     << format("%.1f cm", sim::quantile(total.errors_m, 0.95) * 100) << " |\n\n"
      << "Found in counted frames: " << format("%.1f %%", 100.0 * total.recall())
      << (total.recall() >= 0.95 ? " (target met)" : " (**target not met**)") << "; reported balls off the truth: "
      << total.off_truth << (total.off_truth == 0 ? " (target met)" : " (**target not met**)") << ".\n\n";
@@ -144,12 +139,13 @@ void phantoms(const fw::Config& config, const ReportOptions& options, std::ostre
   // Neither shows a ball; the floor is searched for as a robot without a configured pose would.
   DetectorConfig detector = readDetectorConfig(config.block("kinect3d"));
   detector.ground.pose.reset();
-  const std::string tum_dir = "/tmp/kinect3d_report_tum";
-  std::filesystem::create_directories(tum_dir);
+  std::string tum_dir = (std::filesystem::temp_directory_path() / "kinect3d_report_XXXXXX").string();
+  if (mkdtemp(tum_dir.data()) == nullptr) throw std::runtime_error("cannot create " + tum_dir);
   std::ofstream(tum_dir + "/depth.txt") << "0 " << options.real_depth_dir << "/tum_depth.png\n";
   int frames = 0;
   auto tum = openDepthSource("tum:" + tum_dir);
   const int tum_balls = detectionsOn(*tum, detector, frames);
+  std::filesystem::remove_all(tum_dir);
   md << "| real Kinect frame `tum_depth.png` (office) | " << frames << " | " << tum_balls << " | - | 0: "
      << (tum_balls == 0 ? "met" : "**not met**") << " |\n";
 

@@ -155,17 +155,11 @@ void scoreFlight(const std::vector<sim::EvaluatedFrame>& frames, const sim::Scen
   result.without_reset += resets_when_tracked >= 0 && estimator->resets() == resets_when_tracked;
 }
 
-double quantile(std::vector<double> values, double q) {
-  if (values.empty()) return NAN;
-  std::sort(values.begin(), values.end());
-  return values[std::min(values.size() - 1, static_cast<std::size_t>(q * values.size()))];
-}
-
 std::string cell(const std::vector<double>& values, double scale, const char* unit) {
   if (values.empty()) return "-";
   char text[96];
-  std::snprintf(text, sizeof text, "%.2f / %.2f %s (n = %zu)", quantile(values, 0.5) * scale,
-                quantile(values, 0.9) * scale, unit, values.size());
+  std::snprintf(text, sizeof text, "%.2f / %.2f %s (n = %zu)", sim::quantile(values, 0.5) * scale,
+                sim::quantile(values, 0.9) * scale, unit, values.size());
   return text;
 }
 
@@ -229,7 +223,7 @@ void writeTrajectoryReport(const fw::Config& config, const std::string& out_path
     for (const double us : r.update_us) sum += us;
     char text[64];
     std::snprintf(text, sizeof text, "%.1f / %.1f us", sum / std::max<std::size_t>(1, r.update_us.size()),
-                  quantile(r.update_us, 0.99));
+                  sim::quantile(r.update_us, 0.99));
     return std::string(text);
   }, "<= 20 us");
   md << "\nThe shipped mode is `" << (shipped.mode == TrajectoryConfig::Mode::kPaper ? "paper" : "ballistic")

@@ -1,8 +1,8 @@
 #include "kinect3d/ball_detector.h"
 
+#include <chrono>
 #include <cmath>
 #include <utility>
-#include <chrono>
 
 namespace kinect3d {
 
@@ -10,6 +10,17 @@ namespace {
 using Clock = std::chrono::steady_clock;
 double secondsBetween(Clock::time_point a, Clock::time_point b) {
   return std::chrono::duration<double>(b - a).count();
+}
+
+// The mask's early plausibility cut: a whole ball of radius r covers pi (f r / z)^2 pixels at
+// range z, 1/stride^2 of them on the grid. A group needs half the share the refiner later demands
+// of the full-resolution pixels (its voxels below the occupancy threshold are not counted).
+BallCandidateFinder::Config maskConfig(const DetectorConfig& config, double focal_px) {
+  BallCandidateFinder::Config mask = config.mask;
+  const double stride = config.points.pixel_stride;
+  mask.min_points_at_1m = 0.5 * config.ball.min_visible_fraction * M_PI *
+                          std::pow(focal_px * config.ball.radius_m / stride, 2);
+  return mask;
 }
 }  // namespace
 
@@ -23,19 +34,6 @@ double StageTimes::total() const {
   for (const double s : seconds) sum += s;
   return sum;
 }
-
-namespace {
-// The mask's early plausibility cut: a whole ball of radius r covers pi (f r / z)^2 pixels at
-// range z, 1/stride^2 of them on the grid. A group needs half the share the refiner later demands
-// of the full-resolution pixels (its voxels below the occupancy threshold are not counted).
-BallCandidateFinder::Config maskConfig(const DetectorConfig& config, double focal_px) {
-  BallCandidateFinder::Config mask = config.mask;
-  const double stride = config.points.pixel_stride;
-  mask.min_points_at_1m = 0.5 * config.ball.min_visible_fraction * M_PI *
-                          std::pow(focal_px * config.ball.radius_m / stride, 2);
-  return mask;
-}
-}  // namespace
 
 BallDetector::BallDetector(const DetectorConfig& config)
     : config_(config), ground_(config.ground), projector_(config.points) {}
@@ -55,9 +53,8 @@ void BallDetector::detect(const DepthFrame& frame, Detections& out) {
   out.aligned = T_R_S_.has_value();
   if (!T_R_S_) return;
 
-  if (!grid_ || !(frame.intrinsics == projector_intrinsics_)) {
+  if (!grid_ || !(frame.intrinsics == projector_.intrinsics())) {
     projector_.setIntrinsics(frame.intrinsics);
-    projector_intrinsics_ = frame.intrinsics;
     grid_ = std::make_unique<OccupancyGrid>(config_.grid, frame.intrinsics.fx, config_.points.pixel_stride);
     finder_ = std::make_unique<BallCandidateFinder>(maskConfig(config_, frame.intrinsics.fx));
     refiner_ = std::make_unique<BallRefiner>(config_.ball,

@@ -61,7 +61,6 @@ class BallDetector {
   std::unique_ptr<BallCandidateFinder> finder_;
   std::unique_ptr<BallRefiner> refiner_;
   std::optional<Eigen::Isometry3d> T_R_S_;
-  Intrinsics projector_intrinsics_{0, 0, 0, 0, 0, 0};
   PointSet points_;
   std::vector<BallCandidate> candidates_;
 };

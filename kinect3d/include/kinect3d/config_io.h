@@ -2,6 +2,8 @@
 // framework_api; the algorithms never see configuration, only the structs made here.
 #pragma once
 
+#include <cmath>
+
 #include "framework_api/config.h"
 #include "kinect3d/ball_detector.h"
 #include "kinect3d/depth_frame.h"
@@ -9,6 +11,9 @@
 #include "kinect3d/trajectory.h"
 
 namespace kinect3d {
+
+// Configuration writes angles in degrees; code works in radians.
+inline double degreesToRadians(double degrees) { return degrees * M_PI / 180.0; }
 
 // The fixed interface {x, y, z (metres), yaw_deg, pitch_deg, roll_deg}; every key is required.
 SensorPose readSensorPose(const fw::ConfigView& pose);

@@ -57,6 +57,7 @@ class PointProjector {
 
   // Must be called when the intrinsics change (the tolerance depends on the focal length).
   void setIntrinsics(const Intrinsics& intrinsics);
+  const Intrinsics& intrinsics() const { return intrinsics_; }
 
  private:
   Config config_;

@@ -12,8 +12,6 @@ namespace kinect3d::sim {
 
 namespace {
 
-double radians(double degrees) { return degrees * M_PI / 180.0; }
-
 // Optional keys: absent keeps the default in `value`, present is checked like any other value.
 void readOptional(const fw::ConfigView& view, const std::string& key, double& value, double min, double max) {
   if (view.has(key)) value = view.getDouble(key, min, max);
@@ -30,7 +28,7 @@ Eigen::Vector3d vector3(const fw::ConfigView& view, const std::string& key) {
 // Standard obstacles, sized from the MSL rules and the reference notes.
 std::vector<Shape> shapesOf(const fw::ConfigView& object, const std::string& type) {
   const Eigen::Vector3d base = vector3(object, "center");
-  const double yaw = object.has("yaw_deg") ? radians(object.getDouble("yaw_deg", -360, 360)) : 0.0;
+  const double yaw = object.has("yaw_deg") ? degreesToRadians(object.getDouble("yaw_deg", -360, 360)) : 0.0;
   const double dropout = object.has("dropout") ? object.getDouble("dropout", 0.0, 1.0) : 0.0;
   auto box = [&](Eigen::Vector3d offset, Eigen::Vector3d size) {
     const Eigen::Vector3d center = base + Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()) * offset;
