@@ -1,4 +1,4 @@
-// The simulator against the Kinect v1 facts in shared/reference/kinect-v1-depth.md.
+// The simulator against the Kinect v1 facts listed in docs/simulator.md.
 #include <gtest/gtest.h>
 
 #include <opencv2/imgcodecs.hpp>

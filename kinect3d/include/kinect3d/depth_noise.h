@@ -1,4 +1,4 @@
-// The Kinect v1's depth error as a function of range (shared/reference/kinect-v1-depth.md):
+// The Kinect v1's depth error as a function of range (docs/simulator.md lists the sources):
 // quantised disparity and Gaussian axial noise, both growing with the square of the range.
 // The simulator draws from it, the detector scales its tolerances with it, and the observations'
 // covariances come from it.
