@@ -6,6 +6,7 @@
 #include <fstream>
 
 #include "kinect3d/depth_source.h"
+#include "kinect3d/sim/sim_sources.h"
 #include "kinect3d/kinect_disparity.h"
 #include "kinect3d/sim/kinect_simulator.h"
 #include "kinect3d/sim/sequence_writer.h"
@@ -25,7 +26,7 @@ class TumDir : public ::testing::Test {
   void write(const std::string& name, const std::string& text) { std::ofstream(dir_ / name) << text; }
   std::string errorOpening() {
     try {
-      auto source = kinect3d::openDepthSource("tum:" + dir_.string());
+      auto source = kinect3d::sim::sourcesWithSimulator().open("tum:" + dir_.string());
       DepthFrame frame;
       while (source->read(frame) == ReadResult::kFrame) {
       }
@@ -41,7 +42,7 @@ class TumDir : public ::testing::Test {
 
 TEST_F(TumDir, ReadsTheRealKinectFrame) {
   write("depth.txt", "# real frame\n1305031102.160407 " + kRealTum + "\n");
-  auto source = kinect3d::openDepthSource(dir_.string());  // a bare folder path works too
+  auto source = kinect3d::sim::sourcesWithSimulator().open(dir_.string());  // a bare folder path works too
   DepthFrame frame;
   ASSERT_EQ(source->read(frame), ReadResult::kFrame);
   EXPECT_EQ(frame.width(), 640);
@@ -59,7 +60,7 @@ TEST_F(TumDir, ReadsTheRealKinectFrame) {
 TEST_F(TumDir, CameraFileSetsIntrinsicsAndScale) {
   write("depth.txt", "0.0 " + kRealTum + "\n");
   write("camera.yaml", "width: 640\nheight: 480\nfx: 591.1\nfy: 590.1\ncx: 331.0\ncy: 234.0\ndepth_scale: 2500\n");
-  auto source = kinect3d::openDepthSource("tum:" + dir_.string());
+  auto source = kinect3d::sim::sourcesWithSimulator().open("tum:" + dir_.string());
   DepthFrame frame;
   ASSERT_EQ(source->read(frame), ReadResult::kFrame);
   EXPECT_DOUBLE_EQ(frame.intrinsics.fx, 591.1);
@@ -87,7 +88,7 @@ TEST_F(TumDir, UnreadableFramesAreReportedAndSkipped) {
   cv::imwrite((dir_ / "eight_bit.png").string(), cv::Mat(480, 640, CV_8UC1, cv::Scalar(10)));
   write("depth.txt", "0.0 " + kRealTum + "\n0.033 small.png\n0.066 missing.png\n0.1 eight_bit.png\n0.133 " +
                          kRealTum + "\n");
-  auto source = kinect3d::openDepthSource("tum:" + dir_.string());
+  auto source = kinect3d::sim::sourcesWithSimulator().open("tum:" + dir_.string());
   DepthFrame frame;
   int frames = 0;
   while (source->read(frame) == ReadResult::kFrame) ++frames;
@@ -102,7 +103,7 @@ TEST_F(TumDir, UnreadableFramesAreReportedAndSkipped) {
 TEST(DepthSource, UnknownSchemeAndMissingPaths) {
   auto errorOf = [](const std::string& uri) {
     try {
-      kinect3d::openDepthSource(uri);
+      kinect3d::sim::sourcesWithSimulator().open(uri);
     } catch (const DepthSourceError& e) {
       return std::string(e.what());
     }
@@ -117,6 +118,20 @@ TEST(DepthSource, UnknownSchemeAndMissingPaths) {
             std::string::npos);
 }
 
+TEST(DepthSourceTable, HoldsOnlyWhatTheApplicationAdds) {
+  kinect3d::DepthSourceTable table = kinect3d::DepthSourceTable::core();
+  EXPECT_EQ(table.schemes(), (std::vector<std::string>{"oni", "openni2", "tum"}));
+  try {
+    table.open("sim:hung_3m");
+    FAIL() << "the core alone opened the simulator";
+  } catch (const DepthSourceError& e) {
+    EXPECT_NE(std::string(e.what()).find("expected one of oni:, openni2:, tum:"), std::string::npos) << e.what();
+  }
+  kinect3d::sim::addSimulatorSource(table);
+  EXPECT_EQ(table.open("sim:hung_3m")->describe(), "sim:hung_3m");
+  EXPECT_THROW(kinect3d::sim::addSimulatorSource(table), std::invalid_argument);
+}
+
 TEST(RawDisparity, ConvertsTheRealNyuFrame) {
   EXPECT_EQ(kinect3d::rawDisparityToMetres(2047), 0.0);
   EXPECT_NEAR(kinect3d::rawDisparityToMetres(700), 1.0 / (700 * -0.0030711016 + 3.3309495161), 1e-12);
@@ -129,7 +144,7 @@ TEST(RawDisparity, ConvertsTheRealNyuFrame) {
 }
 
 TEST(SimSource, DeliversTheSceneThenEnds) {
-  auto source = kinect3d::openDepthSource("sim:hung_3m");
+  auto source = kinect3d::sim::sourcesWithSimulator().open("sim:hung_3m");
   EXPECT_EQ(source->frameCount(), 90u);
   DepthFrame frame;
   std::uint64_t frames = 0;
@@ -154,7 +169,7 @@ TEST(SimSource, WrittenSequenceReadsBackIdentically) {
     writer.write(written[i]);
   }
   kinect3d::sim::writeTruthJson(dir + "/truth.json", simulator.scene(), truth);
-  auto source = kinect3d::openDepthSource("tum:" + dir);
+  auto source = kinect3d::sim::sourcesWithSimulator().open("tum:" + dir);
   DepthFrame frame;
   for (int i = 0; i < 4; ++i) {
     ASSERT_EQ(source->read(frame), ReadResult::kFrame);

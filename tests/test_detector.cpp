@@ -9,6 +9,7 @@
 #include "kinect3d/ball_detector.h"
 #include "kinect3d/config_io.h"
 #include "kinect3d/depth_source.h"
+#include "kinect3d/sim/sim_sources.h"
 #include "kinect3d/kinect_disparity.h"
 #include "kinect3d/sim/evaluation.h"
 #include "scoped_temp_dir.h"
@@ -212,7 +213,7 @@ TEST(BallDetector, NoPhantomsOnRealKinectFrames) {
   const ScopedTempDir temp;
   const std::string dir = temp.path().string();
   std::ofstream(dir + "/depth.txt") << "0 " << REAL_DEPTH_DIR << "/tum_depth.png\n";
-  auto source = kinect3d::openDepthSource("tum:" + dir);
+  auto source = kinect3d::sim::sourcesWithSimulator().open("tum:" + dir);
   DepthFrame frame;
   ASSERT_EQ(source->read(frame), kinect3d::ReadResult::kFrame);
   kinect3d::Detections detections;

@@ -9,6 +9,7 @@
 
 #include "kinect3d/ball_detector.h"
 #include "kinect3d/depth_source.h"
+#include "kinect3d/sim/sim_sources.h"
 #include "kinect3d/oni_recording.h"
 #include "kinect3d/sim/kinect_simulator.h"
 #include "scoped_temp_dir.h"
@@ -47,7 +48,7 @@ class OniRecording : public ::testing::Test {
 };
 
 TEST(OpenNI2Device, DeliversTheSimulatorsFrames) {
-  auto source = kinect3d::openDepthSource("openni2:" + kinect3d::simulatedDeviceUri("hung_3m", 8));
+  auto source = kinect3d::sim::sourcesWithSimulator().open("openni2:" + kinect3d::sim::simulatedDeviceUri("hung_3m", 8));
   EXPECT_EQ(source->frameCount(), 0u) << "a live device has no known length";
   const std::vector<DepthFrame> live = readFrames(*source, 8);
   const std::vector<DepthFrame> expected = simulatorFrames("hung_3m", 8);
@@ -65,8 +66,8 @@ TEST(OpenNI2Device, DeliversTheSimulatorsFrames) {
 
 TEST_F(OniRecording, RecordingPlaysBackIdentically) {
   const std::string path = (dir_ / "hung_3m.oni").string();
-  kinect3d::recordOni(kinect3d::simulatedDeviceUri("hung_3m", 10), path, 10, 10.0);
-  auto playback = kinect3d::openDepthSource(path);
+  kinect3d::recordOni(kinect3d::sim::simulatedDeviceUri("hung_3m", 10), path, 10, 10.0);
+  auto playback = kinect3d::sim::sourcesWithSimulator().open(path);
   EXPECT_EQ(playback->describe(), "oni:" + path);
   EXPECT_EQ(playback->frameCount(), 10u);
   const std::vector<DepthFrame> played = readFrames(*playback, 20);
@@ -88,7 +89,7 @@ TEST_F(OniRecording, RecordingPlaysBackIdentically) {
 
 TEST_F(OniRecording, TruncatedRecordingIsAnErrorNamingTheFile) {
   const std::string path = (dir_ / "full.oni").string();
-  kinect3d::recordOni(kinect3d::simulatedDeviceUri("hung_3m", 6), path, 6, 10.0);
+  kinect3d::recordOni(kinect3d::sim::simulatedDeviceUri("hung_3m", 6), path, 6, 10.0);
   const std::string cut = (dir_ / "cut.oni").string();
   {
     std::ifstream in(path, std::ios::binary);
@@ -96,7 +97,7 @@ TEST_F(OniRecording, TruncatedRecordingIsAnErrorNamingTheFile) {
     std::ofstream(cut, std::ios::binary) << bytes.substr(0, bytes.size() / 3);
   }
   try {
-    auto playback = kinect3d::openDepthSource("oni:" + cut);
+    auto playback = kinect3d::sim::sourcesWithSimulator().open("oni:" + cut);
     readFrames(*playback, 10);
     FAIL() << "a truncated recording must not read as complete";
   } catch (const kinect3d::DepthSourceError& e) {
@@ -106,7 +107,7 @@ TEST_F(OniRecording, TruncatedRecordingIsAnErrorNamingTheFile) {
 
 TEST(OpenNI2Device, CountsDroppedFrames) {
   // Every 4th frame of 12 never arrives: indices 4, 8 and 12. The first two show as gaps.
-  auto source = kinect3d::openDepthSource("openni2:kinect3d-sim://hung_3m?frames=12&drop=4");
+  auto source = kinect3d::sim::sourcesWithSimulator().open("openni2:kinect3d-sim://hung_3m?frames=12&drop=4");
   const std::vector<DepthFrame> frames = readFrames(*source, 9);
   ASSERT_EQ(frames.size(), 9u);
   EXPECT_EQ(frames[3].index, 5u);
@@ -117,7 +118,7 @@ TEST(OpenNI2Device, CountsDroppedFrames) {
 TEST(OpenNI2Device, QuietDeviceIsReopenedWithoutStoppingTheReader) {
   // The device sends 3 frames and goes quiet, as an unplugged Kinect does; after a second of
   // silence the source reopens it and frames flow again, counted from the start.
-  auto source = kinect3d::openDepthSource("openni2:kinect3d-sim://hung_3m?frames=3");
+  auto source = kinect3d::sim::sourcesWithSimulator().open("openni2:kinect3d-sim://hung_3m?frames=3");
   const std::vector<DepthFrame> frames = readFrames(*source, 6);
   ASSERT_EQ(frames.size(), 6u);
   EXPECT_GE(source->counters().reconnects, 1u);
@@ -127,8 +128,8 @@ TEST(OpenNI2Device, QuietDeviceIsReopenedWithoutStoppingTheReader) {
 }
 
 TEST(OpenNI2Device, UnknownDeviceIsAnError) {
-  EXPECT_THROW(kinect3d::openDepthSource("openni2:kinect3d-sim://no_such_scene"), kinect3d::DepthSourceError);
-  EXPECT_THROW(kinect3d::openDepthSource("openni2:/dev/no-such-device"), kinect3d::DepthSourceError);
+  EXPECT_THROW(kinect3d::sim::sourcesWithSimulator().open("openni2:kinect3d-sim://no_such_scene"), kinect3d::DepthSourceError);
+  EXPECT_THROW(kinect3d::sim::sourcesWithSimulator().open("openni2:/dev/no-such-device"), kinect3d::DepthSourceError);
 }
 
 }  // namespace

@@ -8,6 +8,7 @@
 #include "kinect3d/ball_detector.h"
 #include "kinect3d/config_io.h"
 #include "kinect3d/depth_source.h"
+#include "kinect3d/sim/sim_sources.h"
 #include "kinect3d/trajectory.h"
 
 namespace {
@@ -22,7 +23,7 @@ class Kinect3dPlugin : public fw::Plugin {
     options.realtime = context.config.getBool("realtime");
     const std::string uri = context.config.getString("source");
     try {
-      source_ = kinect3d::openDepthSource(uri, options);
+      source_ = kinect3d::sim::sourcesWithSimulator().open(uri, options);
     } catch (const kinect3d::DepthSourceError& e) {
       throw fw::ConfigError(context.config.originOf("source") + ": kinect3d.source: " + e.what());
     }

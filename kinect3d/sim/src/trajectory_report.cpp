@@ -1,6 +1,6 @@
 // `kinect3d report trajectory`: the paper's estimator next to ours on simulated lobs, chips and
 // shots at the goalkeeper (drag and bounces on, every sensor effect on), from the detector's output.
-#include "trajectory_report.h"
+#include "kinect3d/sim/trajectory_report.h"
 
 #include <algorithm>
 #include <chrono>

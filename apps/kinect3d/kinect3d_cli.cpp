@@ -13,13 +13,14 @@
 #include <optional>
 #include <iostream>
 
-#include "accuracy_report.h"
-#include "trajectory_report.h"
+#include "kinect3d/sim/accuracy_report.h"
+#include "kinect3d/sim/trajectory_report.h"
 #include "framework_api/config.h"
 #include "framework_api/log.h"
 #include "kinect3d/ball_detector.h"
 #include "kinect3d/config_io.h"
 #include "kinect3d/depth_source.h"
+#include "kinect3d/sim/sim_sources.h"
 #include "kinect3d/oni_recording.h"
 #include "kinect3d/trajectory.h"
 #include "kinect3d/sim/kinect_simulator.h"
@@ -27,37 +28,8 @@
 
 namespace {
 
-// The scene as a TUM sequence (frames rendered directly) or as an .oni recording (frames served
-// by the simulated OpenNI2 device and recorded by OpenNI2's Recorder, in real time), with its
-// ground truth in truth.json either way.
-int runSimulate(const std::string& scene_name, const std::string& out_dir, const std::string& format,
-                int frames, int seed) {
-  kinect3d::sim::Scene scene = kinect3d::sim::loadScene(scene_name);
-  if (seed >= 0) scene.noise.seed = static_cast<std::uint64_t>(seed);
-  if (frames > 0) scene.duration_s = frames / scene.fps;
-  kinect3d::sim::KinectSimulator simulator(scene);
-  std::vector<kinect3d::sim::GroundTruth> truth(simulator.frameCount());
-  kinect3d::DepthFrame frame;
-  std::unique_ptr<kinect3d::sim::TumSequenceWriter> writer;
-  if (format == "tum") writer = std::make_unique<kinect3d::sim::TumSequenceWriter>(out_dir);
-  std::filesystem::create_directories(out_dir);
-  for (int i = 0; i < simulator.frameCount(); ++i) {
-    simulator.render(i, frame, truth[i]);
-    if (writer) writer->write(frame);
-  }
-  if (format == "oni") {
-    const std::string path = out_dir + "/" + scene.name + ".oni";
-    kinect3d::recordOni(kinect3d::simulatedDeviceUri(scene_name, simulator.frameCount(), seed), path,
-                        simulator.frameCount(), scene.duration_s + 10.0);
-  }
-  kinect3d::sim::writeTruthJson(out_dir + "/truth.json", scene, truth);
-  fw::logInfo("simulate", "wrote " + std::to_string(truth.size()) + " frames of '" + scene.name +
-                              "' to " + out_dir);
-  return 0;
-}
-
 int runInfo(const std::string& uri) {
-  auto source = kinect3d::openDepthSource(uri);
+  auto source = kinect3d::sim::sourcesWithSimulator().open(uri);
   kinect3d::DepthFrame frame;
   std::uint64_t frames = 0;
   double invalid_sum = 0.0, min_m = 0.0, max_m = 0.0, first_t = 0.0, last_t = 0.0;
@@ -115,7 +87,7 @@ int runSnapshot(const std::vector<std::string>& uris, const std::vector<int>& fr
   for (std::size_t i = 0; i < uris.size(); ++i) {
     const std::string& uri = uris[i];
     const int index = frame_numbers.empty() ? 0 : frame_numbers[frame_numbers.size() > 1 ? i : 0];
-    auto source = kinect3d::openDepthSource(uri);
+    auto source = kinect3d::sim::sourcesWithSimulator().open(uri);
     kinect3d::DepthFrame frame;
     int seen = 0;
     for (;;) {
@@ -194,7 +166,7 @@ int runDetect(const std::string& source_uri, const fw::Config& config, const std
   const auto trajectory = kinect3d::makeTrajectoryEstimator(kinect3d::readTrajectoryConfig(block));
   kinect3d::SourceOptions options;
   options.realtime = realtime;
-  auto source = kinect3d::openDepthSource(uri, options);
+  auto source = kinect3d::sim::sourcesWithSimulator().open(uri, options);
 
   std::ofstream file;
   if (!output.empty()) {
@@ -275,7 +247,7 @@ int main(int argc, char** argv) {
 
   CLI11_PARSE(app, argc, argv);
   try {
-    if (*simulate) return runSimulate(scene, out_dir, format, frames, seed);
+    if (*simulate) return kinect3d::sim::writeSimulatedSequence(scene, out_dir, format, frames, seed), 0;
     if (*info) return runInfo(uri);
     if (*snapshot) return runSnapshot(snapshot_uris, snapshot_frames, snapshot_out);
     if (*report) {

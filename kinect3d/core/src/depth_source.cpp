@@ -1,6 +1,7 @@
 #include "kinect3d/depth_source.h"
 
 #include <filesystem>
+#include <stdexcept>
 #include <thread>
 
 #include "framework_api/log.h"
@@ -55,26 +56,49 @@ void DepthSource::reportSkipped(const std::string& what) {
   fw::logWarn("depth", "skipped unreadable frame: " + what);
 }
 
-std::unique_ptr<DepthSource> openDepthSource(const std::string& uri, const SourceOptions& options) {
+DepthSourceTable DepthSourceTable::core() {
+  DepthSourceTable table;
+  table.add("openni2", openOpenNI2Device);
+  table.add("oni", openOniRecording);
+  table.add("tum", openTumSequence);
+  return table;
+}
+
+void DepthSourceTable::add(const std::string& scheme, Opener opener) {
+  if (!openers_.emplace(scheme, std::move(opener)).second) {
+    throw std::invalid_argument("depth source scheme '" + scheme + ":' is already in the table");
+  }
+}
+
+std::vector<std::string> DepthSourceTable::schemes() const {
+  std::vector<std::string> names;
+  for (const auto& entry : openers_) names.push_back(entry.first);
+  return names;
+}
+
+std::string DepthSourceTable::listSchemes() const {
+  std::string list;
+  for (const auto& entry : openers_) list += (list.empty() ? "" : ", ") + entry.first + ":";
+  return list;
+}
+
+std::unique_ptr<DepthSource> DepthSourceTable::open(const std::string& uri, const SourceOptions& options) const {
   namespace fs = std::filesystem;
   const auto colon = uri.find(':');
   const std::string scheme = colon == std::string::npos ? "" : uri.substr(0, colon);
-  const std::string rest = colon == std::string::npos ? uri : uri.substr(colon + 1);
-  if (scheme == "openni2") return openOpenNI2Device(rest, options);
-  if (scheme == "oni") return openOniRecording(rest, options);
-  if (scheme == "tum") return openTumSequence(rest, options);
-  if (scheme == "sim") return openSimulation(rest, options);
   if (scheme.empty() || scheme.find('/') != std::string::npos) {
     // A bare path: recognised by what it is.
-    if (fs::path(uri).extension() == ".oni") return openOniRecording(uri, options);
-    if (fs::is_directory(uri) && fs::exists(fs::path(uri) / "depth.txt")) {
-      return openTumSequence(uri, options);
-    }
+    if (fs::path(uri).extension() == ".oni") return open("oni:" + uri, options);
+    if (fs::is_directory(uri) && fs::exists(fs::path(uri) / "depth.txt")) return open("tum:" + uri, options);
     throw DepthSourceError("'" + uri + "' is neither an .oni file nor a folder holding depth.txt; " +
-                           "use a URI: openni2:, oni:<file>, tum:<dir> or sim:<scene>");
+                           "use a URI with one of the schemes " + listSchemes());
   }
-  throw DepthSourceError("unknown depth source scheme '" + scheme + ":' in '" + uri +
-                         "'; expected openni2:, oni:, tum: or sim:");
+  const auto opener = openers_.find(scheme);
+  if (opener == openers_.end()) {
+    throw DepthSourceError("unknown depth source scheme '" + scheme + ":' in '" + uri + "'; expected one of " +
+                           listSchemes());
+  }
+  return opener->second(uri.substr(colon + 1), options);
 }
 
 }  // namespace kinect3d

@@ -7,6 +7,11 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <memory>
+
+#include "framework_api/log.h"
+#include "kinect3d/oni_recording.h"
+#include "kinect3d/sim/sim_sources.h"
 
 namespace kinect3d::sim {
 
@@ -76,6 +81,31 @@ void writeTruthJson(const std::string& path, const Scene& scene, const std::vect
   std::ofstream out(path);
   out << document.dump(1) << "\n";
   if (!out) throw std::runtime_error("cannot write '" + path + "'");
+}
+
+void writeSimulatedSequence(const std::string& scene_name, const std::string& out_dir, const std::string& format,
+                            int frames, int seed) {
+  Scene scene = loadScene(scene_name);
+  if (seed >= 0) scene.noise.seed = static_cast<std::uint64_t>(seed);
+  if (frames > 0) scene.duration_s = frames / scene.fps;
+  KinectSimulator simulator(scene);
+  std::vector<GroundTruth> truth(simulator.frameCount());
+  DepthFrame frame;
+  std::unique_ptr<TumSequenceWriter> writer;
+  if (format == "tum") writer = std::make_unique<TumSequenceWriter>(out_dir);
+  fs::create_directories(out_dir);
+  for (int i = 0; i < simulator.frameCount(); ++i) {
+    simulator.render(i, frame, truth[i]);
+    if (writer) writer->write(frame);
+  }
+  if (format == "oni") {
+    // The device plays in real time; allow the scene's length and a margin for OpenNI2's start-up.
+    constexpr double kStartupMargin_s = 10.0;
+    recordOni(simulatedDeviceUri(scene_name, simulator.frameCount(), seed), out_dir + "/" + scene.name + ".oni",
+              simulator.frameCount(), scene.duration_s + kStartupMargin_s);
+  }
+  writeTruthJson(out_dir + "/truth.json", scene, truth);
+  fw::logInfo("simulate", "wrote " + std::to_string(truth.size()) + " frames of '" + scene.name + "' to " + out_dir);
 }
 
 }  // namespace kinect3d::sim

@@ -1,17 +1,21 @@
 // Where depth frames come from. The pipeline cannot tell sources apart: a live OpenNI2 device, an
 // .oni recording, a TUM RGB-D sequence and the simulator all deliver DepthFrames through read().
 //
-// URIs (see docs/depth-sources.md):
+// Sources are opened by URI through a DepthSourceTable (see docs/depth-sources.md). The core
+// implements these schemes:
 //   openni2:            first OpenNI2 device       openni2:<device-uri>   a given device
 //   oni:<file>          OpenNI2 recording          <path>.oni             the same
 //   tum:<dir>           TUM RGB-D sequence         <dir with depth.txt>   the same
-//   sim:<scene>         simulator, built-in scene name or scene file (.yaml)
+// An application adds others to its table, e.g. the simulator's sim:<scene> (kinect3d/sim).
 #pragma once
 
 #include <cstdint>
+#include <functional>
+#include <map>
 #include <memory>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include "kinect3d/depth_frame.h"
 
@@ -83,8 +87,29 @@ class DepthSource {
   double first_wall_time_s_ = 0.0;
 };
 
-// Opens the source a URI names. Throws DepthSourceError for an unknown scheme or a source that
-// cannot be opened, naming the URI and the cause.
-std::unique_ptr<DepthSource> openDepthSource(const std::string& uri, const SourceOptions& options = {});
+// The URI schemes an application can open, each with the function that opens it. An application
+// (the plugin, the CLI, a test) starts from the core's schemes and adds its own; nothing registers
+// itself.
+class DepthSourceTable {
+ public:
+  // Opens the part of the URI after "<scheme>:". Throws DepthSourceError when it cannot.
+  using Opener = std::function<std::unique_ptr<DepthSource>(const std::string& rest, const SourceOptions& options)>;
+
+  // openni2:, oni: and tum:.
+  static DepthSourceTable core();
+
+  // Throws std::invalid_argument when the scheme is already in the table.
+  void add(const std::string& scheme, Opener opener);
+  std::vector<std::string> schemes() const;
+
+  // Opens the source a URI names; a bare path is an .oni file or a folder holding depth.txt.
+  // Throws DepthSourceError for an unknown scheme or a source that cannot be opened, naming the
+  // URI and the cause.
+  std::unique_ptr<DepthSource> open(const std::string& uri, const SourceOptions& options = {}) const;
+
+ private:
+  std::string listSchemes() const;  // "openni2:, oni:, tum:"
+  std::map<std::string, Opener> openers_;
+};
 
 }  // namespace kinect3d

@@ -1,4 +1,4 @@
-#include "accuracy_report.h"
+#include "kinect3d/sim/accuracy_report.h"
 
 #include <algorithm>
 #include <cmath>
@@ -143,7 +143,7 @@ void phantoms(const fw::Config& config, const ReportOptions& options, std::ostre
   if (mkdtemp(tum_dir.data()) == nullptr) throw std::runtime_error("cannot create " + tum_dir);
   std::ofstream(tum_dir + "/depth.txt") << "0 " << options.real_depth_dir << "/tum_depth.png\n";
   int frames = 0;
-  auto tum = openDepthSource("tum:" + tum_dir);
+  auto tum = DepthSourceTable::core().open("tum:" + tum_dir);
   const int tum_balls = detectionsOn(*tum, detector, frames);
   std::filesystem::remove_all(tum_dir);
   md << "| real Kinect frame `tum_depth.png` (office) | " << frames << " | " << tum_balls << " | - | 0: "

@@ -24,4 +24,11 @@ class TumSequenceWriter {
 // truth.json: the scene name and one object per frame (see docs/simulator.md).
 void writeTruthJson(const std::string& path, const Scene& scene, const std::vector<GroundTruth>& truth);
 
+// `kinect3d simulate`: the scene (built-in name or file) written to out_dir as a TUM sequence
+// (format "tum", frames rendered directly) or as an .oni recording (format "oni", frames served by
+// the simulated OpenNI2 device and recorded by OpenNI2's Recorder in real time), with truth.json
+// either way. frames 0: the scene's length; seed -1: the scene's own.
+void writeSimulatedSequence(const std::string& scene_name, const std::string& out_dir, const std::string& format,
+                            int frames, int seed);
+
 }  // namespace kinect3d::sim

@@ -255,11 +255,6 @@ std::unique_ptr<DepthSource> openOpenNI2Device(const std::string& device_uri,
   return std::make_unique<OpenNI2Device>(device_uri, options);
 }
 
-std::string simulatedDeviceUri(const std::string& scene, int frames, long seed) {
-  return "kinect3d-sim://" + scene + "?frames=" + std::to_string(frames) +
-         (seed >= 0 ? "&seed=" + std::to_string(seed) : "");
-}
-
 void recordOni(const std::string& device_uri, const std::string& path, int frames, double timeout_s) {
   initialiseOpenNI();
   const std::string label = "openni2:" + device_uri;

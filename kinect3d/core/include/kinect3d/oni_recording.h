@@ -5,11 +5,6 @@
 
 namespace kinect3d {
 
-// The URI that opens the simulator as an OpenNI2 device (see kinect3d/openni2_driver/):
-// "openni2:" + simulatedDeviceUri("kick_away", 20) is a source, the URI alone a device. frames 0:
-// the whole scene; seed -1: the scene's own noise seed.
-std::string simulatedDeviceUri(const std::string& scene, int frames = 0, long seed = -1);
-
 // Records `frames` depth frames of the device at device_uri to path. Throws DepthSourceError
 // naming the device or the file when the device cannot be opened, the file cannot be written, or
 // the frames do not arrive within timeout_s.

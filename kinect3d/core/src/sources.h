@@ -1,4 +1,4 @@
-// Constructors of the concrete sources, for openDepthSource() only. The rest of the code sees the
+// Constructors of the core's concrete sources, for DepthSourceTable::core() only. The rest of the code sees the
 // DepthSource interface.
 #pragma once
 
@@ -10,7 +10,6 @@
 namespace kinect3d {
 
 std::unique_ptr<DepthSource> openTumSequence(const std::string& dir, const SourceOptions& options);
-std::unique_ptr<DepthSource> openSimulation(const std::string& scene, const SourceOptions& options);
 std::unique_ptr<DepthSource> openOpenNI2Device(const std::string& device_uri,
                                                const SourceOptions& options);
 std::unique_ptr<DepthSource> openOniRecording(const std::string& path, const SourceOptions& options);

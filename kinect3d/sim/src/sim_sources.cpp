@@ -1,0 +1,53 @@
+#include "kinect3d/sim/sim_sources.h"
+
+#include "kinect3d/sim/kinect_simulator.h"
+
+namespace kinect3d::sim {
+
+namespace {
+
+// sim:<scene>: frame by frame, as the simulator renders them.
+class Simulation : public DepthSource {
+ public:
+  Simulation(Scene scene, const SourceOptions& options) : DepthSource(options), simulator_(std::move(scene)) {}
+
+  std::uint64_t frameCount() const override { return simulator_.frameCount(); }
+  double frameRate_hz() const override { return simulator_.scene().fps; }
+  std::string describe() const override { return "sim:" + simulator_.scene().name; }
+
+ private:
+  ReadResult readFrame(DepthFrame& frame) override {
+    if (next_ >= simulator_.frameCount()) return ReadResult::kEnd;
+    GroundTruth truth;
+    simulator_.render(next_++, frame, truth);
+    return ReadResult::kFrame;
+  }
+
+  KinectSimulator simulator_;
+  int next_ = 0;
+};
+
+std::unique_ptr<DepthSource> openSimulation(const std::string& scene, const SourceOptions& options) {
+  try {
+    return std::make_unique<Simulation>(loadScene(scene), options);
+  } catch (const std::runtime_error& e) {
+    throw DepthSourceError("sim:" + scene + ": " + e.what());
+  }
+}
+
+}  // namespace
+
+void addSimulatorSource(DepthSourceTable& table) { table.add("sim", openSimulation); }
+
+DepthSourceTable sourcesWithSimulator() {
+  DepthSourceTable table = DepthSourceTable::core();
+  addSimulatorSource(table);
+  return table;
+}
+
+std::string simulatedDeviceUri(const std::string& scene, int frames, long seed) {
+  return "kinect3d-sim://" + scene + "?frames=" + std::to_string(frames) +
+         (seed >= 0 ? "&seed=" + std::to_string(seed) : "");
+}
+
+}  // namespace kinect3d::sim
