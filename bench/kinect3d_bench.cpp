@@ -152,7 +152,7 @@ struct DetectorRun {
 };
 
 DetectorRun runDetector(const std::vector<DepthFrame>& frames, const kinect3d::DetectorConfig& config, int iterations) {
-  kinect3d::BallDetector detector(config);
+  kinect3d::BallDetector detector(config, "kinect3d");
   kinect3d::Detections detections;
   for (const DepthFrame& frame : frames) detector.detect(frame, detections);  // warm up
   DetectorRun run;

@@ -55,9 +55,9 @@ TEST(PointProjector, KeepsSurfacesDropsFlyingPixelsAndFloor) {
   EXPECT_FALSE(projector.isSurface(frame, 501, 300)) << "a neighbour with no data";
 }
 
-// ---- Occupancy grid and its OctoMap tree -------------------------------------------------------
+// ---- Occupancy grid --------------------------------------------------------------------------
 
-TEST(OccupancyGrid, TreeOfRecordFollowsTheCountsFrameByFrame) {
+TEST(OccupancyGrid, CountsFollowEachFrame) {
   kinect3d::OccupancyGrid::Config config;
   config.min_points = 3;
   config.occupied_fraction = 0.0;
@@ -71,8 +71,8 @@ TEST(OccupancyGrid, TreeOfRecordFollowsTheCountsFrameByFrame) {
   addPoints(ball, 5);
   addPoints(wall, 2);
   grid.update(points, sensor);
-  EXPECT_EQ(grid.treeCount(ball), 5u);
-  EXPECT_EQ(grid.treeCount(wall), 2u);
+  EXPECT_EQ(grid.count(grid.indexOf(ball)), 5);
+  EXPECT_EQ(grid.count(grid.indexOf(wall)), 2);
   EXPECT_TRUE(grid.occupied(grid.indexOf(ball)));
   EXPECT_FALSE(grid.occupied(grid.indexOf(wall))) << "below min_points";
   EXPECT_EQ(grid.occupiedVoxels().size(), 1u);
@@ -80,8 +80,8 @@ TEST(OccupancyGrid, TreeOfRecordFollowsTheCountsFrameByFrame) {
   points.clear();
   addPoints(wall, 9);
   grid.update(points, sensor);
-  EXPECT_EQ(grid.treeCount(ball), 0u) << "a voxel that emptied is zero in the tree";
-  EXPECT_EQ(grid.treeCount(wall), 9u);
+  EXPECT_EQ(grid.count(grid.indexOf(ball)), 0) << "a voxel that emptied is zero";
+  EXPECT_EQ(grid.count(grid.indexOf(wall)), 9);
   EXPECT_TRUE(grid.occupied(grid.indexOf(wall)));
   EXPECT_FALSE(grid.occupied(grid.indexOf(ball)));
 }
@@ -217,11 +217,11 @@ TEST(BallDetector, NoPhantomsOnRealKinectFrames) {
   DepthFrame frame;
   ASSERT_EQ(source->read(frame), kinect3d::ReadResult::kFrame);
   kinect3d::Detections detections;
-  kinect3d::BallDetector tum(config);
+  kinect3d::BallDetector tum(config, "kinect3d");
   tum.detect(frame, detections);
   EXPECT_TRUE(detections.aligned) << "the office floor is found";
   EXPECT_TRUE(detections.balls.empty());
-  kinect3d::BallDetector nyu(config);
+  kinect3d::BallDetector nyu(config, "kinect3d");
   nyu.detect(kinect3d::loadRawDisparityPgm(std::string(REAL_DEPTH_DIR) + "/nyu_raw_disparity.pgm"), detections);
   EXPECT_TRUE(detections.aligned) << "the room's floor is found";
   EXPECT_TRUE(detections.balls.empty());
@@ -231,7 +231,7 @@ TEST(BallDetector, FindsTheFloorWhenNoPoseIsConfigured) {
   const sim::Scene scene = sim::loadScene("hung_4m");
   DetectorConfig config = shippedDetector(scene);
   config.ground.pose.reset();
-  kinect3d::BallDetector detector(config);
+  kinect3d::BallDetector detector(config, "kinect3d");
   sim::KinectSimulator simulator(scene);
   DepthFrame frame;
   sim::GroundTruth truth;

@@ -13,22 +13,20 @@
 #include <optional>
 #include <iostream>
 
-#include "kinect3d/sim/accuracy_report.h"
-#include "kinect3d/sim/trajectory_report.h"
 #include "framework_api/config.h"
 #include "framework_api/log.h"
 #include "kinect3d/ball_detector.h"
 #include "kinect3d/config_io.h"
 #include "kinect3d/depth_source.h"
-#include "kinect3d/sim/sim_sources.h"
-#include "kinect3d/oni_recording.h"
 #include "kinect3d/trajectory.h"
-#include "kinect3d/sim/kinect_simulator.h"
+#include "kinect3d/sim/accuracy_report.h"
 #include "kinect3d/sim/sequence_writer.h"
+#include "kinect3d/sim/sim_sources.h"
+#include "kinect3d/sim/trajectory_report.h"
 
 namespace {
 
-int runInfo(const std::string& uri) {
+void runInfo(const std::string& uri) {
   auto source = kinect3d::sim::sourcesWithSimulator().open(uri);
   kinect3d::DepthFrame frame;
   std::uint64_t frames = 0;
@@ -71,32 +69,31 @@ int runInfo(const std::string& uri) {
               intrinsics.cx, intrinsics.cy);
   std::printf("invalid pixels:    %.1f %%\n", 100.0 * invalid_sum / frames);
   std::printf("depth range:       %.3f - %.3f m\n", min_m, max_m);
-  return 0;
+}
+
+// Frame `index` (0 = first) of a source, or an error naming the source when it has fewer.
+kinect3d::DepthFrame readFrame(kinect3d::DepthSource& source, const std::string& uri, int index) {
+  kinect3d::DepthFrame frame;
+  for (int seen = 0;;) {
+    const kinect3d::ReadResult result = source.read(frame);
+    if (result == kinect3d::ReadResult::kEnd) {
+      throw kinect3d::DepthSourceError(uri + ": has no frame " + std::to_string(index));
+    }
+    if (result == kinect3d::ReadResult::kFrame && seen++ == index) return frame;
+  }
 }
 
 // One frame of each source (frame_numbers: one for all, or one per source), colour-mapped on one
 // fixed 0-8 m scale (no data in black), side by side in one PNG, so simulated and real frames can
 // be compared by eye.
-int runSnapshot(const std::vector<std::string>& uris, const std::vector<int>& frame_numbers,
-                const std::string& out) {
-  if (frame_numbers.size() > 1 && frame_numbers.size() != uris.size()) {
-    throw std::runtime_error("--frame: give one frame number, or one per source");
-  }
+void writeDepthPanels(const std::vector<std::string>& uris, const std::vector<int>& frame_numbers,
+                      const std::string& out) {
   constexpr double kMaxDepth_mm = 8000.0;
   std::vector<cv::Mat> panels;
   for (std::size_t i = 0; i < uris.size(); ++i) {
     const std::string& uri = uris[i];
     const int index = frame_numbers.empty() ? 0 : frame_numbers[frame_numbers.size() > 1 ? i : 0];
-    auto source = kinect3d::sim::sourcesWithSimulator().open(uri);
-    kinect3d::DepthFrame frame;
-    int seen = 0;
-    for (;;) {
-      const kinect3d::ReadResult result = source->read(frame);
-      if (result == kinect3d::ReadResult::kEnd) {
-        throw kinect3d::DepthSourceError(uri + ": has no frame " + std::to_string(index));
-      }
-      if (result == kinect3d::ReadResult::kFrame && seen++ == index) break;
-    }
+    kinect3d::DepthFrame frame = readFrame(*kinect3d::sim::sourcesWithSimulator().open(uri), uri, index);
     cv::Mat depth(frame.height(), frame.width(), CV_16UC1, frame.depth_mm.data());
     cv::Mat scaled, coloured;
     depth.convertTo(scaled, CV_8UC1, 255.0 / kMaxDepth_mm);
@@ -109,10 +106,28 @@ int runSnapshot(const std::vector<std::string>& uris, const std::vector<int>& fr
   cv::Mat joined;
   cv::hconcat(panels, joined);
   if (!cv::imwrite(out, joined)) throw std::runtime_error("cannot write '" + out + "'");
-  return 0;
 }
 
-// One detect line: {"frame", "t", "balls": [{"x", "y", "z", "state", "points"}], "process_ms",
+// The scene map the detector builds from the source's frames up to frame `last`, as OctoMap's .bt.
+void writeSceneMap(const std::string& uri, int last, const fw::Config& config, const std::string& out) {
+  kinect3d::BallDetector detector(kinect3d::readDetectorConfig(config.block("kinect3d")), "kinect3d");
+  auto source = kinect3d::sim::sourcesWithSimulator().open(uri);
+  kinect3d::DepthFrame frame;
+  kinect3d::Detections detections;
+  for (int frames = 0; frames <= last;) {
+    const kinect3d::ReadResult result = source->read(frame);
+    if (result == kinect3d::ReadResult::kEnd) throw kinect3d::DepthSourceError(uri + ": has no frame " + std::to_string(last));
+    if (result != kinect3d::ReadResult::kFrame) continue;
+    detector.detect(frame, detections);
+    ++frames;
+  }
+  if (detector.sceneMap() == nullptr) throw std::runtime_error(uri + ": the floor was never found, so there is no map");
+  detector.sceneMap()->writeBinary(out);
+  fw::logInfo("snapshot", "wrote the scene map after " + std::to_string(last + 1) + " frames of " + uri + " to " + out +
+                              " (" + std::to_string(detector.sceneMap()->integrations()) + " ray integrations)");
+}
+
+// One detect line: {"frame", "t", "balls": [{"x", "y", "z", "state", "points", "static"}], "process_ms",
 // "trajectory": null or {"p", "v", "state", "support", "rms_m", "touchdown", "crossing"}};
 // positions to 0.1 mm, times to 1 us (docs/cli.md).
 std::string detectLine(const kinect3d::DepthFrame& frame, const kinect3d::Detections& detections,
@@ -124,9 +139,10 @@ std::string detectLine(const kinect3d::DepthFrame& frame, const kinect3d::Detect
   for (std::size_t i = 0; i < detections.balls.size(); ++i) {
     const fw::BallObservation& ball = detections.balls[i];
     std::snprintf(text, sizeof text,
-                  "%s{\"x\": %.4f, \"y\": %.4f, \"z\": %.4f, \"state\": \"%s\", \"points\": %d}",
+                  "%s{\"x\": %.4f, \"y\": %.4f, \"z\": %.4f, \"state\": \"%s\", \"points\": %d, "
+                  "\"static\": %s}",
                   i ? ", " : "", ball.position_m.x(), ball.position_m.y(), ball.position_m.z(),
-                  fw::toString(ball.state), ball.support_points);
+                  fw::toString(ball.state), ball.support_points, ball.is_static ? "true" : "false");
     line += text;
   }
   std::snprintf(text, sizeof text, "], \"process_ms\": %.3f, \"trajectory\": ", detections.times.total() * 1e3);
@@ -158,11 +174,10 @@ std::string detectLine(const kinect3d::DepthFrame& frame, const kinect3d::Detect
   return line + "}}";
 }
 
-int runDetect(const std::string& source_uri, const fw::Config& config, const std::string& output,
-              bool realtime) {
+void runDetect(const std::string& source_uri, const fw::Config& config, const std::string& output, bool realtime) {
   const fw::ConfigView block = config.block("kinect3d");
   const std::string uri = source_uri.empty() ? block.getString("source") : source_uri;
-  kinect3d::BallDetector detector(kinect3d::readDetectorConfig(block));
+  kinect3d::BallDetector detector(kinect3d::readDetectorConfig(block), "kinect3d");
   const auto trajectory = kinect3d::makeTrajectoryEstimator(kinect3d::readTrajectoryConfig(block));
   kinect3d::SourceOptions options;
   options.realtime = realtime;
@@ -189,7 +204,130 @@ int runDetect(const std::string& source_uri, const fw::Config& config, const std
   }
   fw::logInfo("detect", source->describe() + ": " + std::to_string(frames) + " frames, ball in " +
                             std::to_string(with_ball));
-  return 0;
+}
+
+// The configuration every command that runs the detector takes: the shipped defaults, a robot
+// file, --set overrides.
+struct ConfigOptions {
+  std::string robot_file;
+  std::string defaults_dir = KINECT3D_CONFIG_DIR "/defaults";
+  std::vector<std::string> overrides;
+
+  void addTo(CLI::App* command, bool with_robot_file = true) {
+    if (with_robot_file) {
+      command->add_option("--config", robot_file, "Robot configuration file (default: the shipped defaults)")
+          ->check(CLI::ExistingFile);
+      command->add_option("--set", overrides, "Override a value: --set kinect3d.grid.voxel_m=0.2")->take_all();
+    }
+    command->add_option("--defaults", defaults_dir, "Folder of per-plugin defaults")->capture_default_str();
+  }
+  fw::Config load() const { return fw::Config::load(defaults_dir, robot_file, overrides); }
+};
+
+void addSimulate(CLI::App& app) {
+  struct Options {
+    std::string scene, out_dir, format = "tum";
+    int frames = 0, seed = -1;
+  };
+  auto options = std::make_shared<Options>();
+  CLI::App* command = app.add_subcommand("simulate", "Render a simulated scene to a sequence on disk");
+  command->add_option("scene", options->scene, "Built-in scene name or scene file (.yaml)")->required();
+  command->add_option("--out", options->out_dir, "Output folder")->required();
+  command->add_option("--format", options->format, "Sequence format")
+      ->check(CLI::IsMember({"tum", "oni"}))
+      ->capture_default_str();
+  command->add_option("--frames", options->frames, "Number of frames (default: the scene's duration)")
+      ->check(CLI::PositiveNumber);
+  command->add_option("--seed", options->seed, "Noise seed (default: the scene's)")->check(CLI::NonNegativeNumber);
+  command->callback([options] {
+    kinect3d::sim::writeSimulatedSequence(options->scene, options->out_dir, options->format, options->frames,
+                                          options->seed);
+  });
+}
+
+void addInfo(CLI::App& app) {
+  auto uri = std::make_shared<std::string>();
+  CLI::App* command = app.add_subcommand("info", "Print what a depth source delivers");
+  command->add_option("source", *uri, "Depth source URI: openni2:, oni:<file>, tum:<dir>, sim:<scene>")->required();
+  command->callback([uri] { runInfo(*uri); });
+}
+
+void addSnapshot(CLI::App& app) {
+  struct Options {
+    std::vector<std::string> uris;
+    std::vector<int> frames;
+    std::string png, bt;
+    ConfigOptions config;
+  };
+  auto options = std::make_shared<Options>();
+  CLI::App* command = app.add_subcommand(
+      "snapshot", "Colour-map one frame of each source side by side (--out), or save the scene map (--bt)");
+  command->add_option("sources", options->uris, "Depth source URIs")->required();
+  command->add_option("--frame", options->frames, "Frame number (0 = first): one for all sources, or one per source")
+      ->check(CLI::NonNegativeNumber);
+  command->add_option("--out", options->png, "PNG file to write");
+  command->add_option("--bt", options->bt,
+                      "OctoMap .bt file: the scene map after the detector has run up to --frame on the first source");
+  options->config.addTo(command);
+  command->callback([options] {
+    if (options->png.empty() && options->bt.empty()) throw CLI::ValidationError("snapshot", "give --out, --bt or both");
+    if (options->frames.size() > 1 && options->frames.size() != options->uris.size()) {
+      throw CLI::ValidationError("--frame", "give one frame number, or one per source");
+    }
+    if (!options->png.empty()) writeDepthPanels(options->uris, options->frames, options->png);
+    if (!options->bt.empty()) {
+      const int last = options->frames.empty() ? 0 : options->frames.front();
+      writeSceneMap(options->uris.front(), last, options->config.load(), options->bt);
+    }
+  });
+}
+
+void addDetect(CLI::App& app) {
+  struct Options {
+    std::string source, output;
+    bool realtime = false;
+    ConfigOptions config;
+  };
+  auto options = std::make_shared<Options>();
+  CLI::App* command = app.add_subcommand("detect", "Detect balls in every frame; one JSON line per frame");
+  command->add_option("--source", options->source, "Depth source URI (default: kinect3d.source of the configuration)");
+  options->config.addTo(command);
+  command->add_option("--output", options->output, "Write the JSON lines here instead of stdout");
+  command->add_flag("--realtime", options->realtime, "Pace recordings and the simulator at their frame rate");
+  command->callback([options] {
+    runDetect(options->source, options->config.load(), options->output, options->realtime);
+  });
+}
+
+void addReport(CLI::App& app) {
+  struct Options {
+    std::string kind, out;
+    kinect3d::ReportOptions report;
+    ConfigOptions config;
+  };
+  auto options = std::make_shared<Options>();
+  options->report.real_depth_dir = KINECT3D_REAL_DEPTH_DIR;
+  CLI::App* command =
+      app.add_subcommand("report", "Measure detection accuracy or trajectory prediction on simulated scenes");
+  command->add_option("kind", options->kind, "detection (docs/accuracy.md) or trajectory (docs/trajectory.md)")
+      ->required()
+      ->check(CLI::IsMember({"detection", "trajectory"}));
+  command->add_option("--out", options->out, "Markdown file to write, e.g. docs/accuracy.md")->required();
+  command->add_option("--seeds", options->report.seeds, "detection: noise seeds per kick/shot scene")
+      ->capture_default_str();
+  command->add_option("--clutter-frames", options->report.clutter_frames, "detection: frames of the clutter scene")
+      ->capture_default_str();
+  command->add_option("--real-depth", options->report.real_depth_dir, "detection: folder of the real Kinect frames")
+      ->capture_default_str();
+  options->config.addTo(command, /*with_robot_file=*/false);
+  command->callback([options] {
+    const fw::Config config = options->config.load();
+    if (options->kind == "trajectory") {
+      kinect3d::writeTrajectoryReport(config, options->out);
+    } else {
+      kinect3d::writeAccuracyReport(config, options->report, options->out);
+    }
+  });
 }
 
 }  // namespace
@@ -197,73 +335,16 @@ int runDetect(const std::string& source_uri, const fw::Config& config, const std
 int main(int argc, char** argv) {
   CLI::App app{"Kinect3D: 3D ball perception from depth frames."};
   app.require_subcommand(1);
-
-  std::string scene, out_dir, format = "tum";
-  int frames = 0, seed = -1;
-  CLI::App* simulate = app.add_subcommand("simulate", "Render a simulated scene to a sequence on disk");
-  simulate->add_option("scene", scene, "Built-in scene name or scene file (.yaml)")->required();
-  simulate->add_option("--out", out_dir, "Output folder")->required();
-  simulate->add_option("--format", format, "Sequence format")->check(CLI::IsMember({"tum", "oni"}))->capture_default_str();
-  simulate->add_option("--frames", frames, "Number of frames (default: the scene's duration)")->check(CLI::PositiveNumber);
-  simulate->add_option("--seed", seed, "Noise seed (default: the scene's)")->check(CLI::NonNegativeNumber);
-
-  std::string uri;
-  CLI::App* info = app.add_subcommand("info", "Print what a depth source delivers");
-  info->add_option("source", uri, "Depth source URI: openni2:, oni:<file>, tum:<dir>, sim:<scene>")->required();
-
-  std::vector<std::string> snapshot_uris;
-  std::string snapshot_out;
-  std::vector<int> snapshot_frames;
-  CLI::App* snapshot = app.add_subcommand("snapshot", "Colour-map one frame of each source, side by side, to a PNG");
-  snapshot->add_option("sources", snapshot_uris, "Depth source URIs")->required();
-  snapshot->add_option("--frame", snapshot_frames, "Frame number (0 = first): one for all sources, or one per source")
-      ->check(CLI::NonNegativeNumber);
-  snapshot->add_option("--out", snapshot_out, "PNG file to write")->required();
-
-  std::string detect_source, robot_file, detect_output, defaults_dir = KINECT3D_CONFIG_DIR "/defaults";
-  std::vector<std::string> overrides;
-  bool detect_realtime = false;
-  CLI::App* detect = app.add_subcommand("detect", "Detect balls in every frame; one JSON line per frame");
-  detect->add_option("--source", detect_source, "Depth source URI (default: kinect3d.source of the configuration)");
-  detect->add_option("--config", robot_file, "Robot configuration file (default: the shipped defaults)")
-      ->check(CLI::ExistingFile);
-  detect->add_option("--defaults", defaults_dir, "Folder of per-plugin defaults")->capture_default_str();
-  detect->add_option("--set", overrides, "Override a value: --set kinect3d.grid.voxel_m=0.2")->take_all();
-  detect->add_option("--output", detect_output, "Write the JSON lines here instead of stdout");
-  detect->add_flag("--realtime", detect_realtime, "Pace recordings and the simulator at their frame rate");
-
-  kinect3d::ReportOptions report_options;
-  report_options.real_depth_dir = KINECT3D_REAL_DEPTH_DIR;
-  std::string report_out, report_kind;
-  CLI::App* report = app.add_subcommand("report", "Measure detection accuracy or trajectory prediction on simulated scenes");
-  report->add_option("kind", report_kind, "detection (docs/accuracy.md) or trajectory (docs/trajectory.md)")
-      ->required()
-      ->check(CLI::IsMember({"detection", "trajectory"}));
-  report->add_option("--out", report_out, "Markdown file to write, e.g. docs/accuracy.md")->required();
-  report->add_option("--seeds", report_options.seeds, "detection: noise seeds per kick/shot scene")->capture_default_str();
-  report->add_option("--clutter-frames", report_options.clutter_frames, "detection: frames of the clutter scene")->capture_default_str();
-  report->add_option("--real-depth", report_options.real_depth_dir, "detection: folder of the real Kinect frames")->capture_default_str();
-  report->add_option("--defaults", defaults_dir, "Folder of per-plugin defaults")->capture_default_str();
-
-  CLI11_PARSE(app, argc, argv);
+  addSimulate(app);
+  addInfo(app);
+  addSnapshot(app);
+  addDetect(app);
+  addReport(app);
   try {
-    if (*simulate) return kinect3d::sim::writeSimulatedSequence(scene, out_dir, format, frames, seed), 0;
-    if (*info) return runInfo(uri);
-    if (*snapshot) return runSnapshot(snapshot_uris, snapshot_frames, snapshot_out);
-    if (*report) {
-      const fw::Config config = fw::Config::load(defaults_dir, "", {});
-      if (report_kind == "trajectory") {
-        kinect3d::writeTrajectoryReport(config, report_out);
-      } else {
-        kinect3d::writeAccuracyReport(config, report_options, report_out);
-      }
-      return 0;
-    }
-    if (*detect) {
-      // The shipped defaults, the robot file if given, then --set overrides.
-      return runDetect(detect_source, fw::Config::load(defaults_dir, robot_file, overrides),
-                       detect_output, detect_realtime);
-    }
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    // --help prints and succeeds; every usage error exits 2, as docs/cli.md says.
+    return app.exit(e) == 0 ? 0 : 2;
   } catch (const std::exception& e) {
     fw::logError("kinect3d", e.what());
     return 2;

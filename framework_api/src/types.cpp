@@ -26,6 +26,13 @@ Eigen::Vector3d RobotPose::fieldFromRobot(const Eigen::Vector3d& p_R) const {
   return {x_m + c * p_R.x() - s * p_R.y(), y_m + s * p_R.x() + c * p_R.y(), p_R.z()};
 }
 
+Eigen::Isometry3d RobotPose::T_F_R() const {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear() = Eigen::AngleAxisd(theta_rad, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  T.translation() = Eigen::Vector3d(x_m, y_m, 0.0);
+  return T;
+}
+
 BallObservation BallObservation::inRobotFrame(const Eigen::Vector3d& p_R,
                                               const Eigen::Matrix3d& cov_m2, BallState state,
                                               std::string source, Stamp stamp) {
@@ -40,7 +47,7 @@ BallObservation BallObservation::inRobotFrame(const Eigen::Vector3d& p_R,
 }
 
 bool BallObservation::isApprox(const BallObservation& other, double tol_m) const {
-  return frame == other.frame && state == other.state && source == other.source &&
+  return frame == other.frame && state == other.state && source == other.source && is_static == other.is_static &&
          (position_m - other.position_m).cwiseAbs().maxCoeff() <= tol_m &&
          (covariance_m2 - other.covariance_m2).cwiseAbs().maxCoeff() <= tol_m * tol_m;
 }

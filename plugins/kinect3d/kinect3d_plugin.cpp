@@ -17,7 +17,8 @@ class Kinect3dPlugin : public fw::Plugin {
  public:
   explicit Kinect3dPlugin(const fw::PluginContext& context)
       : world_(*context.world),
-        detector_(kinect3d::readDetectorConfig(context.config)),
+        source_name_(context.config.path()),
+        detector_(kinect3d::readDetectorConfig(context.config), source_name_),
         trajectory_(kinect3d::makeTrajectoryEstimator(kinect3d::readTrajectoryConfig(context.config))) {
     kinect3d::SourceOptions options;
     options.realtime = context.config.getBool("realtime");
@@ -27,7 +28,7 @@ class Kinect3dPlugin : public fw::Plugin {
     } catch (const kinect3d::DepthSourceError& e) {
       throw fw::ConfigError(context.config.originOf("source") + ": kinect3d.source: " + e.what());
     }
-    fw::logInfo("kinect3d", "reading " + source_->describe());
+    fw::logInfo(source_name_, "reading " + source_->describe());
   }
 
   fw::StepResult step() override {
@@ -36,22 +37,25 @@ class Kinect3dPlugin : public fw::Plugin {
       case kinect3d::ReadResult::kNoFrameYet: return fw::StepResult::kIdle;
       case kinect3d::ReadResult::kFrame: break;
     }
-    detector_.detect(frame_, detections_);
+    // With a pose from localisation the scene map is kept in the field frame.
+    const std::optional<fw::RobotPose> pose = world_.robotPose();
+    detector_.detect(frame_, detections_, pose ? std::optional<Eigen::Isometry3d>(pose->T_F_R()) : std::nullopt);
     if (detections_.aligned && !reported_alignment_) {
-      fw::logInfo("kinect3d", "sensor aligned with the floor; detecting");
+      fw::logInfo(source_name_, "sensor aligned with the floor; detecting");
       reported_alignment_ = true;
     }
     for (const fw::BallObservation& ball : detections_.balls) world_.publishBall(ball);
     if (const auto trajectory = trajectory_->update(frame_.source_time_s, detections_.balls)) {
       world_.publishTrajectory(*trajectory);
     } else {
-      world_.clearTrajectory("kinect3d");
+      world_.clearTrajectory(source_name_);
     }
     return fw::StepResult::kProcessed;
   }
 
  private:
   fw::WorldState& world_;
+  const std::string source_name_;  // this plugin's block name: what its observations carry
   kinect3d::BallDetector detector_;
   std::unique_ptr<kinect3d::TrajectoryEstimator> trajectory_;
   std::unique_ptr<kinect3d::DepthSource> source_;

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 #include <optional>
 #include <string>
 
@@ -44,6 +45,8 @@ struct RobotPose {
 
   // Maps a point in the robot frame to the field frame.
   Eigen::Vector3d fieldFromRobot(const Eigen::Vector3d& p_R) const;
+  // The same map as a transform: a turn by theta_rad about z, then the shift to (x_m, y_m).
+  Eigen::Isometry3d T_F_R() const;
 };
 
 // One ball measurement from one source.
@@ -55,10 +58,13 @@ struct BallObservation {
   std::string source;  // plugin or sensor that produced it, e.g. "kinect3d"
   Stamp stamp;
   int support_points = 0;  // depth points behind the measurement, 0 when not applicable
+  // Inside space that has been occupied for seconds (a lamp, a poster, a ball on a wire): not a ball
+  // in play unless a flight led there.
+  bool is_static = false;
 
   static BallObservation inRobotFrame(const Eigen::Vector3d& p_R, const Eigen::Matrix3d& cov_m2,
                                       BallState state, std::string source, Stamp stamp);
-  // Same frame, state and source, positions within tol_m, covariances within tol_m^2 per entry.
+  // Same frame, state, source and static flag, positions within tol_m, covariances within tol_m^2 per entry.
   bool isApprox(const BallObservation& other, double tol_m) const;
 };
 

@@ -25,7 +25,7 @@ BallCandidateFinder::Config maskConfig(const DetectorConfig& config, double foca
 }  // namespace
 
 const char* StageTimes::name(int stage) {
-  static const char* const names[] = {"ground", "points", "grid", "candidates", "refine"};
+  static const char* const names[] = {"ground", "points", "grid", "candidates", "refine", "map"};
   return stage >= 0 && stage < kCount ? names[stage] : "?";
 }
 
@@ -35,12 +35,12 @@ double StageTimes::total() const {
   return sum;
 }
 
-BallDetector::BallDetector(const DetectorConfig& config)
-    : config_(config), ground_(config.ground), projector_(config.points) {}
+BallDetector::BallDetector(const DetectorConfig& config, std::string source)
+    : config_(config), source_(std::move(source)), ground_(config.ground), projector_(config.points) {}
 
 BallDetector::~BallDetector() = default;
 
-void BallDetector::detect(const DepthFrame& frame, Detections& out) {
+void BallDetector::detect(const DepthFrame& frame, Detections& out, const std::optional<Eigen::Isometry3d>& T_F_R) {
   out.balls.clear();
   out.times = StageTimes{};
   out.occupied_voxels = 0;
@@ -60,6 +60,12 @@ void BallDetector::detect(const DepthFrame& frame, Detections& out) {
     refiner_ = std::make_unique<BallRefiner>(config_.ball,
                                              DepthNoiseModel{frame.intrinsics.fx, config_.points.baseline_m});
   }
+  if (!map_ || T_F_R.has_value() != map_in_field_) {
+    map_ = std::make_unique<SceneMap>(config_.map, config_.grid.voxel_m, config_.points.min_range_m,
+                                      config_.points.max_range_m);
+    map_in_field_ = T_F_R.has_value();
+  }
+  const Eigen::Isometry3d T_M_R = T_F_R.value_or(Eigen::Isometry3d::Identity());
   const Eigen::Isometry3f T_R_S_f = T_R_S_->cast<float>();
   projector_.project(frame, T_R_S_f, points_);
   Clock::time_point t2 = Clock::now();
@@ -80,8 +86,9 @@ void BallDetector::detect(const DepthFrame& frame, Detections& out) {
     const std::optional<BallFit> fit = refiner_->refine(candidate, *grid_, frame, *T_R_S_, projector_);
     if (!fit) continue;
     fw::BallObservation ball =
-        fw::BallObservation::inRobotFrame(fit->center_R, fit->covariance_m2, fit->state, "kinect3d", stamp);
+        fw::BallObservation::inRobotFrame(fit->center_R, fit->covariance_m2, fit->state, source_, stamp);
     ball.support_points = fit->points;
+    ball.is_static = insideStaticSpace(candidate, T_M_R);
     out.balls.push_back(ball);
   }
   // The paper looks for flying balls first: report those before balls on the ground. An
@@ -93,7 +100,26 @@ void BallDetector::detect(const DepthFrame& frame, Detections& out) {
       std::swap(out.balls[j], out.balls[j - 1]);
     }
   }
-  out.times.seconds[StageTimes::kRefine] = secondsBetween(t4, Clock::now());
+  Clock::time_point t5 = Clock::now();
+  out.times.seconds[StageTimes::kRefine] = secondsBetween(t4, t5);
+
+  map_->update(frame, T_M_R * *T_R_S_, frame.source_time_s);
+  out.times.seconds[StageTimes::kMap] = secondsBetween(t5, Clock::now());
+}
+
+bool BallDetector::insideStaticSpace(const BallCandidate& candidate, const Eigen::Isometry3d& T_M_R) const {
+  int occupied = 0, in_static_space = 0;
+  for (int z = candidate.min[2]; z <= candidate.max[2]; ++z) {
+    for (int y = candidate.min[1]; y <= candidate.max[1]; ++y) {
+      for (int x = candidate.min[0]; x <= candidate.max[0]; ++x) {
+        if (!grid_->occupied({x, y, z})) continue;
+        ++occupied;
+        const Eigen::Vector3d centre_R = grid_->centerOf({x, y, z}).cast<double>();
+        in_static_space += map_->stateAt(T_M_R * centre_R) == SceneMap::VoxelState::kStatic;
+      }
+    }
+  }
+  return occupied > 0 && 2 * in_static_space >= occupied;
 }
 
 }  // namespace kinect3d

@@ -58,6 +58,11 @@ DetectorConfig readDetectorConfig(const fw::ConfigView& kinect3d) {
   config.grid.min_points = grid.getInt("min_points", 1, 100000);
   config.grid.max_range_m = config.points.max_range_m;
 
+  const fw::ConfigView map = kinect3d.child("map");
+  config.map.update_interval_frames = map.getInt("update_interval_frames", 1, 1000);
+  config.map.ray_stride_px = map.getInt("ray_stride_px", 1, 64);
+  config.map.static_after_s = map.getDouble("static_after_s", 0.1, 600.0);
+
   const fw::ConfigView ball = kinect3d.child("ball");
   config.ball.radius_m = ball.getDouble("radius_m", 0.02, 0.5);
   config.ball.min_visible_fraction = ball.getDouble("min_visible_fraction", 0.0, 1.0);

@@ -111,7 +111,7 @@ void kicks(const fw::Config& config, const ReportOptions& options, std::ostream&
 }
 
 int detectionsOn(DepthSource& source, const DetectorConfig& config, int& frames) {
-  BallDetector detector(config);
+  BallDetector detector(config, "kinect3d");
   DepthFrame frame;
   Detections detections;
   int balls = 0;
@@ -149,7 +149,7 @@ void phantoms(const fw::Config& config, const ReportOptions& options, std::ostre
   md << "| real Kinect frame `tum_depth.png` (office) | " << frames << " | " << tum_balls << " | - | 0: "
      << (tum_balls == 0 ? "met" : "**not met**") << " |\n";
 
-  BallDetector nyu_detector(detector);
+  BallDetector nyu_detector(detector, "kinect3d");
   Detections detections;
   const DepthFrame nyu = loadRawDisparityPgm(options.real_depth_dir + "/nyu_raw_disparity.pgm");
   nyu_detector.detect(nyu, detections);

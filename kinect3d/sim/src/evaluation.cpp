@@ -7,7 +7,7 @@ namespace kinect3d::sim {
 
 std::vector<EvaluatedFrame> runDetectorOnScene(const Scene& scene, const DetectorConfig& config) {
   KinectSimulator simulator(scene);
-  BallDetector detector(config);
+  BallDetector detector(config, "kinect3d");
   DepthFrame frame;
   Detections detections;
   std::vector<EvaluatedFrame> results(simulator.frameCount());

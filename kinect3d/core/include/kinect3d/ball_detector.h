@@ -1,5 +1,6 @@
 // The whole per-frame path of the paper, stage by stage:
-//   depth frame -> surface points (robot frame) -> occupancy grid -> mask candidates -> balls.
+//   depth frame -> surface points (robot frame) -> occupancy grid -> mask candidates -> balls,
+// with the scene map (OctoMap) remembering across frames which space is static.
 #pragma once
 
 #include <array>
@@ -14,6 +15,7 @@
 #include "kinect3d/ground_aligner.h"
 #include "kinect3d/occupancy_grid.h"
 #include "kinect3d/point_projector.h"
+#include "kinect3d/scene_map.h"
 
 namespace kinect3d {
 
@@ -23,11 +25,12 @@ struct DetectorConfig {
   OccupancyGrid::Config grid;
   BallCandidateFinder::Config mask;
   BallRefiner::Config ball;
+  SceneMap::Config map;
 };
 
 // Wall time of each stage for one frame, for benchmarks and the detect log.
 struct StageTimes {
-  enum Stage { kGround, kPoints, kGrid, kCandidates, kRefine, kCount };
+  enum Stage { kGround, kPoints, kGrid, kCandidates, kRefine, kMap, kCount };
   static const char* name(int stage);
   std::array<double, kCount> seconds{};
   double total() const;
@@ -43,23 +46,34 @@ struct Detections {
 
 class BallDetector {
  public:
-  explicit BallDetector(const DetectorConfig& config);
+  // source: the name the observations carry (the plugin's or the command's, e.g. "kinect3d").
+  BallDetector(const DetectorConfig& config, std::string source);
   ~BallDetector();
 
-  // Every ball in the frame. Observations carry source "kinect3d" and the frame's times.
-  void detect(const DepthFrame& frame, Detections& out);
+  // Every ball in the frame. Observations carry the detector's source name and the frame's times. T_F_R, the
+  // robot's pose on the field at the frame's time when localisation gives one, keeps the scene map
+  // in the field frame (without it, in the robot frame: right while the robot stands).
+  void detect(const DepthFrame& frame, Detections& out,
+              const std::optional<Eigen::Isometry3d>& T_F_R = std::nullopt);
 
   const OccupancyGrid* grid() const { return grid_.get(); }
+  const SceneMap* sceneMap() const { return map_.get(); }
   std::optional<Eigen::Isometry3d> T_R_S() const { return T_R_S_; }
 
  private:
+  // Whether most of the candidate's occupied voxels have been occupied for seconds in the map.
+  bool insideStaticSpace(const BallCandidate& candidate, const Eigen::Isometry3d& T_M_R) const;
+
   DetectorConfig config_;
+  std::string source_;
   GroundAligner ground_;
   PointProjector projector_;
   // Made for the first frame's focal length.
   std::unique_ptr<OccupancyGrid> grid_;
   std::unique_ptr<BallCandidateFinder> finder_;
   std::unique_ptr<BallRefiner> refiner_;
+  std::unique_ptr<SceneMap> map_;
+  bool map_in_field_ = false;  // the map's frame: field (a pose was given) or robot
   std::optional<Eigen::Isometry3d> T_R_S_;
   PointSet points_;
   std::vector<BallCandidate> candidates_;

@@ -6,6 +6,8 @@
 #include <string>
 #include <vector>
 
+#include <Eigen/Core>
+
 namespace kinect3d {
 
 // Pinhole intrinsics of the depth camera, in pixels.
@@ -19,6 +21,14 @@ struct Intrinsics {
 
   // From a horizontal and vertical field of view (as OpenNI2 streams report it).
   static Intrinsics fromFieldOfView(int width, int height, double hfov_rad, double vfov_rad);
+  // The pixel a point in the sensor optical frame (x right, y down, z forward; z > 0) falls on.
+  Eigen::Vector2d project(const Eigen::Vector3d& p_S) const {
+    return {fx * p_S.x() / p_S.z() + cx, fy * p_S.y() / p_S.z() + cy};
+  }
+  // The point in the sensor optical frame seen at pixel (u, v) with depth z_m along the optical axis.
+  Eigen::Vector3d backProject(double u, double v, double z_m) const {
+    return {(u - cx) * z_m / fx, (v - cy) * z_m / fy, z_m};
+  }
   bool operator==(const Intrinsics& other) const;
 };
 

@@ -1,15 +1,13 @@
-// The voxel occupancy grid of the paper: points counted per voxel, a voxel occupied when it holds
-// enough points for its range.
-//
-// The grid of record is an OctoMap counting tree (octomap::CountingOcTree), kept between frames
-// and updated only where a voxel's count changed. Points are first aggregated by OctoMap key into
-// a dense array over the region the sensor can see, which the masks read directly: per frame that
-// costs one array increment per point instead of a 16-level tree descent.
+// The voxel occupancy grid of the paper: this frame's points counted per voxel, a voxel occupied
+// when it holds enough points for its range. It answers "occupied now" for the mask, so it is a dense
+// array over the region the sensor can see (one increment per point, one load per query), rebuilt
+// every frame. What persists between frames (observed free space, static structure) is the
+// SceneMap's job. Voxel boundaries lie on multiples of voxel_m, as OctoMap's keys do, so a grid voxel
+// and a SceneMap voxel of the same size are the same cube.
 #pragma once
 
 #include <array>
 #include <cstdint>
-#include <memory>
 #include <vector>
 
 #include <Eigen/Geometry>
@@ -58,11 +56,7 @@ class OccupancyGrid {
   double voxel_m() const { return config_.voxel_m; }
   const Eigen::Vector3f& sensorPosition() const { return region_centre_; }
 
-  // The OctoMap tree of record: the count at a point (0 if none).
-  unsigned treeCount(const Eigen::Vector3f& p_R) const;
-
  private:
-  class Tree;
   bool inside(const VoxelIndex& v) const {
     return v[0] >= 0 && v[1] >= 0 && v[2] >= 0 && v[0] < size_[0] && v[1] < size_[1] && v[2] < size_[2];
   }
@@ -70,21 +64,21 @@ class OccupancyGrid {
     return (static_cast<std::size_t>(v[2]) * size_[1] + v[1]) * size_[0] + v[0];
   }
   void recentre(const Eigen::Vector3f& sensor_R);
+  VoxelIndex cellOf(const Eigen::Vector3f& p) const;  // floor(p / voxel_m) per axis
   std::uint16_t& blockCount(const VoxelIndex& v) {
     return block_counts_[(static_cast<std::size_t>(v[2] / kBlock) * blocks_[1] + v[1] / kBlock) * blocks_[0] + v[0] / kBlock];
   }
 
   Config config_;
   double full_face_points_at_1m_;  // (voxel f / stride)^2: points on a full voxel face at 1 m
-  std::unique_ptr<Tree> tree_;
   VoxelIndex size_{0, 0, 0};
-  VoxelIndex origin_key_{0, 0, 0};  // OctoMap key of dense index (0, 0, 0)
+  VoxelIndex origin_{0, 0, 0};  // floor(p / voxel_m) of dense index (0, 0, 0)
   Eigen::Vector3f region_centre_{Eigen::Vector3f::Constant(1e9f)};
-  std::vector<std::uint16_t> counts_, previous_counts_;
+  std::vector<std::uint16_t> counts_;
   std::vector<std::uint8_t> occupied_;
   VoxelIndex blocks_{0, 0, 0};
   std::vector<std::uint16_t> block_counts_;
-  std::vector<std::uint32_t> touched_, previous_touched_;  // flat indices with a count
+  std::vector<std::uint32_t> touched_;  // flat indices with a count
   std::vector<VoxelIndex> occupied_list_;
 };
 

@@ -43,9 +43,31 @@ class TrajectoryEstimator {
 
   // Feeds one frame: its source time and the balls detected in it (none is fine). Returns the
   // trajectory at t_s with touchdown and line crossing, or nothing while there is no track.
-  virtual std::optional<fw::BallTrajectory> update(double t_s, const std::vector<fw::BallObservation>& balls) = 0;
+  // The checks every estimator needs live here, once: a frame whose time does not move on is not
+  // used (the previous answer stands); balls in the air inside static space (a lamp, a ball on a
+  // wire) are not followed; the track is dropped after max_gap_s without a detection.
+  std::optional<fw::BallTrajectory> update(double t_s, const std::vector<fw::BallObservation>& balls);
   // How often the track was thrown away and restarted (bounces and lost balls excluded).
-  virtual int resets() const = 0;
+  int resets() const { return resets_; }
+
+ protected:
+  explicit TrajectoryEstimator(const TrajectoryConfig& config) : config_(config) {}
+  const TrajectoryConfig& config() const { return config_; }
+  void countReset() { ++resets_; }
+
+ private:
+  // The estimator's own step, with time moving on and only balls it may follow.
+  virtual std::optional<fw::BallTrajectory> step(double t_s, const std::vector<fw::BallObservation>& balls) = 0;
+  // The source time of the newest detection the track holds; nothing without a track.
+  virtual std::optional<double> lastDetectionTime() const = 0;
+  // Drops the track.
+  virtual void lose() = 0;
+
+  TrajectoryConfig config_;
+  int resets_ = 0;
+  std::optional<double> last_frame_time_s_;
+  std::optional<fw::BallTrajectory> last_answer_;
+  std::vector<fw::BallObservation> followed_;  // this frame's balls the estimator may follow
 };
 
 std::unique_ptr<TrajectoryEstimator> makeTrajectoryEstimator(const TrajectoryConfig& config);

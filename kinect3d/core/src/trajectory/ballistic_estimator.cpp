@@ -17,21 +17,25 @@ constexpr double kMaxSpeed_mps = 20.0;
 
 class BallisticEstimator : public TrajectoryEstimator {
  public:
-  explicit BallisticEstimator(const TrajectoryConfig& config) : config_(config) {}
+  explicit BallisticEstimator(const TrajectoryConfig& config) : TrajectoryEstimator(config) {}
 
-  std::optional<fw::BallTrajectory> update(double t_s, const std::vector<fw::BallObservation>& balls) override {
-    if (!segment_.empty() && t_s - segment_.back().stamp.source_time_s > config_.max_gap_s) {
-      segment_.clear();  // lost: too long without a detection
-      pending_.clear();
-      fitted_ = false;
-    }
+ private:
+  std::optional<fw::BallTrajectory> step(double t_s, const std::vector<fw::BallObservation>& balls) override {
     if (const fw::BallObservation* ball = choose(t_s, balls)) add(*ball);
     return current(t_s);
   }
 
-  int resets() const override { return resets_; }
+  std::optional<double> lastDetectionTime() const override {
+    if (segment_.empty()) return std::nullopt;
+    return segment_.back().stamp.source_time_s;
+  }
 
- private:
+  void lose() override {
+    segment_.clear();
+    pending_.clear();
+    fitted_ = false;
+  }
+
   // The detection nearest the prediction (Mahalanobis), or with no fit the first one (air first).
   const fw::BallObservation* choose(double t_s, const std::vector<fw::BallObservation>& balls) const {
     if (balls.empty()) return nullptr;
@@ -47,8 +51,6 @@ class BallisticEstimator : public TrajectoryEstimator {
 
   void add(const fw::BallObservation& ball) {
     const double t = ball.stamp.source_time_s;
-    // Time must move on: a repeated or older stamp (a careless recording) cannot be fitted.
-    if (!segment_.empty() && t <= segment_.back().stamp.source_time_s) return;
     if (!fitted_) {
       if (!segment_.empty()) {
         const fw::BallObservation& last = segment_.back();
@@ -59,7 +61,7 @@ class BallisticEstimator : public TrajectoryEstimator {
       if (segment_.size() >= 3) fit();
       return;
     }
-    if (mahalanobisSquared(ball, t) <= config_.gate_sigma * config_.gate_sigma) {
+    if (mahalanobisSquared(ball, t) <= config().gate_sigma * config().gate_sigma) {
       pending_.clear();
       push(ball);
       fit();
@@ -79,14 +81,14 @@ class BallisticEstimator : public TrajectoryEstimator {
     // doing something else and the track restarts from these two.
     pending_.push_back(ball);
     if (pending_.size() >= 2) {
-      ++resets_;
+      countReset();
       restartWith({pending_.begin(), pending_.end()});
     }
   }
 
   void push(const fw::BallObservation& ball) {
     segment_.push_back(ball);
-    while (static_cast<int>(segment_.size()) > config_.history) segment_.pop_front();
+    while (static_cast<int>(segment_.size()) > config().history) segment_.pop_front();
   }
 
   void restartWith(const std::vector<fw::BallObservation>& start) {
@@ -100,7 +102,7 @@ class BallisticEstimator : public TrajectoryEstimator {
   // ball's radius while falling.
   bool bouncedBefore(double t_s) const {
     const fw::BallTrajectory last = state(segment_.back().stamp.source_time_s);
-    const double ground = config_.ball_radius_m + 0.03;
+    const double ground = config().ball_radius_m + 0.03;
     return last.velocity_mps.z() < 0.0 && last.positionAt(t_s).z() < ground;
   }
 
@@ -115,7 +117,7 @@ class BallisticEstimator : public TrajectoryEstimator {
     for (const fw::BallObservation& ball : segment_) airborne_ = airborne_ || ball.state == fw::BallState::kAir;
     drag_offsets_.assign(segment_.size(), Eigen::Vector3d::Zero());
     solve();
-    if (airborne_ && config_.drag_per_m > 0.0) {
+    if (airborne_ && config().drag_per_m > 0.0) {
       for (int round = 0; round < 2; ++round) {
         fw::BallTrajectory along = model(theta_);
         for (std::size_t i = 0; i < segment_.size(); ++i) {
@@ -137,13 +139,13 @@ class BallisticEstimator : public TrajectoryEstimator {
   // p0 + v0 tau + g tau^2 / 2 (g only in the air).
   Eigen::Vector3d dragFree(const Vector6d& theta, double t_s) const {
     const double tau = t_s - t_ref_;
-    const double g = airborne_ ? config_.gravity_mps2 : 0.0;
+    const double g = airborne_ ? config().gravity_mps2 : 0.0;
     return theta.head<3>() + tau * theta.tail<3>() + Eigen::Vector3d(0.0, 0.0, -0.5 * g * tau * tau);
   }
 
   // Weighted least squares for (p0, v0) against the detections minus the drag offsets.
   void solve() {
-    const double g = airborne_ ? config_.gravity_mps2 : 0.0;
+    const double g = airborne_ ? config().gravity_mps2 : 0.0;
     Matrix6d normal = Matrix6d::Zero();
     Vector6d rhs = Vector6d::Zero();
     for (std::size_t i = 0; i < segment_.size(); ++i) {
@@ -162,7 +164,7 @@ class BallisticEstimator : public TrajectoryEstimator {
   }
 
   Eigen::Matrix3d weight(const fw::BallObservation& ball) const {
-    const double model_variance = config_.model_sigma_m * config_.model_sigma_m;
+    const double model_variance = config().model_sigma_m * config().model_sigma_m;
     return (ball.covariance_m2 + model_variance * Eigen::Matrix3d::Identity()).inverse();
   }
 
@@ -174,15 +176,15 @@ class BallisticEstimator : public TrajectoryEstimator {
     m.position_m = theta.head<3>();
     m.velocity_mps = theta.tail<3>();
     m.state = airborne_ ? fw::BallState::kAir : fw::BallState::kGround;
-    m.gravity_mps2 = config_.gravity_mps2;
-    m.drag_per_m = airborne_ ? config_.drag_per_m : 0.0;
+    m.gravity_mps2 = config().gravity_mps2;
+    m.drag_per_m = airborne_ ? config().drag_per_m : 0.0;
     return m;
   }
 
   // The fitted model moved to time t_s, as a trajectory of its own.
   fw::BallTrajectory state(double t_s) const {
     fw::BallTrajectory at = model(theta_).movedTo(t_s);
-    if (!airborne_) at.rolling_decel_mps2 = config_.rolling_decel_mps2;
+    if (!airborne_) at.rolling_decel_mps2 = config().rolling_decel_mps2;
     return at;
   }
 
@@ -193,7 +195,7 @@ class BallisticEstimator : public TrajectoryEstimator {
     Eigen::Matrix<double, 3, 6> J;
     J << Eigen::Matrix3d::Identity(), tau * Eigen::Matrix3d::Identity();
     return J * covariance_ * J.transpose() +
-           config_.model_sigma_m * config_.model_sigma_m * Eigen::Matrix3d::Identity();
+           config().model_sigma_m * config().model_sigma_m * Eigen::Matrix3d::Identity();
   }
 
   double mahalanobisSquared(const fw::BallObservation& ball, double t_s) const {
@@ -219,17 +221,17 @@ class BallisticEstimator : public TrajectoryEstimator {
       rhs += A.transpose() * W * ball.position_m;
     }
     const double a_z = normal.ldlt().solve(rhs)[8];
-    return std::abs(a_z + config_.gravity_mps2) <= config_.max_gravity_error_mps2;
+    return std::abs(a_z + config().gravity_mps2) <= config().max_gravity_error_mps2;
   }
 
   // Enough detections, moving, and falling with gravity: only then is an airborne track a ball
   // in flight. A ball hung or lying on a robot does not move; a poster carried past does not fall.
   bool isFlight() const {
-    if (static_cast<int>(segment_.size()) < config_.min_support) return false;
+    if (static_cast<int>(segment_.size()) < config().min_support) return false;
     const fw::BallObservation& first = segment_.front();
     const fw::BallObservation& last = segment_.back();
     const double span = last.stamp.source_time_s - first.stamp.source_time_s;
-    if ((last.position_m - first.position_m).norm() < config_.min_flight_speed_mps * span) return false;
+    if ((last.position_m - first.position_m).norm() < config().min_flight_speed_mps * span) return false;
     return fallsWithGravity();
   }
 
@@ -247,7 +249,7 @@ class BallisticEstimator : public TrajectoryEstimator {
   // When the centre comes down to the ball's radius, and where; the 1-sigma radius propagates the
   // fit's covariance through the drag-free touchdown.
   std::optional<fw::Touchdown> touchdown(const fw::BallTrajectory& now) const {
-    const double r = config_.ball_radius_m, g = config_.gravity_mps2;
+    const double r = config().ball_radius_m, g = config().gravity_mps2;
     auto dragFreeLanding = [&](const Vector6d& theta, Eigen::Vector2d& point, double& time) {
       const double z0 = theta[2] - r, vz = theta[5];
       const double disc = vz * vz + 2.0 * g * z0;
@@ -273,7 +275,7 @@ class BallisticEstimator : public TrajectoryEstimator {
     result.sigma_m = std::sqrt((J * covariance_ * J.transpose()).eigenvalues().real().maxCoeff());
     result.point_m = point;
     result.time_s = time;
-    if (config_.drag_per_m > 0.0) {
+    if (config().drag_per_m > 0.0) {
       // With drag there is no closed form: step the model down to the floor, 10 ms at a time.
       constexpr double kStep_s = 0.01;
       fw::BallTrajectory walk = now;
@@ -303,7 +305,7 @@ class BallisticEstimator : public TrajectoryEstimator {
     }
     const Eigen::Vector3d p = now.positionAt(t);
     if (std::abs(p.y()) > 0.01 || t < now.time_s || t - now.time_s > 3.0) return std::nullopt;
-    if (airborne_ && p.z() < config_.ball_radius_m) return std::nullopt;  // lands first
+    if (airborne_ && p.z() < config().ball_radius_m) return std::nullopt;  // lands first
     fw::LineCrossing result;
     result.x_m = p.x();
     result.z_m = p.z();
@@ -311,7 +313,6 @@ class BallisticEstimator : public TrajectoryEstimator {
     return result;
   }
 
-  TrajectoryConfig config_;
   std::deque<fw::BallObservation> segment_;
   std::vector<fw::BallObservation> pending_;
   bool fitted_ = false;
@@ -321,7 +322,6 @@ class BallisticEstimator : public TrajectoryEstimator {
   std::vector<Eigen::Vector3d> drag_offsets_;  // drag model minus drag-free flight, per detection
   Matrix6d covariance_ = Matrix6d::Identity();
   double rms_ = 0.0;
-  int resets_ = 0;
 };
 
 }  // namespace

@@ -24,23 +24,25 @@ constexpr std::size_t kRestartFrom = 3;
 
 class PaperEstimator : public TrajectoryEstimator {
  public:
-  explicit PaperEstimator(const TrajectoryConfig& config) : config_(config) {}
+  explicit PaperEstimator(const TrajectoryConfig& config) : TrajectoryEstimator(config) {}
 
-  std::optional<fw::BallTrajectory> update(double t_s, const std::vector<fw::BallObservation>& balls) override {
-    if (!history_.empty() && t_s - history_.back().stamp.source_time_s > config_.max_gap_s) {
-      history_.clear();
-      support_.clear();
-    }
+ private:
+  std::optional<fw::BallTrajectory> step(double t_s, const std::vector<fw::BallObservation>& balls) override {
     if (!balls.empty()) add(balls.front());
     return current(t_s);
   }
 
-  int resets() const override { return resets_; }
+  std::optional<double> lastDetectionTime() const override {
+    if (history_.empty()) return std::nullopt;
+    return history_.back().stamp.source_time_s;
+  }
 
- private:
+  void lose() override {
+    history_.clear();
+    support_.clear();
+  }
+
   void add(const fw::BallObservation& ball) {
-    // Time must move on: a repeated or older stamp (a careless recording) cannot be fitted.
-    if (!history_.empty() && ball.stamp.source_time_s <= history_.back().stamp.source_time_s) return;
     history_.push_back(ball);
     if (history_.size() > kHistory) history_.pop_front();
     const bool supports = support_.size() >= kRestartFrom && distanceToCurve(ball.position_m) < kSupport_m;
@@ -50,7 +52,7 @@ class PaperEstimator : public TrajectoryEstimator {
       fit();
     } else if (history_.size() >= kRestartFrom) {
       // A new trajectory with the last 3 positions.
-      if (!support_.empty()) ++resets_;
+      if (!support_.empty()) countReset();
       support_.assign(history_.end() - kRestartFrom, history_.end());
       fit();
       if (rms_ > kSupport_m) support_.clear();  // "if trajectory error below threshold"
@@ -58,7 +60,7 @@ class PaperEstimator : public TrajectoryEstimator {
     last_supported_[0] = last_supported_[1];
     last_supported_[1] = supports;
     if (!last_supported_[0] && !last_supported_[1] && support_.size() > kRestartFrom) {
-      ++resets_;
+      countReset();
       support_.clear();  // the last two positions do not support it: reset
     }
   }
@@ -114,12 +116,12 @@ class PaperEstimator : public TrajectoryEstimator {
     const double dz_dd = 2.0 * parabola_[0] * d_now + parabola_[1];
     trajectory.velocity_mps << speed_ * direction_, speed_ * dz_dd;
     trajectory.state = fw::BallState::kAir;
-    trajectory.gravity_mps2 = config_.gravity_mps2;
+    trajectory.gravity_mps2 = config().gravity_mps2;
     trajectory.support = static_cast<int>(support_.size());
     trajectory.rms_m = rms_;
     trajectory.source = support_.back().source;
     // Touchdown: where the parabola comes down to the ball's radius, ahead of the ball.
-    const double a = parabola_[0], b = parabola_[1], c = parabola_[2] - config_.ball_radius_m;
+    const double a = parabola_[0], b = parabola_[1], c = parabola_[2] - config().ball_radius_m;
     const double disc = b * b - 4.0 * a * c;
     if (a < 0.0 && disc >= 0.0) {
       const double d_land = (-b - std::sqrt(disc)) / (2.0 * a);  // the far root of a downward parabola
@@ -142,7 +144,6 @@ class PaperEstimator : public TrajectoryEstimator {
     return trajectory;
   }
 
-  TrajectoryConfig config_;
   std::deque<fw::BallObservation> history_;
   std::vector<fw::BallObservation> support_;
   bool last_supported_[2] = {true, true};
@@ -150,7 +151,6 @@ class PaperEstimator : public TrajectoryEstimator {
   Eigen::Vector2d direction_ = Eigen::Vector2d::UnitY();
   Eigen::Vector3d parabola_ = Eigen::Vector3d::Zero();
   double d0_ = 0.0, speed_ = 0.0, t0_ = 0.0, rms_ = 0.0;
-  int resets_ = 0;
 };
 
 }  // namespace

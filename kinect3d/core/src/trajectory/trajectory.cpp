@@ -10,6 +10,19 @@ TrajectoryConfig::Mode trajectoryModeFromString(const std::string& name) {
   throw std::invalid_argument("unknown trajectory mode '" + name + "'; expected 'ballistic' or 'paper'");
 }
 
+std::optional<fw::BallTrajectory> TrajectoryEstimator::update(double t_s,
+                                                              const std::vector<fw::BallObservation>& balls) {
+  if (last_frame_time_s_ && t_s <= *last_frame_time_s_) return last_answer_;
+  last_frame_time_s_ = t_s;
+  if (const auto last_s = lastDetectionTime(); last_s && t_s - *last_s > config_.max_gap_s) lose();
+  followed_.clear();
+  for (const fw::BallObservation& ball : balls) {
+    if (!(ball.is_static && ball.state == fw::BallState::kAir)) followed_.push_back(ball);
+  }
+  last_answer_ = step(t_s, followed_);
+  return last_answer_;
+}
+
 std::unique_ptr<TrajectoryEstimator> makeTrajectoryEstimator(const TrajectoryConfig& config) {
   return config.mode == TrajectoryConfig::Mode::kPaper ? makePaperEstimator(config) : makeBallisticEstimator(config);
 }
