@@ -34,11 +34,10 @@ DetectorConfig shippedDetector(const sim::Scene& scene) {
 // ---- Surface filter ----------------------------------------------------------------------------
 
 TEST(PointProjector, KeepsSurfacesDropsFlyingPixelsAndFloor) {
-  kinect3d::PointProjector projector({});
   DepthFrame frame;
   frame.resize(kinect3d::Intrinsics{});
   std::fill(frame.depth_mm.begin(), frame.depth_mm.end(), 4000);  // a wall at 4 m
-  projector.setIntrinsics(frame.intrinsics);
+  const kinect3d::PointProjector projector({}, frame.intrinsics);
   EXPECT_TRUE(projector.isSurface(frame, 100, 100));
   // A pixel halfway between a ball at 3 m and the wall, with the ball on its left.
   for (int v = 0; v < 480; ++v) {

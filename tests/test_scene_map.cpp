@@ -32,13 +32,14 @@ DepthFrame wallFrame() {
 
 SceneMap::Config everyFrame() {
   SceneMap::Config config;
+  config.voxel_m = kVoxel_m;
   config.update_interval_frames = 1;
   config.static_after_s = 1.0;
   return config;
 }
 
 TEST(SceneMap, KnowsFreeOccupiedAndUnknownFromRays) {
-  SceneMap map(everyFrame(), kVoxel_m, 0.5, 9.5);
+  SceneMap map(everyFrame(), 0.5, 9.5);
   const DepthFrame frame = wallFrame();
   map.update(frame, Eigen::Isometry3d::Identity(), 0.0);
   EXPECT_EQ(map.integrations(), 0) << "rays are in flight until the next ray frame publishes them";
@@ -52,7 +53,7 @@ TEST(SceneMap, KnowsFreeOccupiedAndUnknownFromRays) {
 }
 
 TEST(SceneMap, SpaceOccupiedForSecondsBecomesStaticAndWhatLeavesIsForgotten) {
-  SceneMap map(everyFrame(), kVoxel_m, 0.5, 9.5);
+  SceneMap map(everyFrame(), 0.5, 9.5);
   const DepthFrame wall = wallFrame();
   DepthFrame far = wallFrame();
   std::fill(far.depth_mm.begin(), far.depth_mm.end(), 8000);
@@ -76,7 +77,7 @@ TEST(SceneMap, SpaceOccupiedForSecondsBecomesStaticAndWhatLeavesIsForgotten) {
 }
 
 TEST(SceneMap, WritesABtFileOctoMapReads) {
-  SceneMap map(everyFrame(), kVoxel_m, 0.5, 9.5);
+  SceneMap map(everyFrame(), 0.5, 9.5);
   const DepthFrame frame = wallFrame();
   map.update(frame, Eigen::Isometry3d::Identity(), 0.0);
   const ScopedTempDir temp;

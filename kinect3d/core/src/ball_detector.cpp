@@ -36,7 +36,7 @@ double StageTimes::total() const {
 }
 
 BallDetector::BallDetector(const DetectorConfig& config, std::string source)
-    : config_(config), source_(std::move(source)), ground_(config.ground), projector_(config.points) {}
+    : config_(config), source_(std::move(source)), ground_(config.ground) {}
 
 BallDetector::~BallDetector() = default;
 
@@ -53,21 +53,22 @@ void BallDetector::detect(const DepthFrame& frame, Detections& out, const std::o
   out.aligned = T_R_S_.has_value();
   if (!T_R_S_) return;
 
-  if (!grid_ || !(frame.intrinsics == projector_.intrinsics())) {
-    projector_.setIntrinsics(frame.intrinsics);
+  if (!projector_ || !(frame.intrinsics == projector_->intrinsics())) {
+    // Everything that depends on the camera is made for it; a new camera (or a resolution change)
+    // starts these stages afresh.
+    projector_ = std::make_unique<PointProjector>(config_.points, frame.intrinsics);
     grid_ = std::make_unique<OccupancyGrid>(config_.grid, frame.intrinsics.fx, config_.points.pixel_stride);
     finder_ = std::make_unique<BallCandidateFinder>(maskConfig(config_, frame.intrinsics.fx));
     refiner_ = std::make_unique<BallRefiner>(config_.ball,
                                              DepthNoiseModel{frame.intrinsics.fx, config_.points.baseline_m});
   }
   if (!map_ || T_F_R.has_value() != map_in_field_) {
-    map_ = std::make_unique<SceneMap>(config_.map, config_.grid.voxel_m, config_.points.min_range_m,
-                                      config_.points.max_range_m);
+    map_ = std::make_unique<SceneMap>(config_.map, config_.points.min_range_m, config_.points.max_range_m);
     map_in_field_ = T_F_R.has_value();
   }
   const Eigen::Isometry3d T_M_R = T_F_R.value_or(Eigen::Isometry3d::Identity());
   const Eigen::Isometry3f T_R_S_f = T_R_S_->cast<float>();
-  projector_.project(frame, T_R_S_f, points_);
+  projector_->project(frame, T_R_S_f, points_);
   Clock::time_point t2 = Clock::now();
   out.times.seconds[StageTimes::kPoints] = secondsBetween(t1, t2);
 
@@ -83,7 +84,7 @@ void BallDetector::detect(const DepthFrame& frame, Detections& out, const std::o
 
   const fw::Stamp stamp{frame.source_time_s, frame.receive_time_s};
   for (const BallCandidate& candidate : candidates_) {
-    const std::optional<BallFit> fit = refiner_->refine(candidate, *grid_, frame, *T_R_S_, projector_);
+    const std::optional<BallFit> fit = refiner_->refine(candidate, *grid_, frame, *T_R_S_, *projector_);
     if (!fit) continue;
     fw::BallObservation ball =
         fw::BallObservation::inRobotFrame(fit->center_R, fit->covariance_m2, fit->state, source_, stamp);

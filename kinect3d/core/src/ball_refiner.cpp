@@ -52,8 +52,8 @@ std::optional<BallFit> BallRefiner::refine(const BallCandidate& candidate, const
                               (corner & 4) ? hi.z() : lo.z());
     const Eigen::Vector3d c_S = T_S_R * c_R;
     if (c_S.z() < 0.1) return std::nullopt;  // reaches behind the sensor: not a ball in view
-    const double u = in.fx * c_S.x() / c_S.z() + in.cx, v = in.fy * c_S.y() / c_S.z() + in.cy;
-    u0 = std::min(u0, u), u1 = std::max(u1, u), v0 = std::min(v0, v), v1 = std::max(v1, v);
+    const Eigen::Vector2d px = in.project(c_S);
+    u0 = std::min(u0, px.x()), u1 = std::max(u1, px.x()), v0 = std::min(v0, px.y()), v1 = std::max(v1, px.y());
   }
   // Every surface pixel in the rectangle whose point lies in the box.
   points_.clear();
@@ -64,7 +64,7 @@ std::optional<BallFit> BallRefiner::refine(const BallCandidate& candidate, const
     for (int u = ua; u < ub; ++u) {
       if (!surface.isSurface(frame, u, v)) continue;
       const double z = frame.at(u, v) * 0.001;
-      const Eigen::Vector3d p_R = T_R_S * Eigen::Vector3d((u - in.cx) * z / in.fx, (v - in.cy) * z / in.fy, z);
+      const Eigen::Vector3d p_R = T_R_S * in.backProject(u, v, z);
       if ((p_R.cast<float>().array() < lo.array()).any() || (p_R.cast<float>().array() > hi.array()).any()) continue;
       if (p_R.z() < surface.config().floor_margin_m) continue;
       points_.push_back(p_R);

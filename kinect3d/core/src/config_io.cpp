@@ -59,6 +59,7 @@ DetectorConfig readDetectorConfig(const fw::ConfigView& kinect3d) {
   config.grid.max_range_m = config.points.max_range_m;
 
   const fw::ConfigView map = kinect3d.child("map");
+  config.map.voxel_m = map.getDouble("voxel_m", 0.05, 2.0);
   config.map.update_interval_frames = map.getInt("update_interval_frames", 1, 1000);
   config.map.ray_stride_px = map.getInt("ray_stride_px", 1, 64);
   config.map.static_after_s = map.getDouble("static_after_s", 0.1, 600.0);

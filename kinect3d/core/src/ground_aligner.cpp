@@ -21,7 +21,7 @@ void forSampledPoints(const DepthFrame& frame, double max_range_m, Visit visit) 
     for (int u = kSampleStride / 2; u < in.width; u += kSampleStride) {
       const double z = frame.at(u, v) * 0.001;
       if (z <= 0.0 || z > max_range_m) continue;
-      visit(Eigen::Vector3d((u - in.cx) * z / in.fx, (v - in.cy) * z / in.fy, z));
+      visit(in.backProject(u, v, z));
     }
   }
 }

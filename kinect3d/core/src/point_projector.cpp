@@ -1,12 +1,12 @@
 #include "kinect3d/point_projector.h"
 
 #include <stdexcept>
+#include <string>
 
 namespace kinect3d {
 
-void PointProjector::setIntrinsics(const Intrinsics& intrinsics) {
-  if (intrinsics == intrinsics_) return;
-  intrinsics_ = intrinsics;
+PointProjector::PointProjector(const Config& config, const Intrinsics& intrinsics)
+    : config_(config), intrinsics_(intrinsics) {
   const DepthNoiseModel noise{intrinsics.fx, config_.baseline_m};
   tolerance_per_m2_ = static_cast<float>(config_.edge_tolerance_steps * noise.quantisationStep_m(1.0));
   min_mm_ = static_cast<float>(config_.min_range_m * 1000.0);
@@ -22,7 +22,8 @@ void PointProjector::setIntrinsics(const Intrinsics& intrinsics) {
 
 void PointProjector::project(const DepthFrame& frame, const Eigen::Isometry3f& T_R_S, PointSet& out) const {
   if (!(frame.intrinsics == intrinsics_)) {
-    throw std::logic_error("PointProjector::project: setIntrinsics() not called for this frame size");
+    throw std::invalid_argument("PointProjector: frame " + std::to_string(frame.index) + " of " + frame.sensor_id +
+                                " has other intrinsics than the projector was made for");
   }
   out.clear();
   const Eigen::Matrix3f R = T_R_S.linear();

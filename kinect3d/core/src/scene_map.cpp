@@ -2,36 +2,45 @@
 
 #include <octomap/OcTree.h>
 
+#include <algorithm>
 #include <chrono>
 #include <future>
 #include <stdexcept>
 #include <unordered_map>
+#include <vector>
 
 namespace kinect3d {
 
 namespace {
-using States = std::unordered_map<octomap::OcTreeKey, SceneMap::VoxelState, octomap::OcTreeKey::KeyHash>;
 
-// What one integration hands back to the frame that publishes it.
-struct Integration {
-  States states;
-  double seconds = 0.0;
+// A voxel's OctoMap key in one integer, so the labels are one sorted array (searched by bisection,
+// refilled in place: no allocation once warm).
+std::uint64_t pack(const octomap::OcTreeKey& key) {
+  return std::uint64_t(key[0]) << 32 | std::uint64_t(key[1]) << 16 | key[2];
+}
+
+struct Label {
+  std::uint64_t key;
+  SceneMap::VoxelState state;
+  bool operator<(const Label& other) const { return key < other.key; }
 };
+
 }  // namespace
 
 // The OcTree belongs to the worker while rays are in flight; the frame thread touches it only after
-// waiting for them. The frame thread reads `published`, which only it replaces.
+// waiting for them. The worker fills `labelling`; the frame thread swaps it with `published`, which
+// only it reads.
 struct SceneMap::Worker {
   explicit Worker(double voxel_m) : tree(voxel_m) {}
 
   // Casts the rays into the tree, then labels every observed voxel. Leaves stay at full depth:
   // updates are lazy (nothing is pruned), so each leaf is one voxel.
-  Integration integrate(const octomap::Pointcloud& cloud, const octomap::point3d& origin, double t_s,
-                        double max_range_m, double static_after_s) {
+  // Returns the wall time it took.
+  double integrate(const octomap::Pointcloud& cloud, const octomap::point3d& origin, double t_s, double max_range_m,
+                   double static_after_s) {
     const auto start = std::chrono::steady_clock::now();
     tree.insertPointCloud(cloud, origin, max_range_m, /*lazy_eval=*/true, /*discretize=*/true);
-    Integration result;
-    result.states.reserve(tree.getNumLeafNodes());
+    labelling.clear();
     for (auto leaf = tree.begin_leafs(), end = tree.end_leafs(); leaf != end; ++leaf) {
       const octomap::OcTreeKey key = leaf.getKey();
       VoxelState state = VoxelState::kFree;
@@ -41,10 +50,10 @@ struct SceneMap::Worker {
       } else {
         occupied_since_s.erase(key);
       }
-      result.states.emplace(key, state);
+      labelling.push_back({pack(key), state});
     }
-    result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    return result;
+    std::sort(labelling.begin(), labelling.end());
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   }
 
   void waitForRays() const {
@@ -54,20 +63,22 @@ struct SceneMap::Worker {
   octomap::OcTree tree;
   // When each voxel that is occupied now became occupied (source clock).
   std::unordered_map<octomap::OcTreeKey, double, octomap::OcTreeKey::KeyHash> occupied_since_s;
-  std::future<Integration> in_flight;
-  States published;
+  std::future<double> in_flight;
+  std::vector<Label> labelling, published;
 };
 
-SceneMap::SceneMap(const Config& config, double voxel_m, double min_range_m, double max_range_m)
-    : config_(config), min_range_m_(min_range_m), max_range_m_(max_range_m), worker_(std::make_unique<Worker>(voxel_m)) {}
+SceneMap::SceneMap(const Config& config, double min_range_m, double max_range_m)
+    : config_(config),
+      min_range_m_(min_range_m),
+      max_range_m_(max_range_m),
+      worker_(std::make_unique<Worker>(config.voxel_m)) {}
 
 SceneMap::~SceneMap() { worker_->waitForRays(); }
 
 void SceneMap::publish() {
   if (!worker_->in_flight.valid()) return;
-  Integration result = worker_->in_flight.get();
-  worker_->published = std::move(result.states);
-  last_integration_s_ = result.seconds;
+  last_integration_s_ = worker_->in_flight.get();
+  worker_->published.swap(worker_->labelling);
   ++integrations_;
 }
 
@@ -108,8 +119,9 @@ void SceneMap::clear() {
 SceneMap::VoxelState SceneMap::stateAt(const Eigen::Vector3d& p_M) const {
   octomap::OcTreeKey key;
   if (!worker_->tree.coordToKeyChecked(p_M.x(), p_M.y(), p_M.z(), key)) return VoxelState::kUnknown;
-  const auto found = worker_->published.find(key);
-  return found == worker_->published.end() ? VoxelState::kUnknown : found->second;
+  const std::vector<Label>& labels = worker_->published;
+  const auto found = std::lower_bound(labels.begin(), labels.end(), Label{pack(key), VoxelState::kUnknown});
+  return found != labels.end() && found->key == pack(key) ? found->state : VoxelState::kUnknown;
 }
 
 void SceneMap::writeBinary(const std::string& path) const {

@@ -218,14 +218,14 @@ void KinectSimulator::render(int frame_index, DepthFrame& frame, GroundTruth& tr
   auto ray = [&](int u, int v) {
     const std::size_t i = static_cast<std::size_t>(v) * W + u;
     const double du = jittered ? r.jitter[2 * i] : 0.0, dv = jittered ? r.jitter[2 * i + 1] : 0.0;
-    return Eigen::Vector3d((u + du - in.cx) / in.fx, (v + dv - in.cy) / in.fy, 1.0);
+    return in.backProject(u + du, v + dv, 1.0);
   };
   auto rectOf = [&](const std::array<Eigen::Vector3d, 8>& corners) {
     double u0 = 1e9, v0 = 1e9, u1 = -1e9, v1 = -1e9;
     for (const auto& c : corners) {
       if (c.z() < 0.05) return PixelRect{0, 0, W, H};  // reaches behind the sensor: test everywhere
-      const double u = in.fx * c.x() / c.z() + in.cx, v = in.fy * c.y() / c.z() + in.cy;
-      u0 = std::min(u0, u), u1 = std::max(u1, u), v0 = std::min(v0, v), v1 = std::max(v1, v);
+      const Eigen::Vector2d px = in.project(c);
+      u0 = std::min(u0, px.x()), u1 = std::max(u1, px.x()), v0 = std::min(v0, px.y()), v1 = std::max(v1, px.y());
     }
     const double margin = 2.0 + 4.0 * noise.lateral_noise_px;
     return PixelRect{std::max(0, int(std::floor(u0 - margin))), std::max(0, int(std::floor(v0 - margin))),

@@ -70,7 +70,7 @@ std::vector<sim::Scene> flights(int lobs, int shots) {
     const double speed = between(6.0, 8.5), elevation = between(25.0, 50.0) * M_PI / 180.0;
     const double azimuth = between(-12.0, 12.0) * M_PI / 180.0;
     const double horizontal = speed * std::cos(elevation);
-    scene.ball = sim::BallLaunch{{between(-0.8, 0.8), between(1.6, 2.4), 0.11},
+    scene.ball = sim::BallLaunch{{between(-0.8, 0.8), between(1.6, 2.4), scene.physics.radius_m},
                                  {-horizontal * std::sin(azimuth), horizontal * std::cos(azimuth), speed * std::sin(elevation)},
                                  0.2, false};
     scene.noise.seed = 100 + i;
@@ -80,7 +80,7 @@ std::vector<sim::Scene> flights(int lobs, int shots) {
     // Aimed to cross the robot's line in flight, 0.3-1.0 m up, at 7-11 m/s: the lower of the two
     // drag-free launch angles that reach that height there.
     sim::Scene scene = openField("shot_" + std::to_string(i));
-    const Eigen::Vector3d start(between(-1.5, 1.5), between(5.0, 7.0), 0.11);
+    const Eigen::Vector3d start(between(-1.5, 1.5), between(5.0, 7.0), scene.physics.radius_m);
     const Eigen::Vector2d target(between(-0.9, 0.9), 0.0);
     const double height = between(0.3, 1.0), speed = between(7.0, 11.0), g = 9.81;
     const double distance = (target - start.head<2>()).norm();

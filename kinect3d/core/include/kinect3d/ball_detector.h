@@ -67,8 +67,8 @@ class BallDetector {
   DetectorConfig config_;
   std::string source_;
   GroundAligner ground_;
-  PointProjector projector_;
-  // Made for the first frame's focal length.
+  // Made for the frame's intrinsics, and again when they change.
+  std::unique_ptr<PointProjector> projector_;
   std::unique_ptr<OccupancyGrid> grid_;
   std::unique_ptr<BallCandidateFinder> finder_;
   std::unique_ptr<BallRefiner> refiner_;

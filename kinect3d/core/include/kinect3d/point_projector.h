@@ -32,11 +32,13 @@ class PointProjector {
     double baseline_m = 0.075;     // projector to camera, sets the quantisation step
   };
 
-  explicit PointProjector(const Config& config) : config_(config) {}
+  // For frames with these intrinsics (the tolerance and the rays depend on them).
+  PointProjector(const Config& config, const Intrinsics& intrinsics);
   const Config& config() const { return config_; }
+  const Intrinsics& intrinsics() const { return intrinsics_; }
 
   // Valid, non-edge pixels on the sampling grid, above the floor margin, in the robot frame.
-  // setIntrinsics() must have been called with the frame's intrinsics.
+  // Throws std::invalid_argument for a frame with other intrinsics.
   void project(const DepthFrame& frame, const Eigen::Isometry3f& T_R_S, PointSet& out) const;
 
   // Whether pixel (u, v) lies on a resolved surface: valid, in range, and all four neighbours
@@ -55,15 +57,11 @@ class PointProjector {
     return true;
   }
 
-  // Must be called when the intrinsics change (the tolerance depends on the focal length).
-  void setIntrinsics(const Intrinsics& intrinsics);
-  const Intrinsics& intrinsics() const { return intrinsics_; }
-
  private:
   Config config_;
   float min_mm_ = 0, max_mm_ = 0;
   float tolerance_per_m2_ = 0;  // edge_tolerance_steps / (8 f b)
-  Intrinsics intrinsics_{0, 0, 0, 0, 0, 0};
+  Intrinsics intrinsics_;
   std::vector<Eigen::Vector2f> rays_;  // ((u - cx) / fx, (v - cy) / fy) per pixel
 };
 

@@ -25,6 +25,7 @@ namespace kinect3d {
 class SceneMap {
  public:
   struct Config {
+    double voxel_m = 0.27;            // coarse: the paper's grid size, whatever the detector's grid
     int update_interval_frames = 10;  // rays from every n-th frame (3 Hz at 30 Hz)
     int ray_stride_px = 8;            // from every n-th pixel in u and v (80 x 60 rays at VGA)
     double static_after_s = 2.0;      // occupied this long without a break: static
@@ -32,9 +33,8 @@ class SceneMap {
 
   enum class VoxelState : std::uint8_t { kUnknown, kFree, kOccupied, kStatic };
 
-  // voxel_m: the occupancy grid's, so that map voxels and grid voxels are the same cubes; depths
-  // outside [min_range_m, max_range_m] cast no ray.
-  SceneMap(const Config& config, double voxel_m, double min_range_m, double max_range_m);
+  // Depths outside [min_range_m, max_range_m] (the sensor's, as the detector uses) cast no ray.
+  SceneMap(const Config& config, double min_range_m, double max_range_m);
   ~SceneMap();  // waits for rays in flight
   SceneMap(const SceneMap&) = delete;
   SceneMap& operator=(const SceneMap&) = delete;
