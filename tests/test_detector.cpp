@@ -31,6 +31,41 @@ DetectorConfig shippedDetector(const sim::Scene& scene) {
   return config;
 }
 
+// ---- Configuration ------------------------------------------------------------------------------
+
+// One source of truth for defaults: the shipped defaults file and the structs agree, so code that
+// builds a struct directly (tests, tools) runs what a robot runs.
+TEST(DetectorConfig, ShippedDefaultsAreTheStructDefaults) {
+  const DetectorConfig read = kinect3d::readDetectorConfig(shippedConfig().block("kinect3d"));
+  const DetectorConfig code;
+  EXPECT_FALSE(read.ground.pose.has_value());
+  EXPECT_FALSE(code.ground.pose.has_value());
+  EXPECT_DOUBLE_EQ(read.ground.max_tilt_rad, code.ground.max_tilt_rad);
+  EXPECT_EQ(read.ground.distance_threshold_m, code.ground.distance_threshold_m);
+  EXPECT_EQ(read.ground.max_fit_range_m, code.ground.max_fit_range_m);
+  EXPECT_EQ(read.ground.refit_interval_frames, code.ground.refit_interval_frames);
+  EXPECT_EQ(read.ground.min_inlier_fraction, code.ground.min_inlier_fraction);
+  EXPECT_EQ(read.points.pixel_stride, code.points.pixel_stride);
+  EXPECT_EQ(read.points.edge_tolerance_steps, code.points.edge_tolerance_steps);
+  EXPECT_EQ(read.points.min_range_m, code.points.min_range_m);
+  EXPECT_EQ(read.points.max_range_m, code.points.max_range_m);
+  EXPECT_EQ(read.points.floor_margin_m, code.points.floor_margin_m);
+  EXPECT_EQ(read.points.baseline_m, code.points.baseline_m);
+  EXPECT_EQ(read.grid.voxel_m, code.grid.voxel_m);
+  EXPECT_EQ(read.grid.occupied_fraction, code.grid.occupied_fraction);
+  EXPECT_EQ(read.grid.min_points, code.grid.min_points);
+  EXPECT_EQ(read.mask.core_voxels, code.mask.core_voxels);
+  EXPECT_EQ(read.mask.mask_voxels, code.mask.mask_voxels);
+  EXPECT_EQ(read.map.voxel_m, code.map.voxel_m);
+  EXPECT_EQ(read.map.update_interval_frames, code.map.update_interval_frames);
+  EXPECT_EQ(read.map.ray_stride_px, code.map.ray_stride_px);
+  EXPECT_EQ(read.map.static_after_s, code.map.static_after_s);
+  EXPECT_EQ(read.ball.radius_m, code.ball.radius_m);
+  EXPECT_EQ(read.ball.min_visible_fraction, code.ball.min_visible_fraction);
+  EXPECT_EQ(read.ball.max_size_ratio, code.ball.max_size_ratio);
+  EXPECT_EQ(read.ball.air_min_height_m, code.ball.air_min_height_m);
+}
+
 // ---- Surface filter ----------------------------------------------------------------------------
 
 TEST(PointProjector, KeepsSurfacesDropsFlyingPixelsAndFloor) {
@@ -60,7 +95,7 @@ TEST(OccupancyGrid, CountsFollowEachFrame) {
   kinect3d::OccupancyGrid::Config config;
   config.min_points = 3;
   config.occupied_fraction = 0.0;
-  kinect3d::OccupancyGrid grid(config, 575.8, 2);
+  kinect3d::OccupancyGrid grid(config, 575.8, 2, 9.5);
   const Eigen::Vector3f sensor(0.0f, 0.0f, 0.7f);
   kinect3d::PointSet points;
   auto addPoints = [&](Eigen::Vector3f at, int n) {
@@ -87,7 +122,7 @@ TEST(OccupancyGrid, CountsFollowEachFrame) {
 
 TEST(OccupancyGrid, ThresholdFallsWithRange) {
   kinect3d::OccupancyGrid::Config config;  // occupied_fraction 0.02 of a full face
-  kinect3d::OccupancyGrid grid(config, 575.8, 2);
+  kinect3d::OccupancyGrid grid(config, 575.8, 2, 9.5);
   kinect3d::PointSet points;
   // 30 points: plenty at 6 m (a full face holds ~170), far too few at 1.5 m (~2700).
   for (const float y : {1.5f, 6.0f}) {
@@ -102,7 +137,7 @@ TEST(OccupancyGrid, ThresholdFallsWithRange) {
 
 class MaskTest : public ::testing::Test {
  protected:
-  MaskTest() : grid_(gridConfig(), 575.8, 2), finder_({}) {}
+  MaskTest() : grid_(gridConfig(), 575.8, 2, 9.5), finder_({}) {}
   static kinect3d::OccupancyGrid::Config gridConfig() {
     kinect3d::OccupancyGrid::Config config;
     config.occupied_fraction = 0.0;

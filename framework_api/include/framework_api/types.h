@@ -9,6 +9,9 @@
 
 namespace fw {
 
+// Standard gravity: what every ball model here falls with.
+constexpr double kGravity_mps2 = 9.81;
+
 // Seconds since the Unix epoch on the host's wall clock.
 double wallClockNow_s();
 
@@ -106,7 +109,7 @@ struct BallTrajectory {
   Eigen::Vector3d position_m = Eigen::Vector3d::Zero();   // at time_s
   Eigen::Vector3d velocity_mps = Eigen::Vector3d::Zero();  // at time_s
   BallState state = BallState::kAir;
-  double gravity_mps2 = 9.81;
+  double gravity_mps2 = kGravity_mps2;
   double drag_per_m = 0.0;
   double rolling_decel_mps2 = 0.0;
   int support = 0;       // detections the current fit rests on

@@ -25,8 +25,8 @@ bool BallCandidateFinder::VoxelSet::insert(const VoxelIndex& v) {
   }
 }
 
-BallCandidateFinder::BallCandidateFinder(const Config& config)
-    : config_(config), shell_((config.mask_voxels - config.core_voxels) / 2) {
+BallCandidateFinder::BallCandidateFinder(const Config& config, double min_points_at_1m)
+    : config_(config), min_points_at_1m_(min_points_at_1m), shell_((config.mask_voxels - config.core_voxels) / 2) {
   if (config.core_voxels < 1 || config.mask_voxels < config.core_voxels + 2 ||
       (config.mask_voxels - config.core_voxels) % 2 != 0) {
     throw std::invalid_argument("mask_voxels must exceed core_voxels by a positive even number");
@@ -68,7 +68,7 @@ void BallCandidateFinder::find(const OccupancyGrid& grid, std::vector<BallCandid
     if (too_big) continue;
     const Eigen::Vector3f middle = 0.5f * (grid.centerOf(group.min) + grid.centerOf(group.max));
     const double range_squared = std::max(0.25, double((middle - grid.sensorPosition()).squaredNorm()));
-    if (group.points < config_.min_points_at_1m / range_squared) continue;
+    if (group.points < min_points_at_1m_ / range_squared) continue;
     if (shellEmpty(grid, group)) out.push_back(group);
   }
 }

@@ -15,12 +15,9 @@ double secondsBetween(Clock::time_point a, Clock::time_point b) {
 // The mask's early plausibility cut: a whole ball of radius r covers pi (f r / z)^2 pixels at
 // range z, 1/stride^2 of them on the grid. A group needs half the share the refiner later demands
 // of the full-resolution pixels (its voxels below the occupancy threshold are not counted).
-BallCandidateFinder::Config maskConfig(const DetectorConfig& config, double focal_px) {
-  BallCandidateFinder::Config mask = config.mask;
+double minGroupPointsAt1m(const DetectorConfig& config, double focal_px) {
   const double stride = config.points.pixel_stride;
-  mask.min_points_at_1m = 0.5 * config.ball.min_visible_fraction * M_PI *
-                          std::pow(focal_px * config.ball.radius_m / stride, 2);
-  return mask;
+  return 0.5 * config.ball.min_visible_fraction * M_PI * std::pow(focal_px * config.ball.radius_m / stride, 2);
 }
 }  // namespace
 
@@ -57,8 +54,9 @@ void BallDetector::detect(const DepthFrame& frame, Detections& out, const std::o
     // Everything that depends on the camera is made for it; a new camera (or a resolution change)
     // starts these stages afresh.
     projector_ = std::make_unique<PointProjector>(config_.points, frame.intrinsics);
-    grid_ = std::make_unique<OccupancyGrid>(config_.grid, frame.intrinsics.fx, config_.points.pixel_stride);
-    finder_ = std::make_unique<BallCandidateFinder>(maskConfig(config_, frame.intrinsics.fx));
+    grid_ = std::make_unique<OccupancyGrid>(config_.grid, frame.intrinsics.fx, config_.points.pixel_stride,
+                                            config_.points.max_range_m);
+    finder_ = std::make_unique<BallCandidateFinder>(config_.mask, minGroupPointsAt1m(config_, frame.intrinsics.fx));
     refiner_ = std::make_unique<BallRefiner>(config_.ball,
                                              DepthNoiseModel{frame.intrinsics.fx, config_.points.baseline_m});
   }

@@ -34,9 +34,11 @@ DetectorConfig readDetectorConfig(const fw::ConfigView& kinect3d) {
   config.points.baseline_m = sensor.getDouble("baseline_m", 0.01, 0.5);
 
   const fw::ConfigView ground = kinect3d.child("ground");
-  config.ground.max_tilt_deg = ground.getDouble("max_tilt_deg", 1.0, 89.0);
+  config.ground.max_tilt_rad = degreesToRadians(ground.getDouble("max_tilt_deg", 1.0, 89.0));
   config.ground.distance_threshold_m = ground.getDouble("distance_threshold_m", 0.005, 0.5);
+  config.ground.max_fit_range_m = ground.getDouble("max_fit_range_m", 1.0, 20.0);
   config.ground.refit_interval_frames = ground.getInt("refit_interval_frames", 1, 100000);
+  config.ground.min_inlier_fraction = ground.getDouble("min_inlier_fraction", 0.01, 1.0);
 
   const fw::ConfigView points = kinect3d.child("points");
   config.points.pixel_stride = points.getInt("pixel_stride", 1, 8);
@@ -56,7 +58,6 @@ DetectorConfig readDetectorConfig(const fw::ConfigView& kinect3d) {
   }
   config.grid.occupied_fraction = grid.getDouble("occupied_fraction", 0.0, 1.0);
   config.grid.min_points = grid.getInt("min_points", 1, 100000);
-  config.grid.max_range_m = config.points.max_range_m;
 
   const fw::ConfigView map = kinect3d.child("map");
   config.map.voxel_m = map.getDouble("voxel_m", 0.05, 2.0);

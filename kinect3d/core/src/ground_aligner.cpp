@@ -75,7 +75,7 @@ std::optional<Eigen::Isometry3d> GroundAligner::fitFloor(const DepthFrame& frame
   segmentation.setModelType(pcl::SACMODEL_PERPENDICULAR_PLANE);
   segmentation.setMethodType(pcl::SAC_RANSAC);
   segmentation.setAxis(Eigen::Vector3f(0.0f, -1.0f, 0.0f));
-  segmentation.setEpsAngle(config_.max_tilt_deg * M_PI / 180.0);
+  segmentation.setEpsAngle(config_.max_tilt_rad);
   segmentation.setDistanceThreshold(config_.distance_threshold_m);
   segmentation.setMaxIterations(200);
   segmentation.setInputCloud(cloud);

@@ -5,14 +5,14 @@
 
 namespace kinect3d {
 
-OccupancyGrid::OccupancyGrid(const Config& config, double focal_px, int pixel_stride)
+OccupancyGrid::OccupancyGrid(const Config& config, double focal_px, int pixel_stride, double max_range_m)
     : config_(config) {
   const double per_face = config.voxel_m * focal_px / pixel_stride;
   full_face_points_at_1m_ = per_face * per_face;
-  // The dense region: a box around the sensor reaching max_range_m sideways and from just under
-  // the floor to max_height_m.
-  const int across = static_cast<int>(std::ceil(2.0 * config.max_range_m / config.voxel_m)) + 2;
-  size_ = {across, across, static_cast<int>(std::ceil(config.max_height_m / config.voxel_m)) + 2};
+  // The dense region: a box around the sensor reaching max_range_m sideways and from the floor to
+  // kMaxHeight_m.
+  const int across = static_cast<int>(std::ceil(2.0 * max_range_m / config.voxel_m)) + 2;
+  size_ = {across, across, static_cast<int>(std::ceil(kMaxHeight_m / config.voxel_m)) + 2};
   const std::size_t cells = static_cast<std::size_t>(size_[0]) * size_[1] * size_[2];
   counts_.assign(cells, 0);
   occupied_.assign(cells, 0);

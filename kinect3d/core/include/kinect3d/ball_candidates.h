@@ -27,12 +27,11 @@ class BallCandidateFinder {
   struct Config {
     int core_voxels = 3;  // the paper's inner 3 voxels
     int mask_voxels = 5;  // and its mask of 5: a one-voxel empty shell
-    // Groups with fewer grid points than this over their squared range (m^2) cannot be a ball
-    // and skip the mask test; BallDetector derives it from the ball's size (0 = test all).
-    double min_points_at_1m = 0.0;
   };
 
-  explicit BallCandidateFinder(const Config& config);
+  // Groups with fewer grid points than min_points_at_1m over their squared range (m^2) cannot be a
+  // ball and skip the mask test; BallDetector derives it from the ball's size (0 = test all).
+  explicit BallCandidateFinder(const Config& config, double min_points_at_1m = 0.0);
 
   // Appends every group of occupied voxels that passes the mask to `out` (cleared first).
   void find(const OccupancyGrid& grid, std::vector<BallCandidate>& out) const;
@@ -41,6 +40,7 @@ class BallCandidateFinder {
   bool shellEmpty(const OccupancyGrid& grid, const BallCandidate& group) const;
 
   Config config_;
+  double min_points_at_1m_;
   int shell_;  // voxels of empty shell on each side
   // An open-addressing set of voxels, reused between frames so grouping allocates nothing.
   class VoxelSet {

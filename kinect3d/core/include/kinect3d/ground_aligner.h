@@ -3,6 +3,7 @@
 #pragma once
 
 #include <memory>
+#include <cmath>
 #include <optional>
 
 #include <Eigen/Geometry>
@@ -16,7 +17,7 @@ class GroundAligner {
  public:
   struct Config {
     std::optional<SensorPose> pose;  // known mounting; when absent the floor is searched for
-    double max_tilt_deg = 40.0;      // the floor's normal is at most this far from the image's up
+    double max_tilt_rad = 40.0 * M_PI / 180.0;  // the floor's normal is at most this far from the image's up
     double distance_threshold_m = 0.04;  // inlier band around the plane (noise at 4-5 m)
     double max_fit_range_m = 5.0;    // fit on points nearer than this, where depth is precise
     int refit_interval_frames = 30;  // how often the floor fit is checked

@@ -27,11 +27,13 @@ class OccupancyGrid {
     // min_points: a threshold that follows the point density as it falls with range.
     double occupied_fraction = 0.02;
     int min_points = 3;
-    double max_range_m = 9.5;         // the grid spans this far from the sensor
-    double max_height_m = 3.5;        // and this high above the floor
   };
+  // The grid spans this high above the floor: above the highest lob (about 2.1 m apex in MSL).
+  static constexpr double kMaxHeight_m = 3.5;
 
-  OccupancyGrid(const Config& config, double focal_px, int pixel_stride);
+  // focal_px and pixel_stride set the point density; the grid spans max_range_m (the sensor's
+  // range) around the sensor.
+  OccupancyGrid(const Config& config, double focal_px, int pixel_stride, double max_range_m);
   ~OccupancyGrid();
 
   // Replaces the counts with this frame's points; sensor_R is the sensor's position (for ranges).

@@ -21,9 +21,8 @@ namespace kinect3d {
 struct TrajectoryConfig {
   enum class Mode { kBallistic, kPaper };
   Mode mode = Mode::kBallistic;
-  double ball_radius_m = 0.11;
-  double gravity_mps2 = 9.81;
-  double drag_per_m = 0.0;              // ballistic: quadratic drag (0.024 for a size 5 ball); 0 = none
+  double ball_radius_m = 0.11;          // kinect3d.ball.radius_m: the detector's radius, read once
+  double drag_per_m = 0.024;            // ballistic: quadratic drag rho Cd A / 2m of a size 5 ball; 0 = none
   double rolling_decel_mps2 = 0.4;      // a rolling ball slows by this
   double gate_sigma = 4.0;              // a detection supports the fit within this many sigma
   double model_sigma_m = 0.02;          // model error added to every prediction

@@ -139,13 +139,13 @@ class BallisticEstimator : public TrajectoryEstimator {
   // p0 + v0 tau + g tau^2 / 2 (g only in the air).
   Eigen::Vector3d dragFree(const Vector6d& theta, double t_s) const {
     const double tau = t_s - t_ref_;
-    const double g = airborne_ ? config().gravity_mps2 : 0.0;
+    const double g = airborne_ ? fw::kGravity_mps2 : 0.0;
     return theta.head<3>() + tau * theta.tail<3>() + Eigen::Vector3d(0.0, 0.0, -0.5 * g * tau * tau);
   }
 
   // Weighted least squares for (p0, v0) against the detections minus the drag offsets.
   void solve() {
-    const double g = airborne_ ? config().gravity_mps2 : 0.0;
+    const double g = airborne_ ? fw::kGravity_mps2 : 0.0;
     Matrix6d normal = Matrix6d::Zero();
     Vector6d rhs = Vector6d::Zero();
     for (std::size_t i = 0; i < segment_.size(); ++i) {
@@ -176,7 +176,7 @@ class BallisticEstimator : public TrajectoryEstimator {
     m.position_m = theta.head<3>();
     m.velocity_mps = theta.tail<3>();
     m.state = airborne_ ? fw::BallState::kAir : fw::BallState::kGround;
-    m.gravity_mps2 = config().gravity_mps2;
+    m.gravity_mps2 = fw::kGravity_mps2;
     m.drag_per_m = airborne_ ? config().drag_per_m : 0.0;
     return m;
   }
@@ -221,7 +221,7 @@ class BallisticEstimator : public TrajectoryEstimator {
       rhs += A.transpose() * W * ball.position_m;
     }
     const double a_z = normal.ldlt().solve(rhs)[8];
-    return std::abs(a_z + config().gravity_mps2) <= config().max_gravity_error_mps2;
+    return std::abs(a_z + fw::kGravity_mps2) <= config().max_gravity_error_mps2;
   }
 
   // Enough detections, moving, and falling with gravity: only then is an airborne track a ball
@@ -249,7 +249,7 @@ class BallisticEstimator : public TrajectoryEstimator {
   // When the centre comes down to the ball's radius, and where; the 1-sigma radius propagates the
   // fit's covariance through the drag-free touchdown.
   std::optional<fw::Touchdown> touchdown(const fw::BallTrajectory& now) const {
-    const double r = config().ball_radius_m, g = config().gravity_mps2;
+    const double r = config().ball_radius_m, g = fw::kGravity_mps2;
     auto dragFreeLanding = [&](const Vector6d& theta, Eigen::Vector2d& point, double& time) {
       const double z0 = theta[2] - r, vz = theta[5];
       const double disc = vz * vz + 2.0 * g * z0;

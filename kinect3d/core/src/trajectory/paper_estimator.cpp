@@ -116,7 +116,7 @@ class PaperEstimator : public TrajectoryEstimator {
     const double dz_dd = 2.0 * parabola_[0] * d_now + parabola_[1];
     trajectory.velocity_mps << speed_ * direction_, speed_ * dz_dd;
     trajectory.state = fw::BallState::kAir;
-    trajectory.gravity_mps2 = config().gravity_mps2;
+    trajectory.gravity_mps2 = fw::kGravity_mps2;
     trajectory.support = static_cast<int>(support_.size());
     trajectory.rms_m = rms_;
     trajectory.source = support_.back().source;
