@@ -168,7 +168,9 @@ struct PixelRect {
 
 }  // namespace
 
-// Per-frame buffers, kept between frames so rendering allocates nothing once warm.
+// Renders one frame, stage by stage, into buffers kept between frames (so rendering allocates
+// nothing once warm). The stages draw from one random stream in a fixed order, so a frame depends
+// only on the scene, the seed and its index.
 struct KinectSimulator::Renderer {
   std::vector<float> depth_m;         // optical depth of the nearest surface, kNoHit for none
   std::vector<std::int16_t> id;       // what is there: kIdNone, kIdFloor, shape index + 1, ball
@@ -178,6 +180,11 @@ struct KinectSimulator::Renderer {
   std::vector<double> shape_dropout;  // by id
   std::vector<PlacedShape> placed;
 
+  // The frame being rendered.
+  const Scene* scene = nullptr;
+  Eigen::Isometry3d T_R_S = Eigen::Isometry3d::Identity();
+  bool jittered = false;
+
   void resize(std::size_t pixels) {
     depth_m.resize(pixels);
     id.resize(pixels);
@@ -185,88 +192,76 @@ struct KinectSimulator::Renderer {
     clean_disparity.resize(pixels);
     jitter.resize(2 * pixels);
   }
-};
 
-KinectSimulator::KinectSimulator(Scene scene)
-    : scene_(std::move(scene)), renderer_(std::make_unique<Renderer>()) {
-  if (scene_.ball) {
-    ball_motion_ = std::make_unique<BallMotion>(*scene_.ball, scene_.physics,
-                                                scene_.duration_s + scene_.noise.exposure_s);
+  int width() const { return scene->intrinsics.width; }
+  int height() const { return scene->intrinsics.height; }
+
+  // Where each pixel's ray really looks: the lateral noise of the correlation window.
+  void jitterRays(Random& random) {
+    jittered = scene->noise.lateral_noise_px > 0.0;
+    if (!jittered) return;
+    for (float& j : jitter) j = static_cast<float>(scene->noise.lateral_noise_px) * random.normal();
   }
-  renderer_->resize(static_cast<std::size_t>(scene_.intrinsics.width) * scene_.intrinsics.height);
-}
 
-KinectSimulator::~KinectSimulator() = default;
-
-void KinectSimulator::render(int frame_index, DepthFrame& frame, GroundTruth& truth) {
-  const Intrinsics& in = scene_.intrinsics;
-  const KinectNoise& noise = scene_.noise;
-  const int W = in.width, H = in.height;
-  Renderer& r = *renderer_;
-  Random random(noise.seed, static_cast<std::uint64_t>(frame_index));
-  const double t = frame_index / scene_.fps;
-
-  const Eigen::Isometry3d T_R_S = scene_.sensor_pose.T_R_S();
-  const Eigen::Matrix3d R_R_S = T_R_S.linear();
-  const Eigen::Vector3d o_R = T_R_S.translation();
-
-  // Where each pixel's ray really looks (lateral noise of the correlation window).
-  const bool jittered = noise.lateral_noise_px > 0.0;
-  if (jittered) {
-    for (float& j : r.jitter) j = static_cast<float>(noise.lateral_noise_px) * random.normal();
+  // The direction pixel (u, v) looks along, in the sensor frame (z = 1).
+  Eigen::Vector3d ray(int u, int v) const {
+    const std::size_t i = static_cast<std::size_t>(v) * width() + u;
+    const double du = jittered ? jitter[2 * i] : 0.0, dv = jittered ? jitter[2 * i + 1] : 0.0;
+    return scene->intrinsics.backProject(u + du, v + dv, 1.0);
   }
-  auto ray = [&](int u, int v) {
-    const std::size_t i = static_cast<std::size_t>(v) * W + u;
-    const double du = jittered ? r.jitter[2 * i] : 0.0, dv = jittered ? r.jitter[2 * i + 1] : 0.0;
-    return in.backProject(u + du, v + dv, 1.0);
-  };
-  auto rectOf = [&](const std::array<Eigen::Vector3d, 8>& corners) {
+
+  // The pixels a box with these corners (sensor frame) can cover, with a margin for the jitter.
+  PixelRect rectOf(const std::array<Eigen::Vector3d, 8>& corners) const {
+    const int W = width(), H = height();
     double u0 = 1e9, v0 = 1e9, u1 = -1e9, v1 = -1e9;
     for (const auto& c : corners) {
       if (c.z() < 0.05) return PixelRect{0, 0, W, H};  // reaches behind the sensor: test everywhere
-      const Eigen::Vector2d px = in.project(c);
+      const Eigen::Vector2d px = scene->intrinsics.project(c);
       u0 = std::min(u0, px.x()), u1 = std::max(u1, px.x()), v0 = std::min(v0, px.y()), v1 = std::max(v1, px.y());
     }
-    const double margin = 2.0 + 4.0 * noise.lateral_noise_px;
+    const double margin = 2.0 + 4.0 * scene->noise.lateral_noise_px;
     return PixelRect{std::max(0, int(std::floor(u0 - margin))), std::max(0, int(std::floor(v0 - margin))),
                      std::min(W, int(std::ceil(u1 + margin)) + 1), std::min(H, int(std::ceil(v1 + margin)) + 1)};
-  };
+  }
 
   // 1. Geometry: the floor, then every obstacle shape where it stands at time t.
-  for (int v = 0; v < H; ++v) {
-    for (int u = 0; u < W; ++u) {
-      const std::size_t i = static_cast<std::size_t>(v) * W + u;
-      r.depth_m[i] = kNoHit;
-      r.id[i] = kIdNone;
-      if (!scene_.floor) continue;
-      const double down = (R_R_S * ray(u, v)).z();
-      if (down < -1e-9) {
-        r.depth_m[i] = static_cast<float>(-o_R.z() / down);
-        r.id[i] = kIdFloor;
+  void castGeometry(double t) {
+    const int W = width(), H = height();
+    const Eigen::Matrix3d R_R_S = T_R_S.linear();
+    const Eigen::Vector3d o_R = T_R_S.translation();
+    for (int v = 0; v < H; ++v) {
+      for (int u = 0; u < W; ++u) {
+        const std::size_t i = static_cast<std::size_t>(v) * W + u;
+        depth_m[i] = kNoHit;
+        id[i] = kIdNone;
+        if (!scene->floor) continue;
+        const double down = (R_R_S * ray(u, v)).z();
+        if (down < -1e-9) {
+          depth_m[i] = static_cast<float>(-o_R.z() / down);
+          id[i] = kIdFloor;
+        }
       }
     }
-  }
-  r.placed.clear();
-  r.shape_dropout.assign(1, 0.0);
-  for (const SceneObject& object : scene_.objects) {
-    const Eigen::Vector3d offset_R = object.displacementAt(t);
-    for (const Shape& shape : object.shapes) {
-      const Eigen::Matrix3d R_L_R =
-          Eigen::AngleAxisd(-shape.yaw_rad, Eigen::Vector3d::UnitZ()).toRotationMatrix();
-      PlacedShape placed{shape.kind, R_L_R * R_R_S, R_L_R * (o_R - shape.center_m - offset_R),
-                         shape.size_m / 2.0};
-      if (shape.kind == Shape::Kind::kCylinder) placed.half.z() = shape.size_m.z();
-      r.placed.push_back(placed);
-      r.shape_dropout.push_back(shape.dropout);
-      const std::int16_t id = static_cast<std::int16_t>(r.placed.size());
-      const PixelRect rect = rectOf(placed.corners_S());
-      for (int v = rect.v0; v < rect.v1; ++v) {
-        for (int u = rect.u0; u < rect.u1; ++u) {
-          const std::size_t i = static_cast<std::size_t>(v) * W + u;
-          const double z = placed.intersect(ray(u, v));
-          if (z < r.depth_m[i]) {
-            r.depth_m[i] = static_cast<float>(z);
-            r.id[i] = id;
+    placed.clear();
+    shape_dropout.assign(1, 0.0);
+    for (const SceneObject& object : scene->objects) {
+      const Eigen::Vector3d offset_R = object.displacementAt(t);
+      for (const Shape& shape : object.shapes) {
+        const Eigen::Matrix3d R_L_R = Eigen::AngleAxisd(-shape.yaw_rad, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+        PlacedShape shape_S{shape.kind, R_L_R * R_R_S, R_L_R * (o_R - shape.center_m - offset_R), shape.size_m / 2.0};
+        if (shape.kind == Shape::Kind::kCylinder) shape_S.half.z() = shape.size_m.z();
+        placed.push_back(shape_S);
+        shape_dropout.push_back(shape.dropout);
+        const std::int16_t shape_id = static_cast<std::int16_t>(placed.size());
+        const PixelRect rect = rectOf(shape_S.corners_S());
+        for (int v = rect.v0; v < rect.v1; ++v) {
+          for (int u = rect.u0; u < rect.u1; ++u) {
+            const std::size_t i = static_cast<std::size_t>(v) * W + u;
+            const double z = shape_S.intersect(ray(u, v));
+            if (z < depth_m[i]) {
+              depth_m[i] = static_cast<float>(z);
+              id[i] = shape_id;
+            }
           }
         }
       }
@@ -276,36 +271,18 @@ void KinectSimulator::render(int frame_index, DepthFrame& frame, GroundTruth& tr
   // 2. The ball, smeared over the exposure: a pixel it covers for the whole exposure shows the
   //    ball; one it covers part of the time correlates to a disparity between ball and background
   //    (the trail the paper describes).
-  truth = GroundTruth{};
-  truth.frame_index = static_cast<std::uint64_t>(frame_index);
-  truth.time_s = t;
-  if (ball_motion_) {
-    const double radius = scene_.physics.radius_m;
-    truth.has_ball = true;
-    truth.ball_center_R = ball_motion_->positionAt(t);
-    truth.ball_velocity_R = ball_motion_->velocityAt(t);
-    truth.airborne = truth.ball_center_R.z() > radius + 0.01;
-    truth.clearance_m = std::numeric_limits<double>::infinity();
-    for (const SceneObject& object : scene_.objects) {
-      for (const Shape& shape : object.shapes) {
-        truth.clearance_m = std::min(
-            truth.clearance_m,
-            distanceToShape(shape, object.displacementAt(t), truth.ball_center_R) - radius);
-      }
-    }
-    truth.clearance_m = std::max(0.0, truth.clearance_m);
-
+  void castBall(const BallMotion& motion, double t, Random& random) {
+    const int W = width(), H = height();
+    const KinectNoise& noise = scene->noise;
     const int samples = noise.exposure_s > 0.0 ? kBlurSamples : 1;
     std::array<PlacedShape, kBlurSamples> ball_at;
     PixelRect rect{W, H, 0, 0};
     for (int k = 0; k < samples; ++k) {
       const double tk = samples == 1 ? t : t + noise.exposure_s * (double(k) / (samples - 1) - 0.5);
-      ball_at[k] = PlacedShape{Shape::Kind::kSphere, Eigen::Matrix3d::Identity(),
-                               -(T_R_S.inverse() * ball_motion_->positionAt(tk)),
-                               Eigen::Vector3d::Constant(radius)};
+      ball_at[k] = PlacedShape{Shape::Kind::kSphere, Eigen::Matrix3d::Identity(), -(T_R_S.inverse() * motion.positionAt(tk)),
+                               Eigen::Vector3d::Constant(scene->physics.radius_m)};
       const PixelRect rk = rectOf(ball_at[k].corners_S());
-      rect = {std::min(rect.u0, rk.u0), std::min(rect.v0, rk.v0), std::max(rect.u1, rk.u1),
-              std::max(rect.v1, rk.v1)};
+      rect = {std::min(rect.u0, rk.u0), std::min(rect.v0, rk.v0), std::max(rect.u1, rk.u1), std::max(rect.v1, rk.v1)};
     }
     for (int v = rect.v0; v < rect.v1; ++v) {
       for (int u = rect.u0; u < rect.u1; ++u) {
@@ -315,50 +292,57 @@ void KinectSimulator::render(int frame_index, DepthFrame& frame, GroundTruth& tr
         double inverse_depth_sum = 0.0;
         for (int k = 0; k < samples; ++k) {
           const double z = ball_at[k].intersect(d);
-          if (z < r.depth_m[i]) {
+          if (z < depth_m[i]) {
             ++hits;
             inverse_depth_sum += 1.0 / z;
           }
         }
         if (hits == 0) continue;
         if (hits == samples) {
-          r.depth_m[i] = static_cast<float>(hits / inverse_depth_sum);
-          r.id[i] = kIdBall;
+          depth_m[i] = static_cast<float>(hits / inverse_depth_sum);
+          id[i] = kIdBall;
           continue;
         }
         const double covered = double(hits) / samples;
         const double ball_inverse = inverse_depth_sum / hits;
-        if (r.depth_m[i] == kNoHit) {
+        if (depth_m[i] == kNoHit) {
           // Nothing behind: the correlation only finds the ball when it dominates the exposure.
-          if (random.uniform() < covered) r.depth_m[i] = static_cast<float>(1.0 / ball_inverse);
+          if (random.uniform() < covered) depth_m[i] = static_cast<float>(1.0 / ball_inverse);
         } else {
-          r.depth_m[i] = static_cast<float>(
-              1.0 / (covered * ball_inverse + (1.0 - covered) / r.depth_m[i]));
+          depth_m[i] = static_cast<float>(1.0 / (covered * ball_inverse + (1.0 - covered) / depth_m[i]));
         }
-        r.id[i] = kIdTrail;
+        id[i] = kIdTrail;
       }
     }
   }
 
+  // f b: disparity in pixels times depth in metres.
+  double focalBaseline() const { return scene->intrinsics.fx * scene->noise.baseline_m; }
+
   // 3. Disparity f b / z, inside the range limits.
-  const double fb = in.fx * noise.baseline_m;
-  for (std::size_t i = 0; i < r.depth_m.size(); ++i) {
-    const float z = r.depth_m[i];
-    r.disparity_px[i] = (z >= noise.min_range_m && z <= noise.max_range_m) ? float(fb / z) : 0.0f;
+  void toDisparity() {
+    const KinectNoise& noise = scene->noise;
+    const double fb = focalBaseline();
+    for (std::size_t i = 0; i < depth_m.size(); ++i) {
+      const float z = depth_m[i];
+      disparity_px[i] = (z >= noise.min_range_m && z <= noise.max_range_m) ? float(fb / z) : 0.0f;
+    }
   }
 
   // 4. Projector shadows. The projector sits at +baseline on the optical x axis, so it sees the
   //    point in pixel u at projector column u - disparity; a point is lit only if no nearer point
   //    to its right reaches the same projector column first. Scanning each row from the right
   //    with the smallest projector column seen so far finds every point the projector cannot see.
-  if (noise.shadows) {
+  void castShadows() {
+    const int W = width(), H = height();
+    constexpr float kColumnTolerance_px = 0.25f;  // a surface seen at a grazing angle is not its own shadow
     for (int v = 0; v < H; ++v) {
-      float* row = &r.disparity_px[static_cast<std::size_t>(v) * W];
+      float* row = &disparity_px[static_cast<std::size_t>(v) * W];
       float min_column = std::numeric_limits<float>::infinity();
       for (int u = W - 1; u >= 0; --u) {
         if (row[u] <= 0.0f) continue;
         const float column = u - row[u];
-        if (column > min_column + 0.25f) {
+        if (column > min_column + kColumnTolerance_px) {
           row[u] = 0.0f;  // occluded from the projector: no dots, no depth
         } else {
           min_column = std::min(min_column, column);
@@ -369,58 +353,117 @@ void KinectSimulator::render(int frame_index, DepthFrame& frame, GroundTruth& tr
 
   // 5. Depth edges: the 9x9 correlation window straddles both sides. Some edge pixels drop out,
   //    some take a depth in between ('flying pixels'), the rest keep their own side.
-  r.clean_disparity = r.disparity_px;
-  constexpr float kEdgeJump_px = 1.0f;  // about 0.37 m at 4 m: a real depth edge
-  if (noise.edge_dropout > 0.0 || noise.flying_pixels > 0.0) {
+  void blurEdges(Random& random) {
+    const int W = width(), H = height();
+    const KinectNoise& noise = scene->noise;
+    clean_disparity = disparity_px;
+    constexpr float kEdgeJump_px = 1.0f;  // about 0.37 m at 4 m: a real depth edge
+    if (noise.edge_dropout <= 0.0 && noise.flying_pixels <= 0.0) return;
     for (int v = 1; v < H - 1; ++v) {
       for (int u = 1; u < W - 1; ++u) {
         const std::size_t i = static_cast<std::size_t>(v) * W + u;
-        const float d = r.clean_disparity[i];
+        const float d = clean_disparity[i];
         if (d <= 0.0f) continue;
         float other = 0.0f, jump = kEdgeJump_px;  // the neighbour across the largest edge
         for (const std::size_t j : {i - 1, i + 1, i - W, i + W}) {
-          const float dn = r.clean_disparity[j];
+          const float dn = clean_disparity[j];
           if (dn > 0.0f && std::abs(dn - d) > jump) other = dn, jump = std::abs(dn - d);
         }
         if (other == 0.0f) continue;
         const double draw = random.uniform();
         if (draw < noise.edge_dropout) {
-          r.disparity_px[i] = 0.0f;
+          disparity_px[i] = 0.0f;
         } else if (draw < noise.edge_dropout + noise.flying_pixels) {
-          r.disparity_px[i] = d + static_cast<float>(random.uniform()) * (other - d);
+          disparity_px[i] = d + static_cast<float>(random.uniform()) * (other - d);
         }
       }
     }
   }
 
   // 6. Disparity noise and 1/8 px quantisation, dropouts, then millimetres as OpenNI2 gives them.
-  frame.resize(in);
+  //    Returns how many pixels show the ball with valid depth.
+  int toDepth(Random& random, DepthFrame& frame) const {
+    const KinectNoise& noise = scene->noise;
+    const double fb = focalBaseline();
+    int ball_pixels = 0;
+    for (std::size_t i = 0; i < disparity_px.size(); ++i) {
+      const float d = disparity_px[i];
+      if (d <= 0.0f) continue;
+      const std::int16_t what = id[i];
+      double dropout = noise.random_dropout;
+      if (what == kIdTrail) dropout += noise.trail_dropout;
+      if (what > 0 && what < kIdBall) dropout += shape_dropout[what];
+      if (dropout > 0.0 && random.uniform() < dropout) continue;
+      double eighths = 8.0 * d;
+      if (noise.axial_noise) {
+        const double z = fb / d;
+        double sigma = DepthNoiseModel::axialSigma_m(z) * 8.0 * fb / (z * z);
+        // Nguyen's sigma was measured on quantised data; rounding adds 1/12 units^2 of its own.
+        if (noise.quantisation) sigma = std::sqrt(std::max(sigma * sigma - 1.0 / 12.0, 0.01));
+        eighths += sigma * random.normal();
+      }
+      if (noise.quantisation) eighths = std::round(eighths);
+      if (eighths <= 0.0) continue;
+      const double z_m = 8.0 * fb / eighths;
+      if (z_m < noise.min_range_m || z_m > noise.max_range_m) continue;
+      frame.depth_mm[i] = static_cast<std::uint16_t>(std::lround(z_m * 1000.0));
+      if (what == kIdBall) ++ball_pixels;
+    }
+    return ball_pixels;
+  }
+};
+
+KinectSimulator::KinectSimulator(Scene scene)
+    : scene_(std::move(scene)), renderer_(std::make_unique<Renderer>()) {
+  if (scene_.ball) {
+    ball_motion_ = std::make_unique<BallMotion>(*scene_.ball, scene_.physics,
+                                                scene_.duration_s + scene_.noise.exposure_s);
+  }
+  renderer_->resize(static_cast<std::size_t>(scene_.intrinsics.width) * scene_.intrinsics.height);
+  renderer_->scene = &scene_;
+  renderer_->T_R_S = scene_.sensor_pose.T_R_S();
+}
+
+KinectSimulator::~KinectSimulator() = default;
+
+GroundTruth KinectSimulator::truthAt(int frame_index, double t) const {
+  GroundTruth truth;
+  truth.frame_index = static_cast<std::uint64_t>(frame_index);
+  truth.time_s = t;
+  if (!ball_motion_) return truth;
+  const double radius = scene_.physics.radius_m;
+  constexpr double kAirborneAbove_m = 0.01;  // above resting height: in the air
+  truth.has_ball = true;
+  truth.ball_center_R = ball_motion_->positionAt(t);
+  truth.ball_velocity_R = ball_motion_->velocityAt(t);
+  truth.airborne = truth.ball_center_R.z() > radius + kAirborneAbove_m;
+  truth.clearance_m = std::numeric_limits<double>::infinity();
+  for (const SceneObject& object : scene_.objects) {
+    for (const Shape& shape : object.shapes) {
+      truth.clearance_m =
+          std::min(truth.clearance_m, distanceToShape(shape, object.displacementAt(t), truth.ball_center_R) - radius);
+    }
+  }
+  truth.clearance_m = std::max(0.0, truth.clearance_m);
+  return truth;
+}
+
+void KinectSimulator::render(int frame_index, DepthFrame& frame, GroundTruth& truth) {
+  Renderer& r = *renderer_;
+  Random random(scene_.noise.seed, static_cast<std::uint64_t>(frame_index));
+  const double t = frame_index / scene_.fps;
+  r.jitterRays(random);
+  r.castGeometry(t);
+  truth = truthAt(frame_index, t);
+  if (ball_motion_) r.castBall(*ball_motion_, t, random);
+  r.toDisparity();
+  if (scene_.noise.shadows) r.castShadows();
+  r.blurEdges(random);
+  frame.resize(scene_.intrinsics);
   frame.index = static_cast<std::uint64_t>(frame_index);
   frame.source_time_s = scene_.start_time_s + t;
   frame.sensor_id = "sim:" + scene_.name;
-  for (std::size_t i = 0; i < r.disparity_px.size(); ++i) {
-    const float d = r.disparity_px[i];
-    if (d <= 0.0f) continue;
-    const std::int16_t id = r.id[i];
-    double dropout = noise.random_dropout;
-    if (id == kIdTrail) dropout += noise.trail_dropout;
-    if (id > 0 && id < kIdBall) dropout += r.shape_dropout[id];
-    if (dropout > 0.0 && random.uniform() < dropout) continue;
-    double eighths = 8.0 * d;
-    if (noise.axial_noise) {
-      const double z = fb / d;
-      double sigma = DepthNoiseModel::axialSigma_m(z) * 8.0 * fb / (z * z);
-      // Nguyen's sigma was measured on quantised data; rounding adds 1/12 units^2 of its own.
-      if (noise.quantisation) sigma = std::sqrt(std::max(sigma * sigma - 1.0 / 12.0, 0.01));
-      eighths += sigma * random.normal();
-    }
-    if (noise.quantisation) eighths = std::round(eighths);
-    if (eighths <= 0.0) continue;
-    const double z_m = 8.0 * fb / eighths;
-    if (z_m < noise.min_range_m || z_m > noise.max_range_m) continue;
-    frame.depth_mm[i] = static_cast<std::uint16_t>(std::lround(z_m * 1000.0));
-    if (id == kIdBall) ++truth.visible_pixels;
-  }
+  truth.visible_pixels = r.toDepth(random, frame);
 }
 
 }  // namespace kinect3d::sim

@@ -44,6 +44,19 @@ class BallRefiner {
                                 const PointProjector& surface) const;
 
  private:
+  static constexpr std::size_t kMinPoints = 5;     // fewer full-resolution points: nothing to refine
+  static constexpr double kMinDepthInFront_m = 0.1;  // a box reaching nearer is partly behind the sensor
+
+  // Fills points_ with the candidate's surface points (robot frame); false if too few or not in view.
+  bool gatherPoints(const BallCandidate& candidate, const OccupancyGrid& grid, const DepthFrame& frame,
+                    const Eigen::Isometry3d& T_R_S, const PointProjector& surface) const;
+  // Enough pixels for a ball at this range, and no wider than one.
+  bool isBallSized(const Eigen::Vector3d& centroid, const Eigen::Vector3d& ray, double range, double focal_px) const;
+  // The centre: the centroid moved back along the ray by the visible cap's depth.
+  Eigen::Vector3d centreFromDisc(const Eigen::Vector3d& centroid, const Eigen::Vector3d& ray) const;
+  // The centre's covariance, mostly along the viewing ray.
+  Eigen::Matrix3d covariance(const Eigen::Vector3d& ray, double range, int points) const;
+
   Config config_;
   DepthNoiseModel noise_;
   // Scratch, reused between candidates.

@@ -38,6 +38,7 @@ class KinectSimulator {
 
  private:
   struct Renderer;
+  GroundTruth truthAt(int frame_index, double t) const;
   Scene scene_;
   std::unique_ptr<BallMotion> ball_motion_;
   std::unique_ptr<Renderer> renderer_;
