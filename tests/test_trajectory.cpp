@@ -229,6 +229,29 @@ TEST(Trajectory, RepeatedTimestampsNeverProduceNaN) {
   }
 }
 
+TEST(BallisticTrajectory, FollowsTheFlightAmongSeveralBalls) {
+  // Each frame holds the flying ball, a second ball resting on the floor, and, listed first in
+  // half the frames, a ball rolling past: once a flight is fitted the estimator follows the
+  // detection nearest its prediction, whatever the order.
+  auto estimator = kinect3d::makeTrajectoryEstimator(ballistic());
+  const Eigen::Vector3d p0(0.2, 2.0, 0.3), v0(0.5, 6.0, 4.5);
+  std::optional<fw::BallTrajectory> last;
+  for (int i = 0; i < 20; ++i) {
+    const double t = i * kFrame_s;
+    const fw::BallObservation flying = observe(t, flight(p0, v0, t));
+    const fw::BallObservation resting = observe(t, {-1.0, 3.0, 0.11});
+    const fw::BallObservation rolling = observe(t, {1.5 - 2.0 * t, 4.0, 0.11});
+    std::vector<fw::BallObservation> balls{flying, resting, rolling};
+    if (i % 2 == 1) std::swap(balls[0], balls[2]);
+    last = estimator->update(t, balls);
+  }
+  ASSERT_TRUE(last.has_value());
+  EXPECT_EQ(last->state, fw::BallState::kAir);
+  EXPECT_LT((last->position_m - flight(p0, v0, last->time_s)).norm(), 0.01);
+  EXPECT_EQ(last->support, 20) << "every frame's flying ball, and nothing else";
+  EXPECT_EQ(estimator->resets(), 0);
+}
+
 TEST(TrajectoryConfig, ShippedDefaultsAreTheStructDefaults) {
   const fw::Config shipped = fw::Config::load(std::string(PROJECT_CONFIG_DIR) + "/defaults", "", {});
   const TrajectoryConfig read = kinect3d::readTrajectoryConfig(shipped.block("kinect3d"));

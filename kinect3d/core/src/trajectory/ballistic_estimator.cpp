@@ -1,5 +1,6 @@
 #include <Eigen/Dense>
 
+#include <algorithm>
 #include <cmath>
 #include <deque>
 
@@ -36,10 +37,17 @@ class BallisticEstimator : public TrajectoryEstimator {
     fitted_ = false;
   }
 
-  // The detection nearest the prediction (Mahalanobis), or with no fit the first one (air first).
+  // The detection nearest the prediction (Mahalanobis); before a fit, the one nearest the track's
+  // last detection; with no track, the first one (the detector lists balls in the air first).
   const fw::BallObservation* choose(double t_s, const std::vector<fw::BallObservation>& balls) const {
     if (balls.empty()) return nullptr;
-    if (!fitted_) return &balls.front();
+    if (!fitted_) {
+      if (segment_.empty()) return &balls.front();
+      const Eigen::Vector3d& last = segment_.back().position_m;
+      return &*std::min_element(balls.begin(), balls.end(), [&](const auto& a, const auto& b) {
+        return (a.position_m - last).squaredNorm() < (b.position_m - last).squaredNorm();
+      });
+    }
     const fw::BallObservation* best = &balls.front();
     double best_distance = INFINITY;
     for (const fw::BallObservation& ball : balls) {
