@@ -55,12 +55,11 @@ class ConfigTest : public ::testing::Test {
 };
 
 TEST_F(ConfigTest, MergesDefaultsThenRobotThenCommandLine) {
-  const fw::Config config =
-      load("sensor:\n  voxel_m: 0.2\n  min_points: 6\n", {"sensor.min_points=8"});
+  const fw::Config config = load("sensor:\n  voxel_m: 0.2\n  min_points: 6\n", {"sensor.min_points=8"});
   const fw::ConfigView sensor = config.block("sensor");
-  EXPECT_EQ(sensor.getString("source"), "sim:kick_away");       // default
+  EXPECT_EQ(sensor.getString("source"), "sim:kick_away");         // default
   EXPECT_DOUBLE_EQ(sensor.getDouble("voxel_m", 0.01, 1.0), 0.2);  // robot file
-  EXPECT_EQ(sensor.getInt("min_points", 1, 100), 8);               // command line
+  EXPECT_EQ(sensor.getInt("min_points", 1, 100), 8);              // command line
   EXPECT_EQ(sensor.child("grid").getInt("core_voxels", 1, 9), 3);
   EXPECT_EQ(sensor.originOf("voxel_m"), robotPath() + ":2");
   EXPECT_EQ(sensor.originOf("min_points"), "--set sensor.min_points=8");
@@ -73,65 +72,63 @@ TEST_F(ConfigTest, IntegerAcceptedWhereRealExpected) {
 
 TEST_F(ConfigTest, UnknownKeyNamesFileLineAndKey) {
   const std::string error = errorOf([&] { load("sensor:\n  voxel_size: 0.2\n"); });
-  EXPECT_NE(error.find(robotPath() + ":2: unknown key 'sensor.voxel_size'"), std::string::npos)
-      << error;
+  EXPECT_NE(error.find(robotPath() + ":2: unknown key 'sensor.voxel_size'"), std::string::npos) << error;
   EXPECT_NE(error.find("voxel_m"), std::string::npos) << "should list the known keys: " << error;
 }
 
 TEST_F(ConfigTest, UnknownBlockIsAnError) {
   const std::string error = errorOf([&] { load("sensr:\n  voxel_m: 0.2\n"); });
-  EXPECT_NE(error.find(":1: unknown key 'sensr' (known blocks: host, sensor)"), std::string::npos)
-      << error;
+  EXPECT_NE(error.find(":1: unknown key 'sensr' (known blocks: host, sensor)"), std::string::npos) << error;
 }
 
 TEST_F(ConfigTest, WrongTypesNameTheExpectedForm) {
-  EXPECT_NE(errorOf([&] { load("sensor:\n  min_points: 4.5\n"); })
-                .find(":2: sensor.min_points has the wrong type; expected an integer"),
+  EXPECT_NE(errorOf([&] {
+              load("sensor:\n  min_points: 4.5\n");
+            }).find(":2: sensor.min_points has the wrong type; expected an integer"),
             std::string::npos);
-  EXPECT_NE(errorOf([&] { load("sensor:\n  enabled: maybe\n"); })
-                .find("sensor.enabled has the wrong type; expected true or false"),
+  EXPECT_NE(errorOf([&] {
+              load("sensor:\n  enabled: maybe\n");
+            }).find("sensor.enabled has the wrong type; expected true or false"),
             std::string::npos);
-  EXPECT_NE(errorOf([&] { load("sensor:\n  voxel_m: big\n"); })
-                .find("sensor.voxel_m has the wrong type; expected a number"),
+  EXPECT_NE(
+      errorOf([&] { load("sensor:\n  voxel_m: big\n"); }).find("sensor.voxel_m has the wrong type; expected a number"),
+      std::string::npos);
+  EXPECT_NE(errorOf([&] {
+              load("sensor:\n  grid: 3\n");
+            }).find("sensor.grid has the wrong type; expected a map with keys core_voxels"),
             std::string::npos);
-  EXPECT_NE(errorOf([&] { load("sensor:\n  grid: 3\n"); })
-                .find("sensor.grid has the wrong type; expected a map with keys core_voxels"),
-            std::string::npos);
-  EXPECT_NE(errorOf([&] { load("host:\n  plugins: console\n"); })
-                .find("host.plugins has the wrong type; expected a list"),
-            std::string::npos);
+  EXPECT_NE(
+      errorOf([&] { load("host:\n  plugins: console\n"); }).find("host.plugins has the wrong type; expected a list"),
+      std::string::npos);
 }
 
 TEST_F(ConfigTest, OutOfRangeNamesOriginAndRange) {
   const fw::Config config = load("sensor:\n  voxel_m: -0.2\n");
-  const std::string error =
-      errorOf([&] { config.block("sensor").getDouble("voxel_m", 0.01, 2.0); });
-  EXPECT_EQ(error, robotPath() + ":2: sensor.voxel_m = -0.2 is out of range; expected a number in "
-                                 "[0.01, 2]");
+  const std::string error = errorOf([&] { config.block("sensor").getDouble("voxel_m", 0.01, 2.0); });
+  EXPECT_EQ(error, robotPath() +
+                       ":2: sensor.voxel_m = -0.2 is out of range; expected a number in "
+                       "[0.01, 2]");
 }
 
 TEST_F(ConfigTest, BadCommandLineOverrides) {
-  EXPECT_NE(errorOf([&] { load("", {"sensor.voxel_m"}); }).find("expected key=value"),
+  EXPECT_NE(errorOf([&] { load("", {"sensor.voxel_m"}); }).find("expected key=value"), std::string::npos);
+  EXPECT_NE(errorOf([&] { load("", {"sensor.nope=1"}); }).find("--set sensor.nope=1: unknown key 'sensor.nope'"),
             std::string::npos);
-  EXPECT_NE(errorOf([&] { load("", {"sensor.nope=1"}); })
-                .find("--set sensor.nope=1: unknown key 'sensor.nope'"),
-            std::string::npos);
-  EXPECT_NE(errorOf([&] { load("", {"sensor.min_points=[1"}); }).find("not valid YAML"),
-            std::string::npos);
+  EXPECT_NE(errorOf([&] { load("", {"sensor.min_points=[1"}); }).find("not valid YAML"), std::string::npos);
 }
 
 TEST_F(ConfigTest, FileProblemsNameTheFile) {
-  EXPECT_NE(errorOf([&] { fw::Config::load((root_ / "defaults").string(), "/nonexistent.yaml", {}); })
-                .find("cannot read configuration file '/nonexistent.yaml'"),
+  EXPECT_NE(errorOf([&] {
+              fw::Config::load((root_ / "defaults").string(), "/nonexistent.yaml", {});
+            }).find("cannot read configuration file '/nonexistent.yaml'"),
             std::string::npos);
-  EXPECT_NE(errorOf([&] { load("sensor:\n  voxel_m: [0.2\n"); }).find("YAML syntax error"),
-            std::string::npos);
-  EXPECT_NE(errorOf([&] { fw::Config::load("/nonexistent_dir", "", {}); })
-                .find("defaults folder '/nonexistent_dir' does not exist"),
+  EXPECT_NE(errorOf([&] { load("sensor:\n  voxel_m: [0.2\n"); }).find("YAML syntax error"), std::string::npos);
+  EXPECT_NE(errorOf([&] {
+              fw::Config::load("/nonexistent_dir", "", {});
+            }).find("defaults folder '/nonexistent_dir' does not exist"),
             std::string::npos);
   write("defaults/extra.yaml", "other:\n  a: 1\n");
-  EXPECT_NE(errorOf([&] { load(""); }).find("exactly one top-level block named 'extra'"),
-            std::string::npos);
+  EXPECT_NE(errorOf([&] { load(""); }).find("exactly one top-level block named 'extra'"), std::string::npos);
 }
 
 TEST_F(ConfigTest, OptionalBlockIsAbsentUnlessGivenAndCheckedByItsReader) {
@@ -140,27 +137,27 @@ TEST_F(ConfigTest, OptionalBlockIsAbsentUnlessGivenAndCheckedByItsReader) {
   const fw::ConfigView pose = config.block("sensor").child("pose_in_robot");
   EXPECT_DOUBLE_EQ(pose.getDouble("z", 0, 2), 0.7);
   const std::string error = errorOf([&] { pose.requireOnlyKeys({"x", "y", "z", "yaw_deg"}); });
-  EXPECT_NE(error.find(robotPath() + ":4: sensor.pose_in_robot.yaw is an unknown key"),
-            std::string::npos) << error;
-  EXPECT_NE(errorOf([&] { pose.getDouble("x", -1, 1); })
-                .find("sensor.pose_in_robot.x is missing; expected a number in [-1, 1]"),
+  EXPECT_NE(error.find(robotPath() + ":4: sensor.pose_in_robot.yaw is an unknown key"), std::string::npos) << error;
+  EXPECT_NE(errorOf([&] {
+              pose.getDouble("x", -1, 1);
+            }).find("sensor.pose_in_robot.x is missing; expected a number in [-1, 1]"),
             std::string::npos);
 }
 
 TEST_F(ConfigTest, ChoicesAndLists) {
   const fw::Config config = load("host:\n  plugins: [a, b]\n");
   EXPECT_EQ(config.block("host").getStringList("plugins"), (std::vector<std::string>{"a", "b"}));
-  const std::string error =
-      errorOf([&] { config.block("sensor").getChoice("source", {"openni2", "oni"}); });
+  const std::string error = errorOf([&] { config.block("sensor").getChoice("source", {"openni2", "oni"}); });
   EXPECT_NE(error.find("sensor.source = 'sim:kick_away' is not allowed; expected one of 'openni2' 'oni'"),
-            std::string::npos) << error;
+            std::string::npos)
+      << error;
 }
 
 TEST(ProjectConfig, EveryShippedRobotFileLoads) {
   for (const auto& entry : fs::directory_iterator(std::string(PROJECT_CONFIG_DIR) + "/robots")) {
     SCOPED_TRACE(entry.path().string());
-    const fw::Config config = fw::Config::load(std::string(PROJECT_CONFIG_DIR) + "/defaults",
-                                               entry.path().string(), {});
+    const fw::Config config =
+        fw::Config::load(std::string(PROJECT_CONFIG_DIR) + "/defaults", entry.path().string(), {});
     EXPECT_FALSE(config.block("host").getStringList("plugins").empty());
   }
 }

@@ -6,10 +6,10 @@
 #include <fstream>
 
 #include "kinect3d/depth_source.h"
-#include "kinect3d/sim/sim_sources.h"
 #include "kinect3d/kinect_disparity.h"
 #include "kinect3d/sim/kinect_simulator.h"
 #include "kinect3d/sim/sequence_writer.h"
+#include "kinect3d/sim/sim_sources.h"
 #include "scoped_temp_dir.h"
 
 namespace {
@@ -86,8 +86,8 @@ TEST_F(TumDir, BadInputNamesTheFileAndLine) {
 TEST_F(TumDir, UnreadableFramesAreReportedAndSkipped) {
   cv::imwrite((dir_ / "small.png").string(), cv::Mat(240, 320, CV_16UC1, cv::Scalar(1000)));
   cv::imwrite((dir_ / "eight_bit.png").string(), cv::Mat(480, 640, CV_8UC1, cv::Scalar(10)));
-  write("depth.txt", "0.0 " + kRealTum + "\n0.033 small.png\n0.066 missing.png\n0.1 eight_bit.png\n0.133 " +
-                         kRealTum + "\n");
+  write("depth.txt",
+        "0.0 " + kRealTum + "\n0.033 small.png\n0.066 missing.png\n0.1 eight_bit.png\n0.133 " + kRealTum + "\n");
   auto source = kinect3d::sim::sourcesWithSimulator().open("tum:" + dir_.string());
   DepthFrame frame;
   int frames = 0;
@@ -111,11 +111,9 @@ TEST(DepthSource, UnknownSchemeAndMissingPaths) {
   };
   EXPECT_NE(errorOf("kinect:foo").find("unknown depth source scheme 'kinect:'"), std::string::npos);
   EXPECT_NE(errorOf("tum:/nonexistent").find("'/nonexistent' does not exist"), std::string::npos);
-  EXPECT_NE(errorOf("/nonexistent/rec.oni").find("recording '/nonexistent/rec.oni' does not exist"),
-            std::string::npos);
+  EXPECT_NE(errorOf("/nonexistent/rec.oni").find("recording '/nonexistent/rec.oni' does not exist"), std::string::npos);
   EXPECT_NE(errorOf("sim:no_such_scene").find("no built-in scene 'no_such_scene'"), std::string::npos);
-  EXPECT_NE(errorOf("/tmp").find("neither an .oni file nor a folder holding depth.txt"),
-            std::string::npos);
+  EXPECT_NE(errorOf("/tmp").find("neither an .oni file nor a folder holding depth.txt"), std::string::npos);
 }
 
 TEST(DepthSourceTable, HoldsOnlyWhatTheApplicationAdds) {

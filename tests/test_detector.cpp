@@ -9,9 +9,9 @@
 #include "kinect3d/ball_detector.h"
 #include "kinect3d/config_io.h"
 #include "kinect3d/depth_source.h"
-#include "kinect3d/sim/sim_sources.h"
 #include "kinect3d/kinect_disparity.h"
 #include "kinect3d/sim/evaluation.h"
+#include "kinect3d/sim/sim_sources.h"
 #include "scoped_temp_dir.h"
 #include "sim_test_scenes.h"
 
@@ -297,7 +297,8 @@ TEST(BallDetector, CovarianceGrowsWithRangeAlongTheRay) {
 TEST(DetectorConfig, ShippedRobotFilesConfigureTheDetector) {
   for (const auto& entry : std::filesystem::directory_iterator(std::string(PROJECT_CONFIG_DIR) + "/robots")) {
     SCOPED_TRACE(entry.path().string());
-    const fw::Config config = fw::Config::load(std::string(PROJECT_CONFIG_DIR) + "/defaults", entry.path().string(), {});
+    const fw::Config config =
+        fw::Config::load(std::string(PROJECT_CONFIG_DIR) + "/defaults", entry.path().string(), {});
     const DetectorConfig detector = kinect3d::readDetectorConfig(config.block("kinect3d"));
     EXPECT_TRUE(detector.ground.pose.has_value());
   }
@@ -313,7 +314,8 @@ TEST(DetectorConfig, BadValuesNameTheKey) {
     return std::string("no error");
   };
   EXPECT_NE(errorOf("kinect3d.grid.voxel_m=-1").find("kinect3d.grid.voxel_m = -1 is out of range"), std::string::npos);
-  EXPECT_NE(errorOf("kinect3d.grid.mask_voxels=6").find("must exceed core_voxels by an even number"), std::string::npos);
+  EXPECT_NE(errorOf("kinect3d.grid.mask_voxels=6").find("must exceed core_voxels by an even number"),
+            std::string::npos);
   EXPECT_NE(errorOf("kinect3d.sensor.pose_in_robot={x: 0, y: 0, z: 0.7, yaw: 0}")
                 .find("kinect3d.sensor.pose_in_robot.yaw is an unknown key"),
             std::string::npos);

@@ -58,8 +58,7 @@ TEST(Host, PluginsExchangeDataThroughWorldState) {
 }
 
 TEST(Host, ReportsEndOfStream) {
-  fw::Host host(exchangeConfig({"host.plugins=[tp_producer]", "tp_producer.frames=3"}),
-                TEST_PLUGIN_DIR);
+  fw::Host host(exchangeConfig({"host.plugins=[tp_producer]", "tp_producer.frames=3"}), TEST_PLUGIN_DIR);
   host.start();
   const auto deadline = Clock::now() + std::chrono::seconds(5);
   while (!host.sourcesFinished() && Clock::now() < deadline) {
@@ -77,8 +76,7 @@ TEST(Host, UnknownPluginIsALoadError) {
     FAIL() << "expected an error";
   } catch (const fw::ConfigError& e) {
     // tp_throwing has no defaults file, so it is refused before its library is even opened.
-    EXPECT_NE(std::string(e.what()).find("no configuration block 'tp_throwing'"), std::string::npos)
-        << e.what();
+    EXPECT_NE(std::string(e.what()).find("no configuration block 'tp_throwing'"), std::string::npos) << e.what();
   }
 }
 
@@ -140,8 +138,8 @@ class HostProcess {
 };
 
 void expectCleanStopOn(int signal_number, const std::string& name) {
-  HostProcess host({"--robot", std::string(TEST_CONFIG_DIR) + "/robots/exchange.yaml",
-                    "--plugin-dir", TEST_PLUGIN_DIR});
+  HostProcess host(
+      {"--robot", std::string(TEST_CONFIG_DIR) + "/robots/exchange.yaml", "--plugin-dir", TEST_PLUGIN_DIR});
   std::this_thread::sleep_for(std::chrono::milliseconds(500));  // let every plugin start
   const auto signalled = Clock::now();
   host.signal(signal_number);
@@ -159,18 +157,19 @@ TEST(HostProcess, StopsCleanlyOnSigint) { expectCleanStopOn(SIGINT, "SIGINT"); }
 TEST(HostProcess, StopsCleanlyOnSigterm) { expectCleanStopOn(SIGTERM, "SIGTERM"); }
 
 TEST(HostProcess, BadConfigExitsNonZeroNamingTheKey) {
-  HostProcess host({"--robot", std::string(TEST_CONFIG_DIR) + "/robots/exchange.yaml",
-                    "--plugin-dir", TEST_PLUGIN_DIR, "--set", "tp_producer.frames=many"});
+  HostProcess host({"--robot", std::string(TEST_CONFIG_DIR) + "/robots/exchange.yaml", "--plugin-dir", TEST_PLUGIN_DIR,
+                    "--set", "tp_producer.frames=many"});
   EXPECT_EQ(host.waitExit(std::chrono::milliseconds(3000)), 2);
   const std::string out = host.readAll();
   EXPECT_NE(out.find("--set tp_producer.frames=many: tp_producer.frames has the wrong type; "
                      "expected an integer"),
-            std::string::npos) << out;
+            std::string::npos)
+      << out;
 }
 
 TEST(HostProcess, DemoConfigRunsWithShippedPlugins) {
-  HostProcess host({"--robot", std::string(PROJECT_CONFIG_DIR) + "/robots/demo.yaml",
-                    "--plugin-dir", PRODUCT_PLUGIN_DIR, "--set", "host.duration_s=0.5"});
+  HostProcess host({"--robot", std::string(PROJECT_CONFIG_DIR) + "/robots/demo.yaml", "--plugin-dir",
+                    PRODUCT_PLUGIN_DIR, "--set", "host.duration_s=0.5"});
   EXPECT_EQ(host.waitExit(std::chrono::milliseconds(5000)), 0);
   EXPECT_NE(host.readAll().find("Summary (duration reached)"), std::string::npos);
 }

@@ -3,9 +3,9 @@
 
 #include <nlohmann/json.hpp>
 
+#include <sys/wait.h>
 #include <chrono>
 #include <cstdio>
-#include <sys/wait.h>
 #include <thread>
 
 #include "framework_api/host.h"
@@ -37,15 +37,17 @@ TEST(Kinect3dPlugin, PublishesTheBallToTheWorldState) {
 }
 
 TEST(Kinect3dPlugin, BadSourceIsAStartupErrorNamingTheKey) {
-  const fw::Config config = fw::Config::load(
-      std::string(PROJECT_CONFIG_DIR) + "/defaults", std::string(PROJECT_CONFIG_DIR) + "/robots/demo.yaml",
-      {"host.plugins=[kinect3d]", "kinect3d.source=tum:/nonexistent"});
+  const fw::Config config = fw::Config::load(std::string(PROJECT_CONFIG_DIR) + "/defaults",
+                                             std::string(PROJECT_CONFIG_DIR) + "/robots/demo.yaml",
+                                             {"host.plugins=[kinect3d]", "kinect3d.source=tum:/nonexistent"});
   try {
     fw::Host host(config, PRODUCT_PLUGIN_DIR);
     FAIL() << "expected an error";
   } catch (const std::exception& e) {
-    EXPECT_NE(std::string(e.what()).find("--set kinect3d.source=tum:/nonexistent: kinect3d.source: TUM sequence folder '/nonexistent' does not exist"),
-              std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("--set kinect3d.source=tum:/nonexistent: kinect3d.source: TUM sequence folder "
+                                         "'/nonexistent' does not exist"),
+              std::string::npos)
+        << e.what();
   }
 }
 

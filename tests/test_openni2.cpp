@@ -9,9 +9,9 @@
 
 #include "kinect3d/ball_detector.h"
 #include "kinect3d/depth_source.h"
-#include "kinect3d/sim/sim_sources.h"
 #include "kinect3d/oni_recording.h"
 #include "kinect3d/sim/kinect_simulator.h"
+#include "kinect3d/sim/sim_sources.h"
 #include "scoped_temp_dir.h"
 
 namespace {
@@ -48,7 +48,8 @@ class OniRecording : public ::testing::Test {
 };
 
 TEST(OpenNI2Device, DeliversTheSimulatorsFrames) {
-  auto source = kinect3d::sim::sourcesWithSimulator().open("openni2:" + kinect3d::sim::simulatedDeviceUri("hung_3m", 8));
+  auto source =
+      kinect3d::sim::sourcesWithSimulator().open("openni2:" + kinect3d::sim::simulatedDeviceUri("hung_3m", 8));
   EXPECT_EQ(source->frameCount(), 0u) << "a live device has no known length";
   const std::vector<DepthFrame> live = readFrames(*source, 8);
   const std::vector<DepthFrame> expected = simulatorFrames("hung_3m", 8);
@@ -128,7 +129,8 @@ TEST(OpenNI2Device, QuietDeviceIsReopenedWithoutStoppingTheReader) {
 }
 
 TEST(OpenNI2Device, UnknownDeviceIsAnError) {
-  EXPECT_THROW(kinect3d::sim::sourcesWithSimulator().open("openni2:kinect3d-sim://no_such_scene"), kinect3d::DepthSourceError);
+  EXPECT_THROW(kinect3d::sim::sourcesWithSimulator().open("openni2:kinect3d-sim://no_such_scene"),
+               kinect3d::DepthSourceError);
   EXPECT_THROW(kinect3d::sim::sourcesWithSimulator().open("openni2:/dev/no-such-device"), kinect3d::DepthSourceError);
 }
 

@@ -44,8 +44,8 @@ TEST(PluginLoader, InstanceKeepsLibraryLoaded) {
 TEST(PluginLoader, RefusesMajorMismatch) {
   const std::string error = loadError([] { fw::PluginLibrary::open(pluginPath("tp_wrong_major")); });
   EXPECT_NE(error.find("tp_wrong_major.so"), std::string::npos) << error;
-  EXPECT_NE(error.find("built for plugin API " + std::to_string(FW_PLUGIN_API_MAJOR + 1) + "."),
-            std::string::npos) << error;
+  EXPECT_NE(error.find("built for plugin API " + std::to_string(FW_PLUGIN_API_MAJOR + 1) + "."), std::string::npos)
+      << error;
   EXPECT_NE(error.find("major versions differ"), std::string::npos) << error;
 }
 
@@ -53,7 +53,8 @@ TEST(PluginLoader, RefusesNewerMinor) {
   const std::string error = loadError([] { fw::PluginLibrary::open(pluginPath("tp_newer_minor")); });
   EXPECT_NE(error.find("needs plugin API " + std::to_string(FW_PLUGIN_API_MAJOR) + "." +
                        std::to_string(FW_PLUGIN_API_MINOR + 1)),
-            std::string::npos) << error;
+            std::string::npos)
+      << error;
   EXPECT_NE(error.find("newer than this host"), std::string::npos) << error;
 }
 
@@ -73,11 +74,9 @@ TEST(PluginLoader, ThrowingFactoryBecomesReadableError) {
   const auto library = fw::PluginLibrary::open(pluginPath("tp_throwing"));
   fw::WorldState world;
   const fw::Config config = emptyConfig();
-  const std::string error =
-      loadError([&] { library->create({config.block("host"), &world}); });
+  const std::string error = loadError([&] { library->create({config.block("host"), &world}); });
   EXPECT_NE(error.find("plugin 'tp_throwing'"), std::string::npos) << error;
-  EXPECT_NE(error.find("failed to start: depth sensor /dev/tp0 not found"), std::string::npos)
-      << error;
+  EXPECT_NE(error.find("failed to start: depth sensor /dev/tp0 not found"), std::string::npos) << error;
 }
 
 TEST(PluginLoader, ThrowingStepBecomesPluginError) {

@@ -56,7 +56,8 @@ DetectorRun detectAll(const sim::Scene& scene, const DetectorConfig& config) {
     run.balls += static_cast<int>(detections.balls.size());
     if (detections.balls.empty() || !truth.has_ball) continue;
     double nearest = 1e9;
-    for (const auto& ball : detections.balls) nearest = std::min(nearest, (ball.position_m - truth.ball_center_R).norm());
+    for (const auto& ball : detections.balls)
+      nearest = std::min(nearest, (ball.position_m - truth.ball_center_R).norm());
     run.mean_error_m += nearest;
     ++with_ball;
   }
@@ -93,12 +94,13 @@ TEST(BallRefiner, RejectsWhatIsNotBallSized) {
 }
 
 TEST(GroundAligner, FindsAPitchedAndRolledSensorOnItsFloor) {
-  for (const auto& [pitch_deg, roll_deg, height_m] : {std::tuple{12.0, 0.0, 0.7}, std::tuple{-4.0, 6.0, 0.5},
-                                                       std::tuple{20.0, -8.0, 0.9}}) {
+  for (const auto& [pitch_deg, roll_deg, height_m] :
+       {std::tuple{12.0, 0.0, 0.7}, std::tuple{-4.0, 6.0, 0.5}, std::tuple{20.0, -8.0, 0.9}}) {
     SCOPED_TRACE("pitch " + std::to_string(pitch_deg) + " roll " + std::to_string(roll_deg));
     sim::Scene scene = sim::loadScene("hung_4m");
     scene.duration_s = 0.1;
-    scene.sensor_pose = kinect3d::SensorPose{0.0, 0.0, height_m, 0.0, pitch_deg * M_PI / 180.0, roll_deg * M_PI / 180.0};
+    scene.sensor_pose =
+        kinect3d::SensorPose{0.0, 0.0, height_m, 0.0, pitch_deg * M_PI / 180.0, roll_deg * M_PI / 180.0};
     DetectorConfig config = shippedDetector(scene);
     config.ground.pose.reset();
     kinect3d::BallDetector detector(config, "kinect3d");

@@ -16,8 +16,8 @@ constexpr double kFrame_s = 1.0 / 30.0;
 
 fw::BallObservation observe(double t, const Eigen::Vector3d& p, double sigma_m = 0.001) {
   const fw::BallState state = p.z() > 0.11 + 0.08 ? fw::BallState::kAir : fw::BallState::kGround;
-  return fw::BallObservation::inRobotFrame(p, sigma_m * sigma_m * Eigen::Matrix3d::Identity(), state,
-                                           "kinect3d", fw::Stamp{t, t});
+  return fw::BallObservation::inRobotFrame(p, sigma_m * sigma_m * Eigen::Matrix3d::Identity(), state, "kinect3d",
+                                           fw::Stamp{t, t});
 }
 
 // A drag-free flight from p0 with v0 at t = 0.
@@ -36,7 +36,8 @@ TEST(BallisticTrajectory, RecoversANoiseFreeFlightExactly) {
   const Eigen::Vector3d p0(0.2, 2.0, 0.3), v0(0.5, 6.0, 4.5);
   auto estimator = kinect3d::makeTrajectoryEstimator(ballistic());
   std::optional<fw::BallTrajectory> trajectory;
-  for (int i = 0; i < 8; ++i) trajectory = estimator->update(i * kFrame_s, {observe(i * kFrame_s, flight(p0, v0, i * kFrame_s), 1e-4)});
+  for (int i = 0; i < 8; ++i)
+    trajectory = estimator->update(i * kFrame_s, {observe(i * kFrame_s, flight(p0, v0, i * kFrame_s), 1e-4)});
   ASSERT_TRUE(trajectory);
   const double t = 7 * kFrame_s;
   EXPECT_LT((trajectory->position_m - flight(p0, v0, t)).norm(), 1e-6);
@@ -59,7 +60,8 @@ TEST(BallisticTrajectory, StaysWithinItsUncertaintyWithNoise) {
   std::optional<fw::BallTrajectory> trajectory;
   for (int i = 0; i < 12; ++i) {
     const double t = i * kFrame_s;
-    trajectory = estimator->update(t, {observe(t, flight(p0, v0, t) + Eigen::Vector3d(noise(rng), noise(rng), noise(rng)), 0.01)});
+    trajectory = estimator->update(
+        t, {observe(t, flight(p0, v0, t) + Eigen::Vector3d(noise(rng), noise(rng), noise(rng)), 0.01)});
   }
   ASSERT_TRUE(trajectory && trajectory->touchdown && trajectory->crossing);
   const double t_land = (4.5 + std::sqrt(4.5 * 4.5 + 2 * 9.81 * 0.39)) / 9.81;
@@ -162,7 +164,8 @@ TEST(BallisticTrajectory, DragOptionFitsDraggedFlights) {
     config.drag_per_m = drag;
     auto estimator = kinect3d::makeTrajectoryEstimator(config);
     std::optional<fw::BallTrajectory> trajectory;
-    for (int i = 1; i <= 12; ++i) trajectory = estimator->update(i * kFrame_s, {observe(i * kFrame_s, motion.positionAt(i * kFrame_s), 0.002)});
+    for (int i = 1; i <= 12; ++i)
+      trajectory = estimator->update(i * kFrame_s, {observe(i * kFrame_s, motion.positionAt(i * kFrame_s), 0.002)});
     return (trajectory->touchdown->point_m - motion.positionAt(t_land).head<2>()).norm();
   };
   EXPECT_LT(touchdownError(0.024), 0.03);
@@ -175,7 +178,8 @@ TEST(PaperTrajectory, FitsANoiseFreeParabola) {
   const Eigen::Vector3d p0(0.2, 2.0, 0.3), v0(0.5, 6.0, 4.5);
   auto estimator = kinect3d::makeTrajectoryEstimator(config);
   std::optional<fw::BallTrajectory> trajectory;
-  for (int i = 0; i < 8; ++i) trajectory = estimator->update(i * kFrame_s, {observe(i * kFrame_s, flight(p0, v0, i * kFrame_s), 1e-4)});
+  for (int i = 0; i < 8; ++i)
+    trajectory = estimator->update(i * kFrame_s, {observe(i * kFrame_s, flight(p0, v0, i * kFrame_s), 1e-4)});
   ASSERT_TRUE(trajectory && trajectory->touchdown);
   const double t_land = (4.5 + std::sqrt(4.5 * 4.5 + 2 * 9.81 * 0.19)) / 9.81;
   EXPECT_LT((trajectory->touchdown->point_m - flight(p0, v0, t_land).head<2>()).norm(), 0.01);
@@ -218,8 +222,7 @@ TEST(Trajectory, RepeatedTimestampsNeverProduceNaN) {
     for (int i = 0; i < 20; ++i) {
       // A recording whose stamps are all zero, then one that moves on.
       const double t = i < 10 ? 0.0 : (i - 9) * kFrame_s;
-      const auto trajectory =
-          estimator->update(t, {observe(t, flight({0, 2, 0.5}, {0, 6, 4}, i * kFrame_s), 0.01)});
+      const auto trajectory = estimator->update(t, {observe(t, flight({0, 2, 0.5}, {0, 6, 4}, i * kFrame_s), 0.01)});
       if (i < 10) continue;
       answers += trajectory.has_value();
       finite += trajectory && trajectory->position_m.allFinite() && trajectory->velocity_mps.allFinite();

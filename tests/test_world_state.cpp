@@ -7,8 +7,8 @@
 namespace {
 
 fw::BallObservation ballAt(double y_m, const std::string& source) {
-  return fw::BallObservation::inRobotFrame({0.0, y_m, 0.5}, Eigen::Matrix3d::Identity() * 0.01,
-                                           fw::BallState::kAir, source, fw::Stamp{y_m, y_m});
+  return fw::BallObservation::inRobotFrame({0.0, y_m, 0.5}, Eigen::Matrix3d::Identity() * 0.01, fw::BallState::kAir,
+                                           source, fw::Stamp{y_m, y_m});
 }
 
 TEST(WorldState, KeepsNewestFirstAndCapsHistoryPerSource) {

@@ -9,20 +9,20 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <iostream>
 #include <memory>
 #include <optional>
-#include <iostream>
 
 #include "framework_api/config.h"
 #include "framework_api/log.h"
 #include "kinect3d/ball_detector.h"
 #include "kinect3d/config_io.h"
 #include "kinect3d/depth_source.h"
-#include "kinect3d/trajectory.h"
 #include "kinect3d/sim/accuracy_report.h"
 #include "kinect3d/sim/sequence_writer.h"
 #include "kinect3d/sim/sim_sources.h"
 #include "kinect3d/sim/trajectory_report.h"
+#include "kinect3d/trajectory.h"
 
 namespace {
 
@@ -58,15 +58,14 @@ void runInfo(const std::string& uri) {
   }
   if (frames == 0) throw kinect3d::DepthSourceError(uri + ": delivered no frame");
   std::printf("source:            %s\n", source->describe().c_str());
-  std::printf("frames:            %llu (%llu skipped, %llu dropped)\n",
-              static_cast<unsigned long long>(frames),
+  std::printf("frames:            %llu (%llu skipped, %llu dropped)\n", static_cast<unsigned long long>(frames),
               static_cast<unsigned long long>(source->counters().skipped),
               static_cast<unsigned long long>(source->counters().dropped));
   std::printf("rate:              %.2f Hz\n",
               frames > 1 && last_t > first_t ? (frames - 1) / (last_t - first_t) : source->frameRate_hz());
   std::printf("size:              %dx%d\n", intrinsics.width, intrinsics.height);
-  std::printf("intrinsics:        fx %.1f fy %.1f cx %.1f cy %.1f\n", intrinsics.fx, intrinsics.fy,
-              intrinsics.cx, intrinsics.cy);
+  std::printf("intrinsics:        fx %.1f fy %.1f cx %.1f cy %.1f\n", intrinsics.fx, intrinsics.fy, intrinsics.cx,
+              intrinsics.cy);
   std::printf("invalid pixels:    %.1f %%\n", 100.0 * invalid_sum / frames);
   std::printf("depth range:       %.3f - %.3f m\n", min_m, max_m);
 }
@@ -99,8 +98,8 @@ void writeDepthPanels(const std::vector<std::string>& uris, const std::vector<in
     depth.convertTo(scaled, CV_8UC1, 255.0 / kMaxDepth_mm);
     cv::applyColorMap(scaled, coloured, cv::COLORMAP_TURBO);
     coloured.setTo(cv::Scalar(0, 0, 0), depth == 0);
-    cv::putText(coloured, uri.substr(uri.find_last_of('/') + 1), {10, 25}, cv::FONT_HERSHEY_SIMPLEX,
-                0.7, cv::Scalar(255, 255, 255), 2);
+    cv::putText(coloured, uri.substr(uri.find_last_of('/') + 1), {10, 25}, cv::FONT_HERSHEY_SIMPLEX, 0.7,
+                cv::Scalar(255, 255, 255), 2);
     panels.push_back(coloured);
   }
   cv::Mat joined;
@@ -116,7 +115,8 @@ void writeSceneMap(const std::string& uri, int last, const fw::Config& config, c
   kinect3d::Detections detections;
   for (int frames = 0; frames <= last;) {
     const kinect3d::ReadResult result = source->read(frame);
-    if (result == kinect3d::ReadResult::kEnd) throw kinect3d::DepthSourceError(uri + ": has no frame " + std::to_string(last));
+    if (result == kinect3d::ReadResult::kEnd)
+      throw kinect3d::DepthSourceError(uri + ": has no frame " + std::to_string(last));
     if (result != kinect3d::ReadResult::kFrame) continue;
     detector.detect(frame, detections);
     ++frames;
@@ -202,8 +202,8 @@ void runDetect(const std::string& source_uri, const fw::Config& config, const st
     ++frames;
     with_ball += !detections.balls.empty();
   }
-  fw::logInfo("detect", source->describe() + ": " + std::to_string(frames) + " frames, ball in " +
-                            std::to_string(with_ball));
+  fw::logInfo("detect",
+              source->describe() + ": " + std::to_string(frames) + " frames, ball in " + std::to_string(with_ball));
 }
 
 // The configuration every command that runs the detector takes: the shipped defaults, a robot
@@ -294,9 +294,8 @@ void addDetect(CLI::App& app) {
   options->config.addTo(command);
   command->add_option("--output", options->output, "Write the JSON lines here instead of stdout");
   command->add_flag("--realtime", options->realtime, "Pace recordings and the simulator at their frame rate");
-  command->callback([options] {
-    runDetect(options->source, options->config.load(), options->output, options->realtime);
-  });
+  command->callback(
+      [options] { runDetect(options->source, options->config.load(), options->output, options->realtime); });
 }
 
 void addReport(CLI::App& app) {

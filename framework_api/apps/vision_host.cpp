@@ -2,11 +2,11 @@
 // configured duration, or the end of every plugin's source; then prints a per-plugin summary.
 #include <CLI/CLI.hpp>
 
+#include <unistd.h>
 #include <csignal>
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
-#include <unistd.h>
 
 #include "framework_api/config.h"
 #include "framework_api/host.h"
@@ -49,10 +49,8 @@ int main(int argc, char** argv) {
       ->check(CLI::ExistingFile);
   app.add_option("--defaults", defaults_dir,
                  "Folder of per-plugin defaults (default: <robot file folder>/../defaults)");
-  app.add_option("--plugin-dir", plugin_dir, "Folder holding the plugin libraries")
-      ->capture_default_str();
-  app.add_option("--set", overrides, "Override a value: --set kinect3d.grid.voxel_m=0.2")
-      ->take_all();
+  app.add_option("--plugin-dir", plugin_dir, "Folder holding the plugin libraries")->capture_default_str();
+  app.add_option("--set", overrides, "Override a value: --set kinect3d.grid.voxel_m=0.2")->take_all();
   app.add_flag("--print-config", print_config, "Print the merged configuration and exit");
   CLI11_PARSE(app, argc, argv);
 
@@ -83,8 +81,7 @@ int main(int argc, char** argv) {
       } else if (host.sourcesFinished()) {
         reason = "every source ended";
       } else if (duration_s > 0.0 &&
-                 std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count() >=
-                     duration_s) {
+                 std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count() >= duration_s) {
         reason = "duration reached";
       }
     }

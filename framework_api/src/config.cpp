@@ -56,7 +56,7 @@ YAML::Node lookup(const YAML::Node& root, const std::string& dotted) {
 
 // Where a value was written, for error messages.
 struct Source {
-  std::string label;   // file path, or "--set key=value"
+  std::string label;  // file path, or "--set key=value"
   bool has_lines = true;
 
   std::string at(const YAML::Node& node) const {
@@ -102,10 +102,14 @@ ScalarKind kindOf(const YAML::Node& scalar) {
 
 const char* describe(ScalarKind kind) {
   switch (kind) {
-    case ScalarKind::kBool: return "true or false";
-    case ScalarKind::kInt: return "an integer";
-    case ScalarKind::kReal: return "a number";
-    case ScalarKind::kString: return "a string";
+    case ScalarKind::kBool:
+      return "true or false";
+    case ScalarKind::kInt:
+      return "an integer";
+    case ScalarKind::kReal:
+      return "a number";
+    case ScalarKind::kString:
+      return "a string";
   }
   return "?";
 }
@@ -137,8 +141,8 @@ void recordOrigins(const YAML::Node& node, const std::string& key, const Source&
 }
 
 // Merges overlay into base, where base already holds the defaults: the schema.
-void mergeInto(YAML::Node& base, const YAML::Node& overlay, const std::string& path,
-               const Source& source, Config::Data& data) {
+void mergeInto(YAML::Node& base, const YAML::Node& overlay, const std::string& path, const Source& source,
+               Config::Data& data) {
   for (const auto& entry : overlay) {
     const std::string name = entry.first.as<std::string>();
     const std::string key = joinKey(path, name);
@@ -147,12 +151,10 @@ void mergeInto(YAML::Node& base, const YAML::Node& overlay, const std::string& p
     YAML::Node target = const_base[name];
     if (!target.IsDefined()) {
       throw ConfigError(source.at(entry.first) + ": unknown key '" + key + "'" +
-                        (path.empty() ? " (known blocks: " : " (known keys here: ") +
-                        listKeys(base) + ")");
+                        (path.empty() ? " (known blocks: " : " (known keys here: ") + listKeys(base) + ")");
     }
     auto wrongType = [&](const std::string& expected) {
-      return ConfigError(source.at(value) + ": " + key + " has the wrong type; expected " +
-                         expected);
+      return ConfigError(source.at(value) + ": " + key + " has the wrong type; expected " + expected);
     };
     if (target.IsNull()) {
       // Optional block: no schema here, the reader checks it.
@@ -182,8 +184,7 @@ YAML::Node parseYaml(const std::string& text, const std::string& label) {
     if (!node.IsMap()) throw ConfigError(label + ": expected a map of keys at the top level");
     return node;
   } catch (const YAML::ParserException& e) {
-    throw ConfigError(label + ":" + std::to_string(e.mark.line + 1) + ": YAML syntax error: " +
-                      e.msg);
+    throw ConfigError(label + ":" + std::to_string(e.mark.line + 1) + ": YAML syntax error: " + e.msg);
   }
 }
 
@@ -236,8 +237,8 @@ Config Config::load(const std::string& defaults_dir, const std::string& robot_fi
     const YAML::Node defaults = loadYamlFile(file.string());
     const std::string block = file.stem().string();
     if (defaults.size() != 1 || !defaults[block]) {
-      throw ConfigError(file.string() + ": a defaults file holds exactly one top-level block named '" +
-                        block + "' after the file");
+      throw ConfigError(file.string() + ": a defaults file holds exactly one top-level block named '" + block +
+                        "' after the file");
     }
     data->root[block] = YAML::Clone(defaults[block]);
     recordOrigins(defaults[block], block, Source{file.string()}, data->origins);
@@ -247,8 +248,7 @@ Config Config::load(const std::string& defaults_dir, const std::string& robot_fi
     mergeInto(data->root, loadYamlFile(robot_file), "", Source{robot_file}, *data);
   }
   for (const std::string& assignment : overrides) {
-    mergeInto(data->root, overrideToYaml(assignment), "", Source{"--set " + assignment, false},
-              *data);
+    mergeInto(data->root, overrideToYaml(assignment), "", Source{"--set " + assignment, false}, *data);
   }
   return Config(std::move(data));
 }
@@ -269,14 +269,11 @@ Config Config::parseDocument(const std::string& text, const std::string& label) 
 
 ConfigView Config::root() const { return ConfigView(data_, ""); }
 
-bool Config::hasBlock(const std::string& name) const {
-  return lookup(data_->root, name).IsDefined();
-}
+bool Config::hasBlock(const std::string& name) const { return lookup(data_->root, name).IsDefined(); }
 
 ConfigView Config::block(const std::string& name) const {
   if (!hasBlock(name)) {
-    throw ConfigError("no configuration block '" + name + "' (is config/defaults/" + name +
-                      ".yaml missing?)");
+    throw ConfigError("no configuration block '" + name + "' (is config/defaults/" + name + ".yaml missing?)");
   }
   return ConfigView(data_, name);
 }
@@ -335,8 +332,7 @@ bool ConfigView::getBool(const std::string& key) const {
 }
 
 int ConfigView::getInt(const std::string& key, int min, int max) const {
-  const std::string expected =
-      "an integer in [" + std::to_string(min) + ", " + std::to_string(max) + "]";
+  const std::string expected = "an integer in [" + std::to_string(min) + ", " + std::to_string(max) + "]";
   const std::string text = scalar(key, expected);
   long value;
   if (!parseInt(text, value)) fail(key, "= " + text + " has the wrong type; expected " + expected);
@@ -345,8 +341,7 @@ int ConfigView::getInt(const std::string& key, int min, int max) const {
 }
 
 double ConfigView::getDouble(const std::string& key, double min, double max) const {
-  const std::string expected =
-      "a number in [" + formatNumber(min) + ", " + formatNumber(max) + "]";
+  const std::string expected = "a number in [" + formatNumber(min) + ", " + formatNumber(max) + "]";
   const std::string text = scalar(key, expected);
   double value;
   if (!parseReal(text, value)) fail(key, "= " + text + " has the wrong type; expected " + expected);
@@ -354,12 +349,9 @@ double ConfigView::getDouble(const std::string& key, double min, double max) con
   return value;
 }
 
-std::string ConfigView::getString(const std::string& key) const {
-  return scalar(key, "a string");
-}
+std::string ConfigView::getString(const std::string& key) const { return scalar(key, "a string"); }
 
-std::string ConfigView::getChoice(const std::string& key,
-                                  const std::vector<std::string>& allowed) const {
+std::string ConfigView::getChoice(const std::string& key, const std::vector<std::string>& allowed) const {
   std::string expected = "one of";
   for (const auto& choice : allowed) expected += " '" + choice + "'";
   const std::string value = scalar(key, expected);
@@ -382,8 +374,7 @@ std::vector<std::string> ConfigView::getStringList(const std::string& key) const
 }
 
 std::vector<double> ConfigView::getDoubleList(const std::string& key, std::size_t size) const {
-  const std::string expected =
-      size == 0 ? "a list of numbers" : "a list of " + std::to_string(size) + " numbers";
+  const std::string expected = size == 0 ? "a list of numbers" : "a list of " + std::to_string(size) + " numbers";
   const YAML::Node node = lookup(data_->root, fullKey(key));
   if (!node.IsDefined() || node.IsNull()) fail(key, "is missing; expected " + expected);
   if (!node.IsSequence() || (size != 0 && node.size() != size)) {

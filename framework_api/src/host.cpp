@@ -10,15 +10,11 @@ namespace fw {
 namespace {
 using Clock = std::chrono::steady_clock;
 
-double secondsSince(Clock::time_point start) {
-  return std::chrono::duration<double>(Clock::now() - start).count();
-}
+double secondsSince(Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); }
 
 // Log the first few errors of a plugin, then one in a hundred, so a failing camera cannot flood
 // the log during a match.
-bool shouldLogError(std::uint64_t error_count) {
-  return error_count <= 5 || error_count % 100 == 0;
-}
+bool shouldLogError(std::uint64_t error_count) { return error_count <= 5 || error_count % 100 == 0; }
 }  // namespace
 
 struct Host::Running {
@@ -37,15 +33,14 @@ Host::Host(const Config& config, const std::string& plugin_dir) {
     running->rate_hz = block.has("rate_hz") ? block.getDouble("rate_hz", 0.1, 1000.0) : 0.0;
     const auto library = PluginLibrary::open(plugin_dir + "/" + name + ".so");
     if (library->name() != name) {
-      throw PluginLoadError("'" + library->path() + "' declares the plugin name '" +
-                            library->name() + "', expected '" + name + "'");
+      throw PluginLoadError("'" + library->path() + "' declares the plugin name '" + library->name() + "', expected '" +
+                            name + "'");
     }
     running->instance = library->create(PluginContext{block, &world_});
     running->summary.name = name;
     running->summary.version = library->version();
     running->summary.rate_hz_setting = running->rate_hz;
-    logInfo("host", "loaded plugin " + name + " " + library->version() + " from " +
-                        library->path());
+    logInfo("host", "loaded plugin " + name + " " + library->version() + " from " + library->path());
     plugins_.push_back(std::move(running));
   }
 }
@@ -92,10 +87,10 @@ std::vector<PluginSummary> Host::summaries() const {
 
 void Host::run(Running& plugin) {
   const Clock::time_point start = Clock::now();
-  const auto period = plugin.rate_hz > 0.0
-                          ? std::chrono::duration_cast<Clock::duration>(
-                                std::chrono::duration<double>(1.0 / plugin.rate_hz))
-                          : Clock::duration::zero();
+  const auto period =
+      plugin.rate_hz > 0.0
+          ? std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / plugin.rate_hz))
+          : Clock::duration::zero();
   Clock::time_point next_tick = start;
   while (!stop_requested_) {
     if (period > Clock::duration::zero()) {
@@ -137,9 +132,8 @@ void Host::run(Running& plugin) {
 
 std::string formatSummary(const PluginSummary& summary) {
   char line[512];
-  std::snprintf(line, sizeof line, "%s %s: %llu frames in %.1f s (%.1f Hz), %llu errors%s%s",
-                summary.name.c_str(), summary.version.c_str(),
-                static_cast<unsigned long long>(summary.frames), summary.elapsed_s,
+  std::snprintf(line, sizeof line, "%s %s: %llu frames in %.1f s (%.1f Hz), %llu errors%s%s", summary.name.c_str(),
+                summary.version.c_str(), static_cast<unsigned long long>(summary.frames), summary.elapsed_s,
                 summary.frameRate_hz(), static_cast<unsigned long long>(summary.errors),
                 summary.end_of_stream ? ", end of stream" : "",
                 summary.last_error.empty() ? "" : (", last error: " + summary.last_error).c_str());

@@ -12,9 +12,12 @@ std::mutex g_mutex;
 
 const char* levelName(LogLevel level) {
   switch (level) {
-    case LogLevel::kInfo: return "INFO ";
-    case LogLevel::kWarn: return "WARN ";
-    case LogLevel::kError: return "ERROR";
+    case LogLevel::kInfo:
+      return "INFO ";
+    case LogLevel::kWarn:
+      return "WARN ";
+    case LogLevel::kError:
+      return "ERROR";
   }
   return "?";
 }
@@ -23,15 +26,14 @@ const char* levelName(LogLevel level) {
 void log(LogLevel level, const std::string& component, const std::string& message) {
   const auto now = std::chrono::system_clock::now();
   const std::time_t seconds = std::chrono::system_clock::to_time_t(now);
-  const auto millis =
-      std::chrono::duration_cast<std::chrono::milliseconds>(now.time_since_epoch()).count() % 1000;
+  const auto millis = std::chrono::duration_cast<std::chrono::milliseconds>(now.time_since_epoch()).count() % 1000;
   std::tm local{};
   localtime_r(&seconds, &local);
   char when[32];
   std::strftime(when, sizeof when, "%Y-%m-%d %H:%M:%S", &local);
   std::lock_guard<std::mutex> lock(g_mutex);
-  std::fprintf(stderr, "%s.%03d %s [%s] %s\n", when, static_cast<int>(millis), levelName(level),
-               component.c_str(), message.c_str());
+  std::fprintf(stderr, "%s.%03d %s [%s] %s\n", when, static_cast<int>(millis), levelName(level), component.c_str(),
+               message.c_str());
 }
 
 }  // namespace fw

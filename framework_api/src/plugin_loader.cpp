@@ -21,13 +21,11 @@ std::shared_ptr<PluginLibrary> PluginLibrary::open(const std::string& path) {
     throw PluginLoadError("cannot load plugin '" + path + "': " + (reason ? reason : "unknown"));
   }
   dlerror();
-  auto descriptor_fn =
-      reinterpret_cast<fw_plugin_descriptor_fn>(dlsym(handle, FW_PLUGIN_DESCRIPTOR_SYMBOL));
+  auto descriptor_fn = reinterpret_cast<fw_plugin_descriptor_fn>(dlsym(handle, FW_PLUGIN_DESCRIPTOR_SYMBOL));
   const FwPluginDescriptor* descriptor = descriptor_fn ? descriptor_fn() : nullptr;
   if (descriptor == nullptr) {
     dlclose(handle);
-    throw PluginLoadError("'" + path + "' is not a plugin: it does not export " +
-                          FW_PLUGIN_DESCRIPTOR_SYMBOL +
+    throw PluginLoadError("'" + path + "' is not a plugin: it does not export " + FW_PLUGIN_DESCRIPTOR_SYMBOL +
                           "() (define one with FW_REGISTER_PLUGIN)");
   }
   const std::string host_api = apiVersion(FW_PLUGIN_API_MAJOR, FW_PLUGIN_API_MINOR);
@@ -40,11 +38,11 @@ std::shared_ptr<PluginLibrary> PluginLibrary::open(const std::string& path) {
   }
   if (descriptor->api_minor > FW_PLUGIN_API_MINOR) {
     dlclose(handle);
-    throw PluginLoadError("plugin '" + path + "' needs plugin API " + plugin_api +
-                          ", newer than this host's API " + host_api + "; update the host");
+    throw PluginLoadError("plugin '" + path + "' needs plugin API " + plugin_api + ", newer than this host's API " +
+                          host_api + "; update the host");
   }
-  if (descriptor->name == nullptr || descriptor->create == nullptr ||
-      descriptor->destroy == nullptr || descriptor->step == nullptr) {
+  if (descriptor->name == nullptr || descriptor->create == nullptr || descriptor->destroy == nullptr ||
+      descriptor->step == nullptr) {
     dlclose(handle);
     throw PluginLoadError("plugin '" + path + "' has an incomplete descriptor");
   }
@@ -64,8 +62,8 @@ std::unique_ptr<PluginInstance> PluginLibrary::create(const PluginContext& conte
   char error[kErrorBufferSize] = "";
   void* instance = descriptor_->create(&context, error, sizeof error);
   if (instance == nullptr) {
-    throw PluginLoadError("plugin '" + name_ + "' (" + path_ + ") failed to start: " +
-                          (error[0] ? error : "no reason given"));
+    throw PluginLoadError("plugin '" + name_ + "' (" + path_ +
+                          ") failed to start: " + (error[0] ? error : "no reason given"));
   }
   return std::unique_ptr<PluginInstance>(new PluginInstance(shared_from_this(), instance));
 }
@@ -79,11 +77,16 @@ StepResult PluginInstance::step() {
   char error[kErrorBufferSize] = "";
   const int result = library_->descriptor_->step(instance_, error, sizeof error);
   switch (result) {
-    case FW_STEP_IDLE: return StepResult::kIdle;
-    case FW_STEP_PROCESSED: return StepResult::kProcessed;
-    case FW_STEP_END_OF_STREAM: return StepResult::kEndOfStream;
-    case FW_STEP_ERROR: throw PluginError(error[0] ? error : "step failed without a message");
-    default: throw PluginError("step returned unknown code " + std::to_string(result));
+    case FW_STEP_IDLE:
+      return StepResult::kIdle;
+    case FW_STEP_PROCESSED:
+      return StepResult::kProcessed;
+    case FW_STEP_END_OF_STREAM:
+      return StepResult::kEndOfStream;
+    case FW_STEP_ERROR:
+      throw PluginError(error[0] ? error : "step failed without a message");
+    default:
+      throw PluginError("step returned unknown code " + std::to_string(result));
   }
 }
 

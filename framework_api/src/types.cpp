@@ -1,7 +1,7 @@
 #include "framework_api/types.h"
 
-#include <chrono>
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 
 namespace fw {
@@ -12,9 +12,12 @@ double wallClockNow_s() {
 
 const char* toString(Frame frame) {
   switch (frame) {
-    case Frame::kSensor: return "sensor";
-    case Frame::kRobot: return "robot";
-    case Frame::kField: return "field";
+    case Frame::kSensor:
+      return "sensor";
+    case Frame::kRobot:
+      return "robot";
+    case Frame::kField:
+      return "field";
   }
   return "?";
 }
@@ -33,9 +36,8 @@ Eigen::Isometry3d RobotPose::T_F_R() const {
   return T;
 }
 
-BallObservation BallObservation::inRobotFrame(const Eigen::Vector3d& p_R,
-                                              const Eigen::Matrix3d& cov_m2, BallState state,
-                                              std::string source, Stamp stamp) {
+BallObservation BallObservation::inRobotFrame(const Eigen::Vector3d& p_R, const Eigen::Matrix3d& cov_m2,
+                                              BallState state, std::string source, Stamp stamp) {
   BallObservation observation;
   observation.position_m = p_R;
   observation.covariance_m2 = cov_m2;

@@ -33,8 +33,7 @@ std::string describe(const fw::BallTrajectory& trajectory) {
 class Console : public fw::Plugin {
  public:
   explicit Console(const fw::PluginContext& context)
-      : world_(*context.world),
-        max_age_s_(context.config.getDouble("max_age_s", 0.0, 60.0)) {}
+      : world_(*context.world), max_age_s_(context.config.getDouble("max_age_s", 0.0, 60.0)) {}
 
   fw::StepResult step() override {
     const std::uint64_t version = world_.version();
@@ -49,10 +48,8 @@ class Console : public fw::Plugin {
       line += " " + source + ": " + fw::toString(ball.state) + " " + formatPosition(ball.position_m);
       if (const auto trajectory = world_.trajectory(source)) line += describe(*trajectory);
     }
-    if (const auto fused = world_.fusedBall();
-        fused && now_s - fused->stamp.receive_time_s <= max_age_s_) {
-      line += " fused: " + std::string(fw::toString(fused->state)) + " " +
-              formatPosition(fused->position_m);
+    if (const auto fused = world_.fusedBall(); fused && now_s - fused->stamp.receive_time_s <= max_age_s_) {
+      line += " fused: " + std::string(fw::toString(fused->state)) + " " + formatPosition(fused->position_m);
     }
     if (line.empty()) return fw::StepResult::kIdle;
     std::printf("[console] ball%s\n", line.c_str());

@@ -33,9 +33,12 @@ class Kinect3dPlugin : public fw::Plugin {
 
   fw::StepResult step() override {
     switch (source_->read(frame_)) {
-      case kinect3d::ReadResult::kEnd: return fw::StepResult::kEndOfStream;
-      case kinect3d::ReadResult::kNoFrameYet: return fw::StepResult::kIdle;
-      case kinect3d::ReadResult::kFrame: break;
+      case kinect3d::ReadResult::kEnd:
+        return fw::StepResult::kEndOfStream;
+      case kinect3d::ReadResult::kNoFrameYet:
+        return fw::StepResult::kIdle;
+      case kinect3d::ReadResult::kFrame:
+        break;
     }
     // With a pose from localisation the scene map is kept in the field frame.
     const std::optional<fw::RobotPose> pose = world_.robotPose();

@@ -10,7 +10,11 @@ int step(void*, char*, std::size_t) noexcept { return FW_STEP_IDLE; }
 
 extern "C" FW_PLUGIN_EXPORT const FwPluginDescriptor* fw_plugin_descriptor() {
   static const FwPluginDescriptor descriptor = {FW_PLUGIN_API_MAJOR + TP_API_MAJOR_OFFSET,
-                                                  FW_PLUGIN_API_MINOR + TP_API_MINOR_OFFSET,
-                                                  "tp_bad", "0.0.1", &create, &destroy, &step};
+                                                FW_PLUGIN_API_MINOR + TP_API_MINOR_OFFSET,
+                                                "tp_bad",
+                                                "0.0.1",
+                                                &create,
+                                                &destroy,
+                                                &step};
   return &descriptor;
 }

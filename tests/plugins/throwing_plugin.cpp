@@ -6,9 +6,7 @@
 namespace {
 class Throwing : public fw::Plugin {
  public:
-  explicit Throwing(const fw::PluginContext&) {
-    throw std::runtime_error("depth sensor /dev/tp0 not found");
-  }
+  explicit Throwing(const fw::PluginContext&) { throw std::runtime_error("depth sensor /dev/tp0 not found"); }
   fw::StepResult step() override { return fw::StepResult::kIdle; }
 };
 }  // namespace

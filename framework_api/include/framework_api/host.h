@@ -20,9 +20,9 @@ namespace fw {
 struct PluginSummary {
   std::string name;
   std::string version;
-  double rate_hz_setting = 0.0;    // 0 = driven by its own source (no rate_hz in its block)
+  double rate_hz_setting = 0.0;  // 0 = driven by its own source (no rate_hz in its block)
   std::uint64_t steps = 0;
-  std::uint64_t frames = 0;        // steps that processed something
+  std::uint64_t frames = 0;  // steps that processed something
   std::uint64_t errors = 0;
   std::string last_error;
   bool end_of_stream = false;

@@ -52,33 +52,33 @@ inline void copyMessage(const char* message, char* buffer, std::size_t size) {
 }  // namespace fw
 
 // Defines the plugin's descriptor. PluginClass must be constructible from const fw::PluginContext&.
-#define FW_REGISTER_PLUGIN(PluginClass, plugin_name, plugin_version)                              \
-  namespace {                                                                                     \
-  void* fwPluginCreate(const fw::PluginContext* context, char* error, std::size_t size) noexcept { \
-    try {                                                                                         \
-      return static_cast<fw::Plugin*>(new PluginClass(*context));                                 \
-    } catch (const std::exception& e) {                                                           \
-      fw::detail::copyMessage(e.what(), error, size);                                             \
-    } catch (...) {                                                                               \
-      fw::detail::copyMessage("unknown exception", error, size);                                  \
-    }                                                                                             \
-    return nullptr;                                                                               \
-  }                                                                                               \
-  void fwPluginDestroy(void* instance) noexcept { delete static_cast<fw::Plugin*>(instance); }    \
-  int fwPluginStep(void* instance, char* error, std::size_t size) noexcept {                      \
-    try {                                                                                         \
-      return static_cast<int>(static_cast<fw::Plugin*>(instance)->step());                        \
-    } catch (const std::exception& e) {                                                           \
-      fw::detail::copyMessage(e.what(), error, size);                                             \
-    } catch (...) {                                                                               \
-      fw::detail::copyMessage("unknown exception", error, size);                                  \
-    }                                                                                             \
-    return FW_STEP_ERROR;                                                                         \
-  }                                                                                               \
-  }                                                                                               \
-  extern "C" FW_PLUGIN_EXPORT const FwPluginDescriptor* fw_plugin_descriptor() {                \
-    static const FwPluginDescriptor descriptor = {                                              \
-        FW_PLUGIN_API_MAJOR, FW_PLUGIN_API_MINOR, plugin_name,   plugin_version,                  \
-        &fwPluginCreate,     &fwPluginDestroy,    &fwPluginStep};                                 \
-    return &descriptor;                                                                           \
+#define FW_REGISTER_PLUGIN(PluginClass, plugin_name, plugin_version)                                          \
+  namespace {                                                                                                 \
+  void* fwPluginCreate(const fw::PluginContext* context, char* error, std::size_t size) noexcept {            \
+    try {                                                                                                     \
+      return static_cast<fw::Plugin*>(new PluginClass(*context));                                             \
+    } catch (const std::exception& e) {                                                                       \
+      fw::detail::copyMessage(e.what(), error, size);                                                         \
+    } catch (...) {                                                                                           \
+      fw::detail::copyMessage("unknown exception", error, size);                                              \
+    }                                                                                                         \
+    return nullptr;                                                                                           \
+  }                                                                                                           \
+  void fwPluginDestroy(void* instance) noexcept { delete static_cast<fw::Plugin*>(instance); }                \
+  int fwPluginStep(void* instance, char* error, std::size_t size) noexcept {                                  \
+    try {                                                                                                     \
+      return static_cast<int>(static_cast<fw::Plugin*>(instance)->step());                                    \
+    } catch (const std::exception& e) {                                                                       \
+      fw::detail::copyMessage(e.what(), error, size);                                                         \
+    } catch (...) {                                                                                           \
+      fw::detail::copyMessage("unknown exception", error, size);                                              \
+    }                                                                                                         \
+    return FW_STEP_ERROR;                                                                                     \
+  }                                                                                                           \
+  }                                                                                                           \
+  extern "C" FW_PLUGIN_EXPORT const FwPluginDescriptor* fw_plugin_descriptor() {                              \
+    static const FwPluginDescriptor descriptor = {FW_PLUGIN_API_MAJOR, FW_PLUGIN_API_MINOR, plugin_name,      \
+                                                  plugin_version,      &fwPluginCreate,     &fwPluginDestroy, \
+                                                  &fwPluginStep};                                             \
+    return &descriptor;                                                                                       \
   }

@@ -65,8 +65,8 @@ struct BallObservation {
   // in play unless a flight led there.
   bool is_static = false;
 
-  static BallObservation inRobotFrame(const Eigen::Vector3d& p_R, const Eigen::Matrix3d& cov_m2,
-                                      BallState state, std::string source, Stamp stamp);
+  static BallObservation inRobotFrame(const Eigen::Vector3d& p_R, const Eigen::Matrix3d& cov_m2, BallState state,
+                                      std::string source, Stamp stamp);
   // Same frame, state, source and static flag, positions within tol_m, covariances within tol_m^2 per entry.
   bool isApprox(const BallObservation& other, double tol_m) const;
 };
@@ -89,7 +89,7 @@ struct OmniBallObservation {
 // the ball's radius, in the robot frame, with a 1-sigma radius from the fit's uncertainty.
 struct Touchdown {
   Eigen::Vector2d point_m = Eigen::Vector2d::Zero();
-  double time_s = 0.0;   // source clock
+  double time_s = 0.0;  // source clock
   double sigma_m = 0.0;
 };
 
@@ -106,14 +106,14 @@ struct LineCrossing {
 // slowing by rolling_decel_mps2 until it stops.
 struct BallTrajectory {
   double time_s = 0.0;
-  Eigen::Vector3d position_m = Eigen::Vector3d::Zero();   // at time_s
+  Eigen::Vector3d position_m = Eigen::Vector3d::Zero();    // at time_s
   Eigen::Vector3d velocity_mps = Eigen::Vector3d::Zero();  // at time_s
   BallState state = BallState::kAir;
   double gravity_mps2 = kGravity_mps2;
   double drag_per_m = 0.0;
   double rolling_decel_mps2 = 0.0;
-  int support = 0;       // detections the current fit rests on
-  double rms_m = 0.0;    // their residual to it
+  int support = 0;     // detections the current fit rests on
+  double rms_m = 0.0;  // their residual to it
   std::optional<Touchdown> touchdown;
   std::optional<LineCrossing> crossing;
   std::string source;

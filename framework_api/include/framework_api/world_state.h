@@ -23,7 +23,7 @@ class WorldState {
   void publishOmniBall(const OmniBallObservation& observation);
   void publishFusedBall(const FusedBall& ball);
   void publishTrajectory(const BallTrajectory& trajectory);  // replaces that source's last one
-  void clearTrajectory(const std::string& source);          // the source lost the ball
+  void clearTrajectory(const std::string& source);           // the source lost the ball
   void publishRobotPose(const RobotPose& pose);
 
   // Newest first.

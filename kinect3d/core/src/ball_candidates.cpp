@@ -14,8 +14,8 @@ void BallCandidateFinder::VoxelSet::reset(std::size_t expected) {
 }
 
 bool BallCandidateFinder::VoxelSet::insert(const VoxelIndex& v) {
-  const std::uint64_t key = (std::uint64_t(std::uint32_t(v[2])) << 42) ^
-                            (std::uint64_t(std::uint32_t(v[1])) << 21) ^ std::uint32_t(v[0]);
+  const std::uint64_t key =
+      (std::uint64_t(std::uint32_t(v[2])) << 42) ^ (std::uint64_t(std::uint32_t(v[1])) << 21) ^ std::uint32_t(v[0]);
   for (std::size_t i = (key * 0x9E3779B97F4A7C15ULL) >> 40 & mask_;; i = (i + 1) & mask_) {
     if (slots_[i] == key) return false;
     if (slots_[i] == kEmpty) {
@@ -108,7 +108,7 @@ bool BallCandidateFinder::shellEmpty(const OccupancyGrid& grid, const BallCandid
   };
   constexpr int B = OccupancyGrid::kBlock;
   auto blockOf = [](int v) { return v >= 0 ? v / B : -1; };  // voxels below 0 are outside the grid
-  VoxelIndex lo, hi;  // the union of all windows, inclusive
+  VoxelIndex lo, hi;                                         // the union of all windows, inclusive
   for (int a = 0; a < 3; ++a) {
     lo[a] = first[a] - shell_;
     hi[a] = first[a] + count[a] - 1 - shell_ + reach - 1;

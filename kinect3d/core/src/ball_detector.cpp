@@ -8,9 +8,7 @@ namespace kinect3d {
 
 namespace {
 using Clock = std::chrono::steady_clock;
-double secondsBetween(Clock::time_point a, Clock::time_point b) {
-  return std::chrono::duration<double>(b - a).count();
-}
+double secondsBetween(Clock::time_point a, Clock::time_point b) { return std::chrono::duration<double>(b - a).count(); }
 
 // The mask's early plausibility cut: a whole ball of radius r covers pi (f r / z)^2 pixels at
 // range z, 1/stride^2 of them on the grid. A group needs half the share the refiner later demands
@@ -57,8 +55,8 @@ void BallDetector::detect(const DepthFrame& frame, Detections& out, const std::o
     grid_ = std::make_unique<OccupancyGrid>(config_.grid, frame.intrinsics.fx, config_.points.pixel_stride,
                                             config_.points.max_range_m);
     finder_ = std::make_unique<BallCandidateFinder>(config_.mask, minGroupPointsAt1m(config_, frame.intrinsics.fx));
-    refiner_ = std::make_unique<BallRefiner>(config_.ball,
-                                             DepthNoiseModel{frame.intrinsics.fx, config_.points.baseline_m});
+    refiner_ =
+        std::make_unique<BallRefiner>(config_.ball, DepthNoiseModel{frame.intrinsics.fx, config_.points.baseline_m});
   }
   if (!map_ || T_F_R.has_value() != map_in_field_) {
     map_ = std::make_unique<SceneMap>(config_.map, config_.points.min_range_m, config_.points.max_range_m);
@@ -93,9 +91,8 @@ void BallDetector::detect(const DepthFrame& frame, Detections& out, const std::o
   // The paper looks for flying balls first: report those before balls on the ground. An
   // insertion pass keeps the order otherwise and, unlike std::stable_sort, allocates nothing.
   for (std::size_t i = 1; i < out.balls.size(); ++i) {
-    for (std::size_t j = i; j > 0 && out.balls[j].state == fw::BallState::kAir &&
-                            out.balls[j - 1].state != fw::BallState::kAir;
-         --j) {
+    for (std::size_t j = i;
+         j > 0 && out.balls[j].state == fw::BallState::kAir && out.balls[j - 1].state != fw::BallState::kAir; --j) {
       std::swap(out.balls[j], out.balls[j - 1]);
     }
   }

@@ -9,8 +9,8 @@ namespace {
 
 // Gauss-Newton for the centre of a sphere of known radius; points farther than gate_m from the
 // current surface are left out of each step.
-Eigen::Vector3d fitSphere(const std::vector<Eigen::Vector3d>& points, Eigen::Vector3d center,
-                          double radius, double gate_m) {
+Eigen::Vector3d fitSphere(const std::vector<Eigen::Vector3d>& points, Eigen::Vector3d center, double radius,
+                          double gate_m) {
   for (int iteration = 0; iteration < 8; ++iteration) {
     Eigen::Matrix3d JtJ = Eigen::Matrix3d::Zero();
     Eigen::Vector3d Jtr = Eigen::Vector3d::Zero();

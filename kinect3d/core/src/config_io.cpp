@@ -52,8 +52,8 @@ DetectorConfig readDetectorConfig(const fw::ConfigView& kinect3d) {
   config.mask.core_voxels = grid.getInt("core_voxels", 1, 15);
   config.mask.mask_voxels = grid.getInt("mask_voxels", config.mask.core_voxels + 2, 31);
   if ((config.mask.mask_voxels - config.mask.core_voxels) % 2 != 0) {
-    throw fw::ConfigError(grid.originOf("mask_voxels") + ": kinect3d.grid.mask_voxels = " +
-                          std::to_string(config.mask.mask_voxels) +
+    throw fw::ConfigError(grid.originOf("mask_voxels") +
+                          ": kinect3d.grid.mask_voxels = " + std::to_string(config.mask.mask_voxels) +
                           " must exceed core_voxels by an even number (an equal shell on each side)");
   }
   config.grid.occupied_fraction = grid.getDouble("occupied_fraction", 0.0, 1.0);

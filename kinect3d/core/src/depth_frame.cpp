@@ -17,8 +17,8 @@ Intrinsics Intrinsics::fromFieldOfView(int width, int height, double hfov_rad, d
 }
 
 bool Intrinsics::operator==(const Intrinsics& other) const {
-  return width == other.width && height == other.height && fx == other.fx && fy == other.fy &&
-         cx == other.cx && cy == other.cy;
+  return width == other.width && height == other.height && fx == other.fx && fy == other.fy && cx == other.cx &&
+         cy == other.cy;
 }
 
 void DepthFrame::resize(const Intrinsics& new_intrinsics) {

@@ -13,12 +13,10 @@ namespace kinect3d {
 ReadResult DepthSource::read(DepthFrame& frame) {
   const ReadResult result = readFrame(frame);
   if (result != ReadResult::kFrame) return result;
-  const std::size_t expected =
-      static_cast<std::size_t>(frame.intrinsics.width) * frame.intrinsics.height;
+  const std::size_t expected = static_cast<std::size_t>(frame.intrinsics.width) * frame.intrinsics.height;
   if (frame.depth_mm.size() != expected) {
     throw DepthSourceError(describe() + ": frame " + std::to_string(frame.index) + " has " +
-                           std::to_string(frame.depth_mm.size()) + " pixels, expected " +
-                           std::to_string(expected));
+                           std::to_string(frame.depth_mm.size()) + " pixels, expected " + std::to_string(expected));
   }
   if (has_last_index_ && frame.index > last_index_ + 1) {
     // A gap the source skipped itself (an unreadable file) is counted as skipped, not dropped.

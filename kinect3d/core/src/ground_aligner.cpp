@@ -44,8 +44,7 @@ std::optional<Eigen::Isometry3d> GroundAligner::update(const DepthFrame& frame) 
     frames_since_check_ = 0;
     const double on_floor = inlierFraction(frame, *T_R_S_);
     if (on_floor < config_.min_inlier_fraction) {
-      fw::logWarn("ground", "floor fit degraded (" + std::to_string(on_floor) +
-                                " of points on it); refitting");
+      fw::logWarn("ground", "floor fit degraded (" + std::to_string(on_floor) + " of points on it); refitting");
       if (auto refit = fitFloor(frame)) T_R_S_ = refit;
     }
   }
@@ -98,8 +97,7 @@ std::optional<Eigen::Isometry3d> GroundAligner::fitFloor(const DepthFrame& frame
   }
   // Robot axes in the sensor frame: z up; y the optical axis projected onto the floor (the floor
   // cannot tell yaw, so the robot is taken to face where the sensor looks); x = y cross z.
-  const Eigen::Vector3d forward_S =
-      (Eigen::Vector3d::UnitZ() - up_S * up_S.z()).normalized();
+  const Eigen::Vector3d forward_S = (Eigen::Vector3d::UnitZ() - up_S * up_S.z()).normalized();
   Eigen::Matrix3d R_S_R;
   R_S_R.col(0) = forward_S.cross(up_S);
   R_S_R.col(1) = forward_S;

@@ -24,8 +24,7 @@ DepthFrame loadRawDisparityPgm(const std::string& path, const Intrinsics& intrin
     throw DepthSourceError(path + ": not a 16-bit binary PGM (expected header 'P5 W H 65535')");
   }
   if (width != intrinsics.width || height != intrinsics.height) {
-    throw DepthSourceError(path + ": image is " + std::to_string(width) + "x" +
-                           std::to_string(height) + ", expected " +
+    throw DepthSourceError(path + ": image is " + std::to_string(width) + "x" + std::to_string(height) + ", expected " +
                            std::to_string(intrinsics.width) + "x" + std::to_string(intrinsics.height));
   }
   DepthFrame frame;

@@ -74,8 +74,8 @@ void OccupancyGrid::update(const PointSet& points, const Eigen::Vector3f& sensor
   for (const std::uint32_t i : touched_) {
     const VoxelIndex v{int(i % size_[0]), int(i / size_[0] % size_[1]), int(i / size_[0] / size_[1])};
     const double range = std::max(0.3, double((centerOf(v) - sensor_R).norm()));
-    const double needed = std::max<double>(config_.min_points,
-                                           config_.occupied_fraction * full_face_points_at_1m_ / (range * range));
+    const double needed =
+        std::max<double>(config_.min_points, config_.occupied_fraction * full_face_points_at_1m_ / (range * range));
     if (counts_[i] >= needed) {
       occupied_[i] = 1;
       ++blockCount(v);

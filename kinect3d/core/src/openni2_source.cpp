@@ -23,8 +23,7 @@ void initialiseOpenNI() {
   static openni::Status status = openni::STATUS_OK;
   std::call_once(once, [] { status = openni::OpenNI::initialize(); });
   if (status != openni::STATUS_OK) {
-    throw DepthSourceError(std::string("OpenNI2 failed to initialise: ") +
-                           openni::OpenNI::getExtendedError());
+    throw DepthSourceError(std::string("OpenNI2 failed to initialise: ") + openni::OpenNI::getExtendedError());
   }
 }
 
@@ -61,8 +60,7 @@ class OpenNI2Stream {
                              std::to_string(mode.getPixelFormat()) + ")");
     }
     intrinsics_ = Intrinsics::fromFieldOfView(mode.getResolutionX(), mode.getResolutionY(),
-                                              stream_.getHorizontalFieldOfView(),
-                                              stream_.getVerticalFieldOfView());
+                                              stream_.getHorizontalFieldOfView(), stream_.getVerticalFieldOfView());
     fps_ = mode.getFps() > 0 ? mode.getFps() : 30;
   }
 
@@ -92,12 +90,10 @@ class OpenNI2Stream {
     }
     if (ref.getWidth() != intrinsics_.width || ref.getHeight() != intrinsics_.height ||
         ref.getDataSize() < intrinsics_.width * intrinsics_.height * 2) {
-      throw DepthSourceError(label + ": frame " + std::to_string(ref.getFrameIndex()) +
-                             " is " + std::to_string(ref.getWidth()) + "x" +
-                             std::to_string(ref.getHeight()) + " with " +
+      throw DepthSourceError(label + ": frame " + std::to_string(ref.getFrameIndex()) + " is " +
+                             std::to_string(ref.getWidth()) + "x" + std::to_string(ref.getHeight()) + " with " +
                              std::to_string(ref.getDataSize()) + " bytes, expected " +
-                             std::to_string(intrinsics_.width) + "x" +
-                             std::to_string(intrinsics_.height));
+                             std::to_string(intrinsics_.width) + "x" + std::to_string(intrinsics_.height));
     }
     frame.resize(intrinsics_);
     const auto* rows = static_cast<const unsigned char*>(ref.getData());
@@ -144,12 +140,11 @@ class OpenNI2Stream {
 // without stopping the host.
 class OpenNI2Device : public DepthSource {
  public:
-  OpenNI2Device(std::string uri, const SourceOptions& options)
-      : DepthSource(options), uri_(std::move(uri)) {
+  OpenNI2Device(std::string uri, const SourceOptions& options) : DepthSource(options), uri_(std::move(uri)) {
     stream_.open(uri_, describe());
     last_frame_ = Clock::now();
-    fw::logInfo("openni2", describe() + ": streaming " + std::to_string(stream_.intrinsics().width) +
-                               "x" + std::to_string(stream_.intrinsics().height));
+    fw::logInfo("openni2", describe() + ": streaming " + std::to_string(stream_.intrinsics().width) + "x" +
+                               std::to_string(stream_.intrinsics().height));
   }
   ~OpenNI2Device() override { stream_.close(); }
 
@@ -185,9 +180,9 @@ class OpenNI2Device : public DepthSource {
 
   ReadResult reopen(int wait_ms) {
     if (Clock::now() < next_attempt_) {
-      std::this_thread::sleep_for(std::min(std::chrono::milliseconds(wait_ms),
-                                           std::chrono::duration_cast<std::chrono::milliseconds>(
-                                               next_attempt_ - Clock::now())));
+      std::this_thread::sleep_for(
+          std::min(std::chrono::milliseconds(wait_ms),
+                   std::chrono::duration_cast<std::chrono::milliseconds>(next_attempt_ - Clock::now())));
       return ReadResult::kNoFrameYet;
     }
     try {
@@ -209,8 +204,7 @@ class OpenNI2Device : public DepthSource {
 
 class OniRecording : public DepthSource {
  public:
-  OniRecording(std::string path, const SourceOptions& options)
-      : DepthSource(options), path_(std::move(path)) {
+  OniRecording(std::string path, const SourceOptions& options) : DepthSource(options), path_(std::move(path)) {
     stream_.open(path_, describe());
     openni::PlaybackControl* playback = stream_.device().getPlaybackControl();
     if (playback == nullptr) throw DepthSourceError(describe() + ": not a recording");
@@ -233,8 +227,8 @@ class OniRecording : public DepthSource {
     try {
       stream_.readReady(frame, describe());
     } catch (const DepthSourceError& e) {
-      throw DepthSourceError(std::string(e.what()) + " (frame " + std::to_string(read_ + 1) +
-                             " of " + std::to_string(frames_) + "; the file may be truncated)");
+      throw DepthSourceError(std::string(e.what()) + " (frame " + std::to_string(read_ + 1) + " of " +
+                             std::to_string(frames_) + "; the file may be truncated)");
     }
     ++read_;
     frame.sensor_id = describe();
@@ -249,8 +243,7 @@ class OniRecording : public DepthSource {
 
 }  // namespace
 
-std::unique_ptr<DepthSource> openOpenNI2Device(const std::string& device_uri,
-                                               const SourceOptions& options) {
+std::unique_ptr<DepthSource> openOpenNI2Device(const std::string& device_uri, const SourceOptions& options) {
   initialiseOpenNI();
   return std::make_unique<OpenNI2Device>(device_uri, options);
 }
@@ -262,8 +255,8 @@ void recordOni(const std::string& device_uri, const std::string& path, int frame
   stream.open(device_uri, label, false);
   // The recorder runs before the stream starts, so it sees the first frame too.
   openni::Recorder recorder;
-  if (recorder.create(path.c_str()) != openni::STATUS_OK ||
-      recorder.attach(stream.stream()) != openni::STATUS_OK || recorder.start() != openni::STATUS_OK) {
+  if (recorder.create(path.c_str()) != openni::STATUS_OK || recorder.attach(stream.stream()) != openni::STATUS_OK ||
+      recorder.start() != openni::STATUS_OK) {
     stream.close();
     throw DepthSourceError("cannot record to '" + path + "': " + lastError());
   }
@@ -279,9 +272,8 @@ void recordOni(const std::string& device_uri, const std::string& path, int frame
   recorder.destroy();
   stream.close();
   if (recorded < frames) {
-    throw DepthSourceError(label + ": only " + std::to_string(recorded) + " of " +
-                           std::to_string(frames) + " frames arrived within " +
-                           std::to_string(timeout_s) + " s");
+    throw DepthSourceError(label + ": only " + std::to_string(recorded) + " of " + std::to_string(frames) +
+                           " frames arrived within " + std::to_string(timeout_s) + " s");
   }
 }
 

@@ -101,10 +101,11 @@ void SceneMap::update(const DepthFrame& frame, const Eigen::Isometry3d& T_M_S, d
   const octomap::point3d origin(static_cast<float>(origin_M.x()), static_cast<float>(origin_M.y()),
                                 static_cast<float>(origin_M.z()));
   Worker* worker = worker_.get();
-  worker->in_flight = std::async(std::launch::async, [worker, cloud = std::move(cloud), origin, t_s,
-                                                      max_range_m = max_range_m_, static_after_s = config_.static_after_s] {
-    return worker->integrate(cloud, origin, t_s, max_range_m, static_after_s);
-  });
+  worker->in_flight =
+      std::async(std::launch::async, [worker, cloud = std::move(cloud), origin, t_s, max_range_m = max_range_m_,
+                                      static_after_s = config_.static_after_s] {
+        return worker->integrate(cloud, origin, t_s, max_range_m, static_after_s);
+      });
 }
 
 void SceneMap::clear() {
@@ -134,10 +135,14 @@ void SceneMap::writeBinary(const std::string& path) const {
 
 const char* toString(SceneMap::VoxelState state) {
   switch (state) {
-    case SceneMap::VoxelState::kUnknown: return "unknown";
-    case SceneMap::VoxelState::kFree: return "free";
-    case SceneMap::VoxelState::kOccupied: return "occupied";
-    case SceneMap::VoxelState::kStatic: return "static";
+    case SceneMap::VoxelState::kUnknown:
+      return "unknown";
+    case SceneMap::VoxelState::kFree:
+      return "free";
+    case SceneMap::VoxelState::kOccupied:
+      return "occupied";
+    case SceneMap::VoxelState::kStatic:
+      return "static";
   }
   return "?";
 }

@@ -10,9 +10,7 @@ namespace {
 // robot +x, optical y (down) is robot -z, optical z (forward) is robot +y.
 Eigen::Matrix3d levelSensorToRobot() {
   Eigen::Matrix3d R;
-  R << 1, 0, 0,
-       0, 0, 1,
-       0, -1, 0;
+  R << 1, 0, 0, 0, 0, 1, 0, -1, 0;
   return R;
 }
 

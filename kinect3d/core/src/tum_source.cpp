@@ -56,12 +56,12 @@ std::vector<TumEntry> readIndex(const fs::path& list) {
     std::string extra;
     if (!(fields >> entry.timestamp_s)) {
       if (text.find_first_not_of(" \t\r") == std::string::npos) continue;  // blank line
-      throw DepthSourceError(list.string() + ":" + std::to_string(line) +
-                             ": expected 'timestamp filename', got '" + text + "'");
+      throw DepthSourceError(list.string() + ":" + std::to_string(line) + ": expected 'timestamp filename', got '" +
+                             text + "'");
     }
     if (!(fields >> entry.file) || (fields >> extra)) {
-      throw DepthSourceError(list.string() + ":" + std::to_string(line) +
-                             ": expected 'timestamp filename', got '" + text + "'");
+      throw DepthSourceError(list.string() + ":" + std::to_string(line) + ": expected 'timestamp filename', got '" +
+                             text + "'");
     }
     entries.push_back(entry);
   }
@@ -89,8 +89,7 @@ class TumSequence : public DepthSource {
       const fs::path image_path = dir_ / entry.file;
       const std::string problem = decode(image_path, frame);
       if (!problem.empty()) {
-        reportSkipped(image_path.string() + " (depth.txt line " + std::to_string(entry.line) +
-                      "): " + problem);
+        reportSkipped(image_path.string() + " (depth.txt line " + std::to_string(entry.line) + "): " + problem);
         continue;
       }
       frame.index = index;
@@ -113,8 +112,8 @@ class TumSequence : public DepthSource {
     if (image.type() != CV_16UC1) return "not a 16-bit single-channel image";
     const Intrinsics& in = camera_.intrinsics;
     if (image.cols != in.width || image.rows != in.height) {
-      return "image is " + std::to_string(image.cols) + "x" + std::to_string(image.rows) +
-             ", expected " + std::to_string(in.width) + "x" + std::to_string(in.height);
+      return "image is " + std::to_string(image.cols) + "x" + std::to_string(image.rows) + ", expected " +
+             std::to_string(in.width) + "x" + std::to_string(in.height);
     }
     frame.resize(in);
     const double mm_per_unit = 1000.0 / camera_.depth_scale;

@@ -83,19 +83,25 @@ class SimStream : public oni::driver::StreamBase {
   OniStatus getProperty(int id, void* data, int* size) override {
     const kinect3d::Intrinsics& in = simulator_.scene().intrinsics;
     switch (id) {
-      case ONI_STREAM_PROPERTY_VIDEO_MODE: return copyOut(mode_, data, size);
+      case ONI_STREAM_PROPERTY_VIDEO_MODE:
+        return copyOut(mode_, data, size);
       // OpenNI2's file player drops every frame of a recording that lacks stride or cropping.
-      case ONI_STREAM_PROPERTY_STRIDE: return copyOut(in.width * 2, data, size);
-      case ONI_STREAM_PROPERTY_CROPPING: return copyOut(OniCropping{FALSE, 0, 0, in.width, in.height}, data, size);
+      case ONI_STREAM_PROPERTY_STRIDE:
+        return copyOut(in.width * 2, data, size);
+      case ONI_STREAM_PROPERTY_CROPPING:
+        return copyOut(OniCropping{FALSE, 0, 0, in.width, in.height}, data, size);
       case ONI_STREAM_PROPERTY_HORIZONTAL_FOV:
         return copyOut(static_cast<float>(2.0 * std::atan(in.width / (2.0 * in.fx))), data, size);
       case ONI_STREAM_PROPERTY_VERTICAL_FOV:
         return copyOut(static_cast<float>(2.0 * std::atan(in.height / (2.0 * in.fy))), data, size);
       case ONI_STREAM_PROPERTY_MAX_VALUE:
         return copyOut(static_cast<int>(simulator_.scene().noise.max_range_m * 1000), data, size);
-      case ONI_STREAM_PROPERTY_MIN_VALUE: return copyOut(0, data, size);
-      case ONI_STREAM_PROPERTY_MIRRORING: return copyOut(static_cast<OniBool>(FALSE), data, size);
-      default: return ONI_STATUS_NOT_SUPPORTED;
+      case ONI_STREAM_PROPERTY_MIN_VALUE:
+        return copyOut(0, data, size);
+      case ONI_STREAM_PROPERTY_MIRRORING:
+        return copyOut(static_cast<OniBool>(FALSE), data, size);
+      default:
+        return ONI_STATUS_NOT_SUPPORTED;
     }
   }
 

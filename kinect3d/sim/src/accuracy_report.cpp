@@ -65,12 +65,12 @@ void table1(const fw::Config& config, std::ostream& md) {
     const double target = d <= 4 ? 0.03 : 0.06;
     const bool met = found > 0 && mean_error <= target && std_dev.maxCoeff() <= 0.02;
     const PaperRow& paper = kPaperTable1[d - 2];
-    md << "| " << d << " m | " << format("%.2f m", paper.y_m) << format(" (%.2f cm)", paper.y_std_m * 100)
-       << " | " << format("%.3f, ", mean.x()) << format("%.3f, ", mean.y()) << format("%.3f m", mean.z())
-       << " | " << format("%.1f cm", mean_error * 100) << " | " << format("%.1f / ", std_dev.x() * 100)
-       << format("%.1f / ", std_dev.y() * 100) << format("%.1f cm", std_dev.z() * 100) << " | "
-       << found << "/" << frames.size() << " | " << format("<= %.0f cm, std <= 2 cm: ", target * 100)
-       << (met ? "met" : "**not met**") << " |\n";
+    md << "| " << d << " m | " << format("%.2f m", paper.y_m) << format(" (%.2f cm)", paper.y_std_m * 100) << " | "
+       << format("%.3f, ", mean.x()) << format("%.3f, ", mean.y()) << format("%.3f m", mean.z()) << " | "
+       << format("%.1f cm", mean_error * 100) << " | " << format("%.1f / ", std_dev.x() * 100)
+       << format("%.1f / ", std_dev.y() * 100) << format("%.1f cm", std_dev.z() * 100) << " | " << found << "/"
+       << frames.size() << " | " << format("<= %.0f cm, std <= 2 cm: ", target * 100) << (met ? "met" : "**not met**")
+       << " |\n";
   }
   md << "\n";
 }
@@ -83,12 +83,14 @@ void kicks(const fw::Config& config, const ReportOptions& options, std::ostream&
      << " from the sensor, shows at least " << format("%.0f %%", criteria.min_visible_fraction * 100)
      << " of a whole ball's pixels and is at least " << format("%.1f m", criteria.min_clearance_m)
      << " from every other structure; it is found when a reported ball lies within "
-     << format("%.1f m", criteria.match_m) << " of the truth. Targets: found in >= 95 % of counted "
+     << format("%.1f m", criteria.match_m)
+     << " of the truth. Targets: found in >= 95 % of counted "
         "frames, every reported ball within 0.3 m of the truth.\n\n"
         "| scene | frames | counted | found | reported balls | off the truth | median error | p95 error |\n"
         "|---|---|---|---|---|---|---|---|\n";
   sim::DetectionScore total;
-  for (const std::string name : {"kick_away", "ground_kick", "shot_goalkeeper", "shot_goalkeeper_low", "lob_goalkeeper"}) {
+  for (const std::string name :
+       {"kick_away", "ground_kick", "shot_goalkeeper", "shot_goalkeeper_low", "lob_goalkeeper"}) {
     sim::DetectionScore score;
     for (int seed = 1; seed <= options.seeds; ++seed) {
       sim::Scene scene = sim::loadScene(name);
@@ -97,17 +99,18 @@ void kicks(const fw::Config& config, const ReportOptions& options, std::ostream&
     }
     total.add(score);
     md << "| `" << name << "` | " << score.frames << " | " << score.eligible << " | " << score.found
-       << format(" (%.1f %%)", 100.0 * score.recall()) << " | " << score.reported << " | " << score.off_truth
-       << " | " << format("%.1f cm", sim::quantile(score.errors_m, 0.5) * 100) << " | "
+       << format(" (%.1f %%)", 100.0 * score.recall()) << " | " << score.reported << " | " << score.off_truth << " | "
+       << format("%.1f cm", sim::quantile(score.errors_m, 0.5) * 100) << " | "
        << format("%.1f cm", sim::quantile(score.errors_m, 0.95) * 100) << " |\n";
   }
   md << "| **all** | " << total.frames << " | " << total.eligible << " | " << total.found
-     << format(" (%.1f %%)", 100.0 * total.recall()) << " | " << total.reported << " | " << total.off_truth
-     << " | " << format("%.1f cm", sim::quantile(total.errors_m, 0.5) * 100) << " | "
+     << format(" (%.1f %%)", 100.0 * total.recall()) << " | " << total.reported << " | " << total.off_truth << " | "
+     << format("%.1f cm", sim::quantile(total.errors_m, 0.5) * 100) << " | "
      << format("%.1f cm", sim::quantile(total.errors_m, 0.95) * 100) << " |\n\n"
      << "Found in counted frames: " << format("%.1f %%", 100.0 * total.recall())
-     << (total.recall() >= 0.95 ? " (target met)" : " (**target not met**)") << "; reported balls off the truth: "
-     << total.off_truth << (total.off_truth == 0 ? " (target met)" : " (**target not met**)") << ".\n\n";
+     << (total.recall() >= 0.95 ? " (target met)" : " (**target not met**)")
+     << "; reported balls off the truth: " << total.off_truth
+     << (total.off_truth == 0 ? " (target met)" : " (**target not met**)") << ".\n\n";
 }
 
 int detectionsOn(DepthSource& source, const DetectorConfig& config, int& frames) {
@@ -132,8 +135,8 @@ void phantoms(const fw::Config& config, const ReportOptions& options, std::ostre
   md << "## Phantom balls\n\n"
      << "| data | frames | balls reported | per 1,000 frames | target |\n|---|---|---|---|---|\n"
      << "| `clutter` (robots driving, people walking, goal, wall, no ball) | " << score.frames << " | "
-     << score.reported << " | " << format("%.2f", per_1000) << " | <= 1: "
-     << (per_1000 <= 1.0 ? "met" : "**not met**") << " |\n";
+     << score.reported << " | " << format("%.2f", per_1000) << " | <= 1: " << (per_1000 <= 1.0 ? "met" : "**not met**")
+     << " |\n";
 
   // The real frames: a TUM sequence of one frame, and the NYU raw-disparity frame converted.
   // Neither shows a ball; the floor is searched for as a robot without a configured pose would.
@@ -146,16 +149,16 @@ void phantoms(const fw::Config& config, const ReportOptions& options, std::ostre
   auto tum = DepthSourceTable::core().open("tum:" + tum_dir);
   const int tum_balls = detectionsOn(*tum, detector, frames);
   std::filesystem::remove_all(tum_dir);
-  md << "| real Kinect frame `tum_depth.png` (office) | " << frames << " | " << tum_balls << " | - | 0: "
-     << (tum_balls == 0 ? "met" : "**not met**") << " |\n";
+  md << "| real Kinect frame `tum_depth.png` (office) | " << frames << " | " << tum_balls
+     << " | - | 0: " << (tum_balls == 0 ? "met" : "**not met**") << " |\n";
 
   BallDetector nyu_detector(detector, "kinect3d");
   Detections detections;
   const DepthFrame nyu = loadRawDisparityPgm(options.real_depth_dir + "/nyu_raw_disparity.pgm");
   nyu_detector.detect(nyu, detections);
   const int nyu_balls = static_cast<int>(detections.balls.size());
-  md << "| real Kinect frame `nyu_raw_disparity.pgm` (room) | 1 | " << nyu_balls << " | - | 0: "
-     << (nyu_balls == 0 ? "met" : "**not met**") << " |\n\n";
+  md << "| real Kinect frame `nyu_raw_disparity.pgm` (room) | 1 | " << nyu_balls
+     << " | - | 0: " << (nyu_balls == 0 ? "met" : "**not met**") << " |\n\n";
 }
 
 }  // namespace

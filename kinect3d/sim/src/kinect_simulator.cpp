@@ -137,8 +137,7 @@ struct PlacedShape {
     const double z_hi = kind == Shape::Kind::kCylinder ? half.z() : half.z();
     std::array<Eigen::Vector3d, 8> corners;
     for (int i = 0; i < 8; ++i) {
-      const Eigen::Vector3d p_L((i & 1) ? half.x() : -half.x(), (i & 2) ? half.y() : -half.y(),
-                                (i & 4) ? z_hi : z_lo);
+      const Eigen::Vector3d p_L((i & 1) ? half.x() : -half.x(), (i & 2) ? half.y() : -half.y(), (i & 4) ? z_hi : z_lo);
       corners[i] = R_L_S.transpose() * (p_L - o_L);
     }
     return corners;
@@ -150,8 +149,10 @@ double distanceToShape(const Shape& shape, const Eigen::Vector3d& offset_R, cons
   const Eigen::Vector3d rel = p_R - (shape.center_m + offset_R);
   const Eigen::Vector3d p = Eigen::AngleAxisd(-shape.yaw_rad, Eigen::Vector3d::UnitZ()) * rel;
   switch (shape.kind) {
-    case Shape::Kind::kSphere: return std::max(0.0, p.norm() - shape.size_m.x() / 2);
-    case Shape::Kind::kBox: return (p.cwiseAbs() - shape.size_m / 2).cwiseMax(0.0).norm();
+    case Shape::Kind::kSphere:
+      return std::max(0.0, p.norm() - shape.size_m.x() / 2);
+    case Shape::Kind::kBox:
+      return (p.cwiseAbs() - shape.size_m / 2).cwiseMax(0.0).norm();
     case Shape::Kind::kCylinder: {
       const double radial = std::max(0.0, p.head<2>().norm() - shape.size_m.x() / 2);
       const double vertical = std::max({0.0, -p.z(), p.z() - shape.size_m.z()});
@@ -172,12 +173,12 @@ struct PixelRect {
 // nothing once warm). The stages draw from one random stream in a fixed order, so a frame depends
 // only on the scene, the seed and its index.
 struct KinectSimulator::Renderer {
-  std::vector<float> depth_m;         // optical depth of the nearest surface, kNoHit for none
-  std::vector<std::int16_t> id;       // what is there: kIdNone, kIdFloor, shape index + 1, ball
-  std::vector<float> disparity_px;    // f b / z after geometry effects, 0 = no data
-  std::vector<float> clean_disparity; // before edge effects, for the edge test
-  std::vector<float> jitter;          // lateral noise: (du, dv) per pixel
-  std::vector<double> shape_dropout;  // by id
+  std::vector<float> depth_m;          // optical depth of the nearest surface, kNoHit for none
+  std::vector<std::int16_t> id;        // what is there: kIdNone, kIdFloor, shape index + 1, ball
+  std::vector<float> disparity_px;     // f b / z after geometry effects, 0 = no data
+  std::vector<float> clean_disparity;  // before edge effects, for the edge test
+  std::vector<float> jitter;           // lateral noise: (du, dv) per pixel
+  std::vector<double> shape_dropout;   // by id
   std::vector<PlacedShape> placed;
 
   // The frame being rendered.
@@ -279,8 +280,9 @@ struct KinectSimulator::Renderer {
     PixelRect rect{W, H, 0, 0};
     for (int k = 0; k < samples; ++k) {
       const double tk = samples == 1 ? t : t + noise.exposure_s * (double(k) / (samples - 1) - 0.5);
-      ball_at[k] = PlacedShape{Shape::Kind::kSphere, Eigen::Matrix3d::Identity(), -(T_R_S.inverse() * motion.positionAt(tk)),
-                               Eigen::Vector3d::Constant(scene->physics.radius_m)};
+      ball_at[k] =
+          PlacedShape{Shape::Kind::kSphere, Eigen::Matrix3d::Identity(), -(T_R_S.inverse() * motion.positionAt(tk)),
+                      Eigen::Vector3d::Constant(scene->physics.radius_m)};
       const PixelRect rk = rectOf(ball_at[k].corners_S());
       rect = {std::min(rect.u0, rk.u0), std::min(rect.v0, rk.v0), std::max(rect.u1, rk.u1), std::max(rect.v1, rk.v1)};
     }
@@ -413,11 +415,10 @@ struct KinectSimulator::Renderer {
   }
 };
 
-KinectSimulator::KinectSimulator(Scene scene)
-    : scene_(std::move(scene)), renderer_(std::make_unique<Renderer>()) {
+KinectSimulator::KinectSimulator(Scene scene) : scene_(std::move(scene)), renderer_(std::make_unique<Renderer>()) {
   if (scene_.ball) {
-    ball_motion_ = std::make_unique<BallMotion>(*scene_.ball, scene_.physics,
-                                                scene_.duration_s + scene_.noise.exposure_s);
+    ball_motion_ =
+        std::make_unique<BallMotion>(*scene_.ball, scene_.physics, scene_.duration_s + scene_.noise.exposure_s);
   }
   renderer_->resize(static_cast<std::size_t>(scene_.intrinsics.width) * scene_.intrinsics.height);
   renderer_->scene = &scene_;

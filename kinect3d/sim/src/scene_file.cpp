@@ -47,9 +47,10 @@ std::vector<Shape> shapesOf(const fw::ConfigView& object, const std::string& typ
   }
   if (type == "human") {
     // Legs, torso and head of an adult; centre given on the floor between the feet.
-    return {box({-0.1, 0, 0.45}, {0.14, 0.16, 0.9}), box({0.1, 0, 0.45}, {0.14, 0.16, 0.9}),
-            box({0, 0, 1.2}, {0.42, 0.24, 0.62}),
-            Shape{Shape::Kind::kSphere, base + Eigen::Vector3d(0, 0, 1.64), Eigen::Vector3d::Constant(0.22), 0.0, dropout}};
+    return {
+        box({-0.1, 0, 0.45}, {0.14, 0.16, 0.9}), box({0.1, 0, 0.45}, {0.14, 0.16, 0.9}),
+        box({0, 0, 1.2}, {0.42, 0.24, 0.62}),
+        Shape{Shape::Kind::kSphere, base + Eigen::Vector3d(0, 0, 1.64), Eigen::Vector3d::Constant(0.22), 0.0, dropout}};
   }
   if (type == "goal") {
     // 2.0 m wide, 1.0 m high inside, 0.125 m posts; the net is invisible to the projector.
@@ -80,9 +81,9 @@ SceneObject readObject(const fw::ConfigView& object) {
 }
 
 KinectNoise readNoise(const fw::ConfigView& view) {
-  view.requireOnlyKeys({"baseline_m", "quantisation", "axial_noise", "lateral_noise_px", "shadows",
-                        "edge_dropout", "flying_pixels", "exposure_s", "trail_dropout",
-                        "random_dropout", "min_range_m", "max_range_m", "seed"});
+  view.requireOnlyKeys({"baseline_m", "quantisation", "axial_noise", "lateral_noise_px", "shadows", "edge_dropout",
+                        "flying_pixels", "exposure_s", "trail_dropout", "random_dropout", "min_range_m", "max_range_m",
+                        "seed"});
   KinectNoise n;
   readOptional(view, "baseline_m", n.baseline_m, 0.01, 0.5);
   readOptional(view, "quantisation", n.quantisation);
@@ -101,8 +102,8 @@ KinectNoise readNoise(const fw::ConfigView& view) {
 }
 
 Scene readScene(const fw::ConfigView& root) {
-  root.requireOnlyKeys({"name", "description", "duration_s", "fps", "start_time_s", "sensor",
-                        "noise", "floor", "objects", "ball", "physics"});
+  root.requireOnlyKeys({"name", "description", "duration_s", "fps", "start_time_s", "sensor", "noise", "floor",
+                        "objects", "ball", "physics"});
   Scene scene;
   scene.name = root.getString("name");
   scene.duration_s = root.getDouble("duration_s", 0.0, 3600.0);
@@ -134,8 +135,8 @@ Scene readScene(const fw::ConfigView& root) {
   }
   if (root.has("physics")) {
     const fw::ConfigView physics = root.child("physics");
-    physics.requireOnlyKeys({"radius_m", "gravity_mps2", "drag_per_m", "restitution",
-                             "bounce_friction", "rolling_decel_mps2"});
+    physics.requireOnlyKeys(
+        {"radius_m", "gravity_mps2", "drag_per_m", "restitution", "bounce_friction", "rolling_decel_mps2"});
     BallPhysics& p = scene.physics;
     readOptional(physics, "radius_m", p.radius_m, 0.01, 1.0);
     readOptional(physics, "gravity_mps2", p.gravity_mps2, 0.0, 20.0);

@@ -31,9 +31,8 @@ void TumSequenceWriter::write(const DepthFrame& frame) {
   if (!camera_written_) {
     std::ofstream camera(fs::path(dir_) / "camera.yaml");
     camera.precision(10);
-    camera << "width: " << in.width << "\nheight: " << in.height << "\nfx: " << in.fx
-           << "\nfy: " << in.fy << "\ncx: " << in.cx << "\ncy: " << in.cy
-           << "\ndepth_scale: 5000\n";
+    camera << "width: " << in.width << "\nheight: " << in.height << "\nfx: " << in.fx << "\nfy: " << in.fy
+           << "\ncx: " << in.cx << "\ncy: " << in.cy << "\ndepth_scale: 5000\n";
     if (!camera) throw std::runtime_error("cannot write '" + dir_ + "/camera.yaml'");
     camera_written_ = true;
   }
@@ -61,9 +60,7 @@ void TumSequenceWriter::write(const DepthFrame& frame) {
 void writeTruthJson(const std::string& path, const Scene& scene, const std::vector<GroundTruth>& truth) {
   nlohmann::json frames = nlohmann::json::array();
   for (const GroundTruth& t : truth) {
-    nlohmann::json entry{{"frame", t.frame_index},
-                         {"t", scene.start_time_s + t.time_s},
-                         {"has_ball", t.has_ball}};
+    nlohmann::json entry{{"frame", t.frame_index}, {"t", scene.start_time_s + t.time_s}, {"has_ball", t.has_ball}};
     if (t.has_ball) {
       entry["ball"] = {t.ball_center_R.x(), t.ball_center_R.y(), t.ball_center_R.z()};
       entry["velocity"] = {t.ball_velocity_R.x(), t.ball_velocity_R.y(), t.ball_velocity_R.z()};

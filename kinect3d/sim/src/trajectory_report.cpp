@@ -70,9 +70,11 @@ std::vector<sim::Scene> flights(int lobs, int shots) {
     const double speed = between(6.0, 8.5), elevation = between(25.0, 50.0) * M_PI / 180.0;
     const double azimuth = between(-12.0, 12.0) * M_PI / 180.0;
     const double horizontal = speed * std::cos(elevation);
-    scene.ball = sim::BallLaunch{{between(-0.8, 0.8), between(1.6, 2.4), scene.physics.radius_m},
-                                 {-horizontal * std::sin(azimuth), horizontal * std::cos(azimuth), speed * std::sin(elevation)},
-                                 0.2, false};
+    scene.ball =
+        sim::BallLaunch{{between(-0.8, 0.8), between(1.6, 2.4), scene.physics.radius_m},
+                        {-horizontal * std::sin(azimuth), horizontal * std::cos(azimuth), speed * std::sin(elevation)},
+                        0.2,
+                        false};
     scene.noise.seed = 100 + i;
     scenes.push_back(scene);
   }
@@ -93,7 +95,8 @@ std::vector<sim::Scene> flights(int lobs, int shots) {
     scene.ball = sim::BallLaunch{start,
                                  {speed * std::cos(elevation) * heading.x(), speed * std::cos(elevation) * heading.y(),
                                   speed * std::sin(elevation)},
-                                 0.2, false};
+                                 0.2,
+                                 false};
     scene.noise.seed = 200 + i;
     scenes.push_back(scene);
   }
@@ -143,8 +146,7 @@ void scoreFlight(const std::vector<sim::EvaluatedFrame>& frames, const sim::Scen
         result.time_after_10_s.push_back(time_error);
       }
     }
-    if (truth.crossing_m && trajectory->crossing &&
-        (*truth.crossing_m)[2] - frame.truth.time_s >= 0.3) {
+    if (truth.crossing_m && trajectory->crossing && (*truth.crossing_m)[2] - frame.truth.time_s >= 0.3) {
       const Eigen::Vector2d predicted(trajectory->crossing->x_m, trajectory->crossing->z_m);
       result.crossing_m.push_back((predicted - truth.crossing_m->head<2>()).norm());
     }
@@ -195,7 +197,8 @@ void writeTrajectoryReport(const fw::Config& config, const std::string& out_path
      << scenes.size()
      << " simulated flights, every sensor effect on, ball physics with quadratic drag (0.024 /m) and "
         "bounces: 16 lobs and chips kicked away from the robot (6-8.5 m/s, 25-50 deg), 12 shots and "
-        "chips at it (7-11 m/s, aimed to cross its line 0.3-1.0 m up), and the built-in `shot_goalkeeper` and `lob_goalkeeper` "
+        "chips at it (7-11 m/s, aimed to cross its line 0.3-1.0 m up), and the built-in `shot_goalkeeper` and "
+        "`lob_goalkeeper` "
         "with 3 noise seeds each. Every estimator reads the same detections (shipped detector "
         "settings, the scene's sensor pose). A flight runs from the kick to its first touchdown.\n\n"
         "Cells give median / 90th percentile (n = flights or predictions counted).\n\n"
@@ -207,25 +210,40 @@ void writeTrajectoryReport(const fw::Config& config, const std::string& out_path
     for (const ModeResult& r : results) md << cellOf(r) << " | ";
     md << target << " |\n";
   };
-  row("touchdown error after 5 supporting detections", [](const ModeResult& r) { return cell(r.touchdown_after_5_m, 1.0, "m"); }, "median <= 0.25 m");
-  row("touchdown error after 10 supporting detections", [](const ModeResult& r) { return cell(r.touchdown_after_10_m, 1.0, "m"); }, "median <= 0.10 m");
-  row("time-to-touchdown error after 5", [](const ModeResult& r) { return cell(r.time_after_5_s, 1000.0, "ms"); }, "");
-  row("time-to-touchdown error after 10", [](const ModeResult& r) { return cell(r.time_after_10_s, 1000.0, "ms"); }, "");
-  row("line crossing error (x, z), >= 0.3 s before arrival", [](const ModeResult& r) { return cell(r.crossing_m, 1.0, "m"); }, "median <= 0.15 m");
-  row("flights reaching 5 / 10 supporting detections", [](const ModeResult& r) {
-    return std::to_string(r.reached_5) + " / " + std::to_string(r.reached_10) + " of " + std::to_string(r.flights);
-  }, "");
-  row("flights tracked without a reset (from the first reported trajectory to touchdown)", [](const ModeResult& r) {
-    return std::to_string(r.without_reset) + " of " + std::to_string(r.flights);
-  }, "");
-  row("update cost (mean / 99th percentile)", [](const ModeResult& r) {
-    double sum = 0.0;
-    for (const double us : r.update_us) sum += us;
-    char text[64];
-    std::snprintf(text, sizeof text, "%.1f / %.1f us", sum / std::max<std::size_t>(1, r.update_us.size()),
-                  sim::quantile(r.update_us, 0.99));
-    return std::string(text);
-  }, "<= 20 us");
+  row(
+      "touchdown error after 5 supporting detections",
+      [](const ModeResult& r) { return cell(r.touchdown_after_5_m, 1.0, "m"); }, "median <= 0.25 m");
+  row(
+      "touchdown error after 10 supporting detections",
+      [](const ModeResult& r) { return cell(r.touchdown_after_10_m, 1.0, "m"); }, "median <= 0.10 m");
+  row(
+      "time-to-touchdown error after 5", [](const ModeResult& r) { return cell(r.time_after_5_s, 1000.0, "ms"); }, "");
+  row(
+      "time-to-touchdown error after 10", [](const ModeResult& r) { return cell(r.time_after_10_s, 1000.0, "ms"); },
+      "");
+  row(
+      "line crossing error (x, z), >= 0.3 s before arrival",
+      [](const ModeResult& r) { return cell(r.crossing_m, 1.0, "m"); }, "median <= 0.15 m");
+  row(
+      "flights reaching 5 / 10 supporting detections",
+      [](const ModeResult& r) {
+        return std::to_string(r.reached_5) + " / " + std::to_string(r.reached_10) + " of " + std::to_string(r.flights);
+      },
+      "");
+  row(
+      "flights tracked without a reset (from the first reported trajectory to touchdown)",
+      [](const ModeResult& r) { return std::to_string(r.without_reset) + " of " + std::to_string(r.flights); }, "");
+  row(
+      "update cost (mean / 99th percentile)",
+      [](const ModeResult& r) {
+        double sum = 0.0;
+        for (const double us : r.update_us) sum += us;
+        char text[64];
+        std::snprintf(text, sizeof text, "%.1f / %.1f us", sum / std::max<std::size_t>(1, r.update_us.size()),
+                      sim::quantile(r.update_us, 0.99));
+        return std::string(text);
+      },
+      "<= 20 us");
   md << "\nThe shipped mode is `" << (shipped.mode == TrajectoryConfig::Mode::kPaper ? "paper" : "ballistic")
      << "` with drag_per_m " << shipped.drag_per_m
      << " (config/defaults/kinect3d.yaml). The paper predicts no times; its times come from a "

@@ -19,7 +19,7 @@ struct BallCandidate {
   VoxelIndex min{0, 0, 0};  // bounding box of its occupied voxels, inclusive
   VoxelIndex max{0, 0, 0};
   int voxels = 0;
-  int points = 0;           // points counted in its voxels
+  int points = 0;  // points counted in its voxels
 };
 
 class BallCandidateFinder {

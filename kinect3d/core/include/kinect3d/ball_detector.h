@@ -53,8 +53,7 @@ class BallDetector {
   // Every ball in the frame. Observations carry the detector's source name and the frame's times. T_F_R, the
   // robot's pose on the field at the frame's time when localisation gives one, keeps the scene map
   // in the field frame (without it, in the robot frame: right while the robot stands).
-  void detect(const DepthFrame& frame, Detections& out,
-              const std::optional<Eigen::Isometry3d>& T_F_R = std::nullopt);
+  void detect(const DepthFrame& frame, Detections& out, const std::optional<Eigen::Isometry3d>& T_F_R = std::nullopt);
 
   const OccupancyGrid* grid() const { return grid_.get(); }
   const SceneMap* sceneMap() const { return map_.get(); }

@@ -30,21 +30,20 @@ struct BallFit {
 class BallRefiner {
  public:
   struct Config {
-    double radius_m = 0.11;             // FIFA size 5
-    double min_visible_fraction = 0.25; // of the pixels a whole ball would cover at this range
-    double max_size_ratio = 1.6;        // largest extent across the view over the ball's diameter
-    double air_min_height_m = 0.08;     // centre this far above resting height: in the air
+    double radius_m = 0.11;              // FIFA size 5
+    double min_visible_fraction = 0.25;  // of the pixels a whole ball would cover at this range
+    double max_size_ratio = 1.6;         // largest extent across the view over the ball's diameter
+    double air_min_height_m = 0.08;      // centre this far above resting height: in the air
   };
 
   BallRefiner(const Config& config, const DepthNoiseModel& noise) : config_(config), noise_(noise) {}
 
   // The ball the candidate holds, or nothing if it cannot be one.
-  std::optional<BallFit> refine(const BallCandidate& candidate, const OccupancyGrid& grid,
-                                const DepthFrame& frame, const Eigen::Isometry3d& T_R_S,
-                                const PointProjector& surface) const;
+  std::optional<BallFit> refine(const BallCandidate& candidate, const OccupancyGrid& grid, const DepthFrame& frame,
+                                const Eigen::Isometry3d& T_R_S, const PointProjector& surface) const;
 
  private:
-  static constexpr std::size_t kMinPoints = 5;     // fewer full-resolution points: nothing to refine
+  static constexpr std::size_t kMinPoints = 5;       // fewer full-resolution points: nothing to refine
   static constexpr double kMinDepthInFront_m = 0.1;  // a box reaching nearer is partly behind the sensor
 
   // Fills points_ with the candidate's surface points (robot frame); false if too few or not in view.

@@ -42,9 +42,9 @@ struct SourceOptions {
 };
 
 struct SourceCounters {
-  std::uint64_t frames = 0;   // delivered
-  std::uint64_t dropped = 0;  // gaps in the source's frame indices
-  std::uint64_t skipped = 0;  // unreadable frames reported and skipped
+  std::uint64_t frames = 0;      // delivered
+  std::uint64_t dropped = 0;     // gaps in the source's frame indices
+  std::uint64_t skipped = 0;     // unreadable frames reported and skipped
   std::uint64_t reconnects = 0;  // a live device lost and opened again
 };
 

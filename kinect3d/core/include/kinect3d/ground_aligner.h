@@ -2,8 +2,8 @@
 // itself by RANSAC on the first frames (the paper's approach), giving height, pitch and roll.
 #pragma once
 
-#include <memory>
 #include <cmath>
+#include <memory>
 #include <optional>
 
 #include <Eigen/Geometry>
@@ -16,12 +16,12 @@ namespace kinect3d {
 class GroundAligner {
  public:
   struct Config {
-    std::optional<SensorPose> pose;  // known mounting; when absent the floor is searched for
+    std::optional<SensorPose> pose;             // known mounting; when absent the floor is searched for
     double max_tilt_rad = 40.0 * M_PI / 180.0;  // the floor's normal is at most this far from the image's up
-    double distance_threshold_m = 0.04;  // inlier band around the plane (noise at 4-5 m)
-    double max_fit_range_m = 5.0;    // fit on points nearer than this, where depth is precise
-    int refit_interval_frames = 30;  // how often the floor fit is checked
-    double min_inlier_fraction = 0.1;  // of the sampled points; below it the fit has degraded
+    double distance_threshold_m = 0.04;         // inlier band around the plane (noise at 4-5 m)
+    double max_fit_range_m = 5.0;               // fit on points nearer than this, where depth is precise
+    int refit_interval_frames = 30;             // how often the floor fit is checked
+    double min_inlier_fraction = 0.1;           // of the sampled points; below it the fit has degraded
   };
 
   explicit GroundAligner(const Config& config);

@@ -21,7 +21,7 @@ using VoxelIndex = std::array<int, 3>;  // (ix, iy, iz); iz = 0 is the layer jus
 class OccupancyGrid {
  public:
   struct Config {
-    double voxel_m = 0.27;            // the paper's grid size
+    double voxel_m = 0.27;  // the paper's grid size
     // A voxel is occupied when it holds at least this share of the points a surface filling one
     // voxel face would give at the voxel's range ((voxel f / (range stride))^2), and at least
     // min_points: a threshold that follows the point density as it falls with range.
@@ -39,9 +39,7 @@ class OccupancyGrid {
   // Replaces the counts with this frame's points; sensor_R is the sensor's position (for ranges).
   void update(const PointSet& points, const Eigen::Vector3f& sensor_R);
 
-  bool occupied(const VoxelIndex& v) const {
-    return inside(v) && occupied_[flat(v)] != 0;
-  }
+  bool occupied(const VoxelIndex& v) const { return inside(v) && occupied_[flat(v)] != 0; }
   int count(const VoxelIndex& v) const { return inside(v) ? counts_[flat(v)] : 0; }
 
   // Occupied voxels are also counted per block of kBlock^3 voxels, so scans of a neighbourhood
@@ -68,7 +66,8 @@ class OccupancyGrid {
   void recentre(const Eigen::Vector3f& sensor_R);
   VoxelIndex cellOf(const Eigen::Vector3f& p) const;  // floor(p / voxel_m) per axis
   std::uint16_t& blockCount(const VoxelIndex& v) {
-    return block_counts_[(static_cast<std::size_t>(v[2] / kBlock) * blocks_[1] + v[1] / kBlock) * blocks_[0] + v[0] / kBlock];
+    return block_counts_[(static_cast<std::size_t>(v[2] / kBlock) * blocks_[1] + v[1] / kBlock) * blocks_[0] +
+                         v[0] / kBlock];
   }
 
   Config config_;

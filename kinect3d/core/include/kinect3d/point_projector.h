@@ -24,12 +24,12 @@ using PointSet = std::vector<Eigen::Vector3f>;
 class PointProjector {
  public:
   struct Config {
-    int pixel_stride = 2;          // use every n-th pixel in u and v for the grid (1 = all)
+    int pixel_stride = 2;               // use every n-th pixel in u and v for the grid (1 = all)
     double edge_tolerance_steps = 4.0;  // neighbours may differ by this many quantisation steps
-    double min_range_m = 0.5;      // Kinect v1 returns nothing nearer
-    double max_range_m = 9.5;      // steps are 25 cm and more beyond
-    double floor_margin_m = 0.05;  // points below this height are the floor (plus its noise)
-    double baseline_m = 0.075;     // projector to camera, sets the quantisation step
+    double min_range_m = 0.5;           // Kinect v1 returns nothing nearer
+    double max_range_m = 9.5;           // steps are 25 cm and more beyond
+    double floor_margin_m = 0.05;       // points below this height are the floor (plus its noise)
+    double baseline_m = 0.075;          // projector to camera, sets the quantisation step
   };
 
   // For frames with these intrinsics (the tolerance and the rays depend on them).

@@ -71,7 +71,8 @@ class PaperEstimator : public TrajectoryEstimator {
   void fit() {
     const Eigen::Vector2d first = support_.front().position_m.head<2>();
     Eigen::MatrixXd xy(support_.size(), 2);
-    for (std::size_t i = 0; i < support_.size(); ++i) xy.row(i) = (support_[i].position_m.head<2>() - first).transpose();
+    for (std::size_t i = 0; i < support_.size(); ++i)
+      xy.row(i) = (support_[i].position_m.head<2>() - first).transpose();
     Eigen::JacobiSVD<Eigen::MatrixXd> line(xy.rowwise() - xy.colwise().mean(), Eigen::ComputeThinV);
     direction_ = line.matrixV().col(0);
     if (direction_.dot(xy.row(xy.rows() - 1).transpose()) < 0.0) direction_ = -direction_;

@@ -8,9 +8,9 @@
 namespace kinect3d {
 
 struct ReportOptions {
-  int seeds = 3;              // noise seeds per kick/shot scene
-  int clutter_frames = 1500;  // frames of the clutter scene (for the phantom rate)
-  std::string real_depth_dir; // tests/data/real-depth
+  int seeds = 3;               // noise seeds per kick/shot scene
+  int clutter_frames = 1500;   // frames of the clutter scene (for the phantom rate)
+  std::string real_depth_dir;  // tests/data/real-depth
 };
 
 // Writes the markdown report to out_path; prints a summary on stderr.

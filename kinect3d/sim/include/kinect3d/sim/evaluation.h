@@ -31,10 +31,10 @@ struct EvaluationCriteria {
 
 struct DetectionScore {
   int frames = 0;
-  int eligible = 0;        // frames where the ball should be found
-  int found = 0;           // eligible frames with a reported ball within match_m
-  int reported = 0;        // balls reported, in any frame
-  int off_truth = 0;       // reported balls farther than match_m from the true ball (or with none)
+  int eligible = 0;              // frames where the ball should be found
+  int found = 0;                 // eligible frames with a reported ball within match_m
+  int reported = 0;              // balls reported, in any frame
+  int off_truth = 0;             // reported balls farther than match_m from the true ball (or with none)
   std::vector<double> errors_m;  // 3D error of the nearest reported ball, eligible found frames
 
   double recall() const { return eligible ? double(found) / eligible : 1.0; }

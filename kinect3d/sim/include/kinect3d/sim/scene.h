@@ -20,7 +20,7 @@ struct Shape {
   enum class Kind { kBox, kCylinder, kSphere };
   Kind kind = Kind::kBox;
   Eigen::Vector3d center_m = Eigen::Vector3d::Zero();  // box/sphere centre; cylinder base centre
-  Eigen::Vector3d size_m = Eigen::Vector3d::Ones();     // box extents; cylinder (2r, 2r, height); sphere (2r, 2r, 2r)
+  Eigen::Vector3d size_m = Eigen::Vector3d::Ones();    // box extents; cylinder (2r, 2r, height); sphere (2r, 2r, 2r)
   double yaw_rad = 0.0;
   double dropout = 0.0;  // extra chance a pixel on it returns no data (dark, absorbing material)
 };
@@ -37,12 +37,12 @@ struct SceneObject {
 };
 
 struct BallPhysics {
-  double radius_m = 0.11;             // FIFA size 5
+  double radius_m = 0.11;  // FIFA size 5
   double gravity_mps2 = 9.81;
-  double drag_per_m = 0.024;          // rho Cd A / 2m; 0 = no air drag
-  double restitution = 0.6;           // vertical speed kept at a bounce
-  double bounce_friction = 0.2;       // fraction of horizontal speed lost at a bounce
-  double rolling_decel_mps2 = 0.4;    // rolling resistance on carpet
+  double drag_per_m = 0.024;        // rho Cd A / 2m; 0 = no air drag
+  double restitution = 0.6;         // vertical speed kept at a bounce
+  double bounce_friction = 0.2;     // fraction of horizontal speed lost at a bounce
+  double rolling_decel_mps2 = 0.4;  // rolling resistance on carpet
 };
 
 struct BallLaunch {
