@@ -23,6 +23,7 @@
 #include <sstream>
 
 #include "framework_api/config.h"
+#include "framework_api/install_layout.h"
 #include "kinect3d/ball_detector.h"
 #include "kinect3d/config_io.h"
 #include "kinect3d/sim/evaluation.h"
@@ -185,7 +186,7 @@ int main(int argc, char** argv) {
   CLI::App app{"Per-frame cost of the Kinect3D detector against OctoMap and PCL baselines."};
   std::string scene_name = "kick_away", out_path;
   int iterations = 600, baseline_frames = 20;
-  std::string defaults_dir = KINECT3D_CONFIG_DIR "/defaults";
+  const std::string defaults_dir = fw::defaultConfigDir() + "/defaults";
   app.add_option("--scene", scene_name, "Simulated scene whose frames are timed")->capture_default_str();
   app.add_option("--iterations", iterations, "Detector frames timed per voxel size")
       ->check(CLI::PositiveNumber)

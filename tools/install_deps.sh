@@ -4,7 +4,8 @@
 set -euo pipefail
 
 PACKAGES=(
-  build-essential cmake pkg-config git
+  build-essential cmake
+  clang-format                  # the style test
   libeigen3-dev
   libpcl-dev
   liboctomap-dev
@@ -13,8 +14,7 @@ PACKAGES=(
   libyaml-cpp-dev
   libcli11-dev
   nlohmann-json3-dev
-  libgtest-dev libgmock-dev
-  libbenchmark-dev
+  libgtest-dev
 )
 
 missing=()

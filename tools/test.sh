@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
-# Command 2 of the README: install, build, and run the whole test suite.
+# Command 2 of the README (and CI): install, build everything with warnings as errors, and run the
+# whole test suite.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-tools/build.sh
+KINECT3D_WERROR=ON tools/build.sh
 cd build
 ctest --output-on-failure -j2

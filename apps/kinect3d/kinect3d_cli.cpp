@@ -14,6 +14,7 @@
 #include <optional>
 
 #include "framework_api/config.h"
+#include "framework_api/install_layout.h"
 #include "framework_api/log.h"
 #include "kinect3d/ball_detector.h"
 #include "kinect3d/config_io.h"
@@ -210,7 +211,7 @@ void runDetect(const std::string& source_uri, const fw::Config& config, const st
 // file, --set overrides.
 struct ConfigOptions {
   std::string robot_file;
-  std::string defaults_dir = KINECT3D_CONFIG_DIR "/defaults";
+  std::string defaults_dir = fw::defaultConfigDir() + "/defaults";
   std::vector<std::string> overrides;
 
   void addTo(CLI::App* command, bool with_robot_file = true) {

@@ -10,17 +10,12 @@
 
 #include "framework_api/config.h"
 #include "framework_api/host.h"
+#include "framework_api/install_layout.h"
 #include "framework_api/log.h"
 
 namespace {
 
 namespace fs = std::filesystem;
-
-std::string executableDir() {
-  std::error_code error;
-  const fs::path self = fs::read_symlink("/proc/self/exe", error);
-  return error ? std::string(".") : self.parent_path().string();
-}
 
 // Blocks SIGINT and SIGTERM in this thread and, by inheritance, in every plugin thread started
 // after it; the main loop then collects them with sigtimedwait, so no handler runs inside a plugin.
@@ -41,22 +36,26 @@ int main(int argc, char** argv) {
   CLI::App app{"Runs the vision plugins a robot configuration enables."};
   std::string robot_file;
   std::string defaults_dir;
-  std::string plugin_dir = executableDir() + "/../plugins";
+  std::string plugin_dir = fw::defaultPluginDir();
   std::vector<std::string> overrides;
   bool print_config = false;
   app.add_option("--robot", robot_file, "Robot configuration, e.g. config/robots/demo.yaml")
       ->required()
       ->check(CLI::ExistingFile);
   app.add_option("--defaults", defaults_dir,
-                 "Folder of per-plugin defaults (default: <robot file folder>/../defaults)");
+                 "Folder of per-plugin defaults (default: <robot file folder>/../defaults if it exists, else "
+                 "the installed share/kinect3d/config/defaults)");
   app.add_option("--plugin-dir", plugin_dir, "Folder holding the plugin libraries")->capture_default_str();
   app.add_option("--set", overrides, "Override a value: --set kinect3d.grid.voxel_m=0.2")->take_all();
   app.add_flag("--print-config", print_config, "Print the merged configuration and exit");
   CLI11_PARSE(app, argc, argv);
 
   if (defaults_dir.empty()) {
-    defaults_dir = (fs::path(robot_file).parent_path() / ".." / "defaults").lexically_normal().string();
-    if (defaults_dir.empty()) defaults_dir = "../defaults";
+    // A team's own configuration tree (robots/ beside defaults/) first, then the installed one.
+    const fs::path beside_robot = fs::path(robot_file).parent_path() / ".." / "defaults";
+    std::error_code error;
+    defaults_dir = fs::is_directory(beside_robot, error) ? beside_robot.lexically_normal().string()
+                                                         : fw::defaultConfigDir() + "/defaults";
   }
 
   try {
