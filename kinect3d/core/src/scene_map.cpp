@@ -4,8 +4,10 @@
 
 #include <algorithm>
 #include <chrono>
-#include <future>
+#include <condition_variable>
+#include <mutex>
 #include <stdexcept>
+#include <thread>
 #include <unordered_map>
 #include <vector>
 
@@ -27,17 +29,57 @@ struct Label {
 
 }  // namespace
 
-// The OcTree belongs to the worker while rays are in flight; the frame thread touches it only after
-// waiting for them. The worker fills `labelling`; the frame thread swaps it with `published`, which
-// only it reads.
+// One thread, for the map's lifetime, that casts the rays it is handed. The OcTree, the cloud and
+// `labelling` belong to it while rays are in flight; the frame thread touches them only after
+// waitForRays(). The frame thread swaps `labelling` with `published`, which only it reads. Buffers
+// are kept between integrations, so handing rays over allocates nothing once warm.
 struct SceneMap::Worker {
-  explicit Worker(double voxel_m) : tree(voxel_m) {}
+  Worker(double voxel_m, double max_range_m, double static_after_s)
+      : tree(voxel_m), max_range_m(max_range_m), static_after_s(static_after_s), thread([this] { run(); }) {}
+
+  ~Worker() {
+    {
+      std::lock_guard<std::mutex> lock(mutex);
+      quit = true;
+    }
+    wake.notify_all();
+    thread.join();
+  }
+
+  // Starts casting `cloud` from `origin`, taken at t_s.
+  void castRays(const octomap::point3d& ray_origin, double ray_time_s) {
+    {
+      std::lock_guard<std::mutex> lock(mutex);
+      origin = ray_origin;
+      t_s = ray_time_s;
+      in_flight = true;
+    }
+    wake.notify_all();
+  }
+
+  void waitForRays() {
+    std::unique_lock<std::mutex> lock(mutex);
+    wake.wait(lock, [this] { return !in_flight; });
+  }
+
+  void run() {
+    std::unique_lock<std::mutex> lock(mutex);
+    for (;;) {
+      wake.wait(lock, [this] { return quit || (in_flight && !integrated); });
+      if (quit) return;
+      lock.unlock();
+      const double seconds = integrate();
+      lock.lock();
+      last_integration_s = seconds;
+      integrated = true;
+      in_flight = false;
+      wake.notify_all();
+    }
+  }
 
   // Casts the rays into the tree, then labels every observed voxel. Leaves stay at full depth:
-  // updates are lazy (nothing is pruned), so each leaf is one voxel.
-  // Returns the wall time it took.
-  double integrate(const octomap::Pointcloud& cloud, const octomap::point3d& origin, double t_s, double max_range_m,
-                   double static_after_s) {
+  // updates are lazy (nothing is pruned), so each leaf is one voxel. Returns the wall time it took.
+  double integrate() {
     const auto start = std::chrono::steady_clock::now();
     tree.insertPointCloud(cloud, origin, max_range_m, /*lazy_eval=*/true, /*discretize=*/true);
     labelling.clear();
@@ -56,28 +98,37 @@ struct SceneMap::Worker {
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   }
 
-  void waitForRays() const {
-    if (in_flight.valid()) in_flight.wait();
-  }
-
   octomap::OcTree tree;
+  const double max_range_m, static_after_s;
   // When each voxel that is occupied now became occupied (source clock).
   std::unordered_map<octomap::OcTreeKey, double, octomap::OcTreeKey::KeyHash> occupied_since_s;
-  std::future<double> in_flight;
+  octomap::Pointcloud cloud;  // the rays' ends, in the map frame
+  octomap::point3d origin;
+  double t_s = 0.0;
   std::vector<Label> labelling, published;
+
+  std::mutex mutex;  // guards the flags below and the hand-over of the fields above
+  std::condition_variable wake;
+  bool in_flight = false;   // rays handed over, not yet cast
+  bool integrated = false;  // cast, not yet published
+  bool quit = false;
+  double last_integration_s = 0.0;
+  std::thread thread;  // last: starts once everything it reads exists
 };
 
 SceneMap::SceneMap(const Config& config, double min_range_m, double max_range_m)
     : config_(config),
       min_range_m_(min_range_m),
       max_range_m_(max_range_m),
-      worker_(std::make_unique<Worker>(config.voxel_m)) {}
+      worker_(std::make_unique<Worker>(config.voxel_m, max_range_m, config.static_after_s)) {}
 
-SceneMap::~SceneMap() { worker_->waitForRays(); }
+SceneMap::~SceneMap() = default;
 
 void SceneMap::publish() {
-  if (!worker_->in_flight.valid()) return;
-  last_integration_s_ = worker_->in_flight.get();
+  worker_->waitForRays();
+  if (!worker_->integrated) return;
+  worker_->integrated = false;
+  last_integration_s_ = worker_->last_integration_s;
   worker_->published.swap(worker_->labelling);
   ++integrations_;
 }
@@ -87,8 +138,8 @@ void SceneMap::update(const DepthFrame& frame, const Eigen::Isometry3d& T_M_S, d
   publish();
   const Intrinsics& in = frame.intrinsics;
   const int stride = config_.ray_stride_px;
-  octomap::Pointcloud cloud;
-  cloud.reserve(static_cast<std::size_t>(in.width / stride + 1) * (in.height / stride + 1));
+  octomap::Pointcloud& cloud = worker_->cloud;
+  cloud.clear();
   for (int v = stride / 2; v < in.height; v += stride) {
     for (int u = stride / 2; u < in.width; u += stride) {
       const double z_m = frame.at(u, v) * 0.001;
@@ -98,19 +149,14 @@ void SceneMap::update(const DepthFrame& frame, const Eigen::Isometry3d& T_M_S, d
     }
   }
   const Eigen::Vector3d origin_M = T_M_S.translation();
-  const octomap::point3d origin(static_cast<float>(origin_M.x()), static_cast<float>(origin_M.y()),
-                                static_cast<float>(origin_M.z()));
-  Worker* worker = worker_.get();
-  worker->in_flight =
-      std::async(std::launch::async, [worker, cloud = std::move(cloud), origin, t_s, max_range_m = max_range_m_,
-                                      static_after_s = config_.static_after_s] {
-        return worker->integrate(cloud, origin, t_s, max_range_m, static_after_s);
-      });
+  worker_->castRays(octomap::point3d(static_cast<float>(origin_M.x()), static_cast<float>(origin_M.y()),
+                                     static_cast<float>(origin_M.z())),
+                    t_s);
 }
 
 void SceneMap::clear() {
   worker_->waitForRays();
-  worker_->in_flight = {};
+  worker_->integrated = false;
   worker_->tree.clear();
   worker_->occupied_since_s.clear();
   worker_->published.clear();
