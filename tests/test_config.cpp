@@ -131,6 +131,20 @@ TEST_F(ConfigTest, FileProblemsNameTheFile) {
   EXPECT_NE(errorOf([&] { load(""); }).find("exactly one top-level block named 'extra'"), std::string::npos);
 }
 
+TEST_F(ConfigTest, DuplicateKeysAndBlocksNameBothLines) {
+  const std::string block =
+      errorOf([&] { load("sensor:\n  min_points: 5\nhost:\n  robot_name: a\nsensor:\n  voxel_m: 0.2\n"); });
+  EXPECT_NE(block.find(robotPath() + ":5: duplicate key 'sensor' (first at line 1)"), std::string::npos) << block;
+  const std::string key = errorOf([&] { load("sensor:\n  min_points: 5\n  voxel_m: 0.2\n  min_points: 6\n"); });
+  EXPECT_NE(key.find(robotPath() + ":4: duplicate key 'min_points' (first at line 2)"), std::string::npos) << key;
+}
+
+TEST_F(ConfigTest, MissingKeyNamesTheFileOfItsBlock) {
+  const fw::Config config = load("sensor:\n  min_points: 5\n");
+  const std::string message = errorOf([&] { config.block("sensor").getDouble("no_such_key", 0.0, 1.0); });
+  EXPECT_NE(message.find("defaults/sensor.yaml:2: sensor.no_such_key is missing"), std::string::npos) << message;
+}
+
 TEST_F(ConfigTest, OptionalBlockIsAbsentUnlessGivenAndCheckedByItsReader) {
   EXPECT_FALSE(load("").block("sensor").has("pose_in_robot"));
   const fw::Config config = load("sensor:\n  pose_in_robot:\n    z: 0.7\n    yaw: 5\n");

@@ -314,8 +314,16 @@ TEST(DetectorConfig, BadValuesNameTheKey) {
     return std::string("no error");
   };
   EXPECT_NE(errorOf("kinect3d.grid.voxel_m=-1").find("kinect3d.grid.voxel_m = -1 is out of range"), std::string::npos);
-  EXPECT_NE(errorOf("kinect3d.grid.mask_voxels=6").find("must exceed core_voxels by an even number"),
+  EXPECT_NE(errorOf("kinect3d.grid.mask_voxels=6").find("the mask must exceed the core by a positive even number"),
             std::string::npos);
+  // A wrong core is blamed where the user wrote it, not on the defaults file's mask.
+  const std::string core = errorOf("kinect3d.grid.core_voxels=5");
+  EXPECT_NE(core.find("kinect3d.grid.core_voxels = 5 (--set kinect3d.grid.core_voxels=5)"), std::string::npos) << core;
+  const std::string range = errorOf("kinect3d.points.max_range_m=0.5");
+  EXPECT_NE(range.find("--set kinect3d.points.max_range_m=0.5: kinect3d.points.max_range_m = 0.500000 must exceed "
+                       "kinect3d.points.min_range_m = 0.500000"),
+            std::string::npos)
+      << range;
   EXPECT_NE(errorOf("kinect3d.sensor.pose_in_robot={x: 0, y: 0, z: 0.7, yaw: 0}")
                 .find("kinect3d.sensor.pose_in_robot.yaw is an unknown key"),
             std::string::npos);

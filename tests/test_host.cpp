@@ -108,9 +108,14 @@ class HostProcess {
       kill(pid_, SIGKILL);
       waitpid(pid_, nullptr, 0);
     }
-    close(out_fd_);
+    if (out_fd_ >= 0) close(out_fd_);
   }
   void signal(int signal_number) { kill(pid_, signal_number); }
+  // The reader of the host's output goes away.
+  void closeOutput() {
+    close(out_fd_);
+    out_fd_ = -1;
+  }
 
   // Waits for exit up to timeout; returns the exit status or -1 on timeout.
   int waitExit(std::chrono::milliseconds timeout) {
@@ -165,6 +170,21 @@ TEST(HostProcess, BadConfigExitsNonZeroNamingTheKey) {
                      "expected an integer"),
             std::string::npos)
       << out;
+}
+
+TEST(HostProcess, KeepsRunningWhenItsOutputIsClosed) {
+  HostProcess host({"--robot", std::string(PROJECT_CONFIG_DIR) + "/robots/demo.yaml", "--plugin-dir",
+                    PRODUCT_PLUGIN_DIR, "--set", "host.duration_s=1.5"});
+  host.closeOutput();  // the console plugin and the logs now write into a pipe nobody reads
+  EXPECT_EQ(host.waitExit(std::chrono::milliseconds(8000)), 0) << "not killed by SIGPIPE (141)";
+}
+
+TEST(HostProcess, PluginListedTwiceIsAnError) {
+  HostProcess host({"--robot", std::string(TEST_CONFIG_DIR) + "/robots/exchange.yaml", "--plugin-dir", TEST_PLUGIN_DIR,
+                    "--set", "host.plugins=[tp_producer, tp_consumer, tp_producer]"});
+  EXPECT_EQ(host.waitExit(std::chrono::milliseconds(3000)), 2);
+  const std::string out = host.readAll();
+  EXPECT_NE(out.find("host.plugins lists 'tp_producer' twice"), std::string::npos) << out;
 }
 
 TEST(HostProcess, DemoConfigRunsWithShippedPlugins) {

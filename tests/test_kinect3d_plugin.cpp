@@ -116,4 +116,18 @@ TEST(DetectCommand, BadSourceOrConfigExitsNonZeroWithAMessage) {
   EXPECT_NE(config_out.find("unknown key 'kinect3d.grid.voxl_m'"), std::string::npos) << config_out;
 }
 
+TEST(DetectCommand, OutputIntoAClosedPipeOrAnUnwritableFileExits2) {
+  // `true` reads nothing and exits at once: every later write meets a pipe without a reader. The
+  // command's message and exit status go to fd 3, the shell's own output.
+  const auto [closed_status, closed_out] = run("exec 3>&1; { " + std::string(KINECT3D_EXE) +
+                                               " detect --source sim:hung_2m 2>&3; echo \"exit $?\" >&3; } | true");
+  EXPECT_EQ(closed_status, 0);
+  EXPECT_NE(closed_out.find("cannot write the detections to standard output"), std::string::npos) << closed_out;
+  EXPECT_NE(closed_out.find("exit 2"), std::string::npos) << closed_out;
+  const auto [file_status, file_out] =
+      run(std::string(KINECT3D_EXE) + " detect --source sim:hung_2m --output /dev/full 2>&1");
+  EXPECT_EQ(file_status, 2);
+  EXPECT_NE(file_out.find("cannot write the detections to '/dev/full'"), std::string::npos) << file_out;
+}
+
 }  // namespace

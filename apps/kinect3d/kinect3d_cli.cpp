@@ -4,9 +4,12 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include <cerrno>
 #include <chrono>
 #include <cmath>
+#include <csignal>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
@@ -200,6 +203,11 @@ void runDetect(const std::string& source_uri, const fw::Config& config, const st
     detector.detect(frame, detections);
     out << detectLine(frame, detections, trajectory->update(frame.source_time_s, detections.balls)) << "\n";
     out.flush();
+    if (!out) {
+      throw std::runtime_error("cannot write the detections to " +
+                               (output.empty() ? std::string("standard output") : "'" + output + "'") + " (frame " +
+                               std::to_string(frame.index) + "): " + std::strerror(errno));
+    }
     ++frames;
     with_ball += !detections.balls.empty();
   }
@@ -333,6 +341,8 @@ void addReport(CLI::App& app) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  // A reader that goes away makes a write fail (and the command exit 2) rather than kill it.
+  std::signal(SIGPIPE, SIG_IGN);
   CLI::App app{"Kinect3D: 3D ball perception from depth frames."};
   app.require_subcommand(1);
   addSimulate(app);

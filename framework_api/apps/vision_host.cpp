@@ -31,6 +31,9 @@ sigset_t blockStopSignals() {
 }  // namespace
 
 int main(int argc, char** argv) {
+  // Whatever reads our output may go away (tee, an ssh session): a write then fails with EPIPE
+  // instead of killing the host mid-match.
+  std::signal(SIGPIPE, SIG_IGN);
   const sigset_t stop_signals = blockStopSignals();
 
   CLI::App app{"Runs the vision plugins a robot configuration enables."};

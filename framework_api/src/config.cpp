@@ -177,11 +177,32 @@ void mergeInto(YAML::Node& base, const YAML::Node& overlay, const std::string& p
   }
 }
 
+// YAML maps may not repeat a key; yaml-cpp keeps the last silently, which would let a robot file's
+// second `kinect3d:` block replace its first without a word.
+void rejectDuplicateKeys(const YAML::Node& node, const std::string& label) {
+  if (node.IsMap()) {
+    std::map<std::string, int> lines;
+    for (const auto& entry : node) {
+      const std::string key = entry.first.Scalar();
+      const int line = entry.first.Mark().line + 1;
+      const auto [first, inserted] = lines.emplace(key, line);
+      if (!inserted) {
+        throw ConfigError(label + ":" + std::to_string(line) + ": duplicate key '" + key + "' (first at line " +
+                          std::to_string(first->second) + ")");
+      }
+      rejectDuplicateKeys(entry.second, label);
+    }
+  } else if (node.IsSequence()) {
+    for (const auto& item : node) rejectDuplicateKeys(item, label);
+  }
+}
+
 YAML::Node parseYaml(const std::string& text, const std::string& label) {
   try {
     YAML::Node node = YAML::Load(text);
     if (node.IsNull() || !node.IsDefined()) return YAML::Node(YAML::NodeType::Map);
     if (!node.IsMap()) throw ConfigError(label + ": expected a map of keys at the top level");
+    rejectDuplicateKeys(node, label);
     return node;
   } catch (const YAML::ParserException& e) {
     throw ConfigError(label + ":" + std::to_string(e.mark.line + 1) + ": YAML syntax error: " + e.msg);
@@ -287,8 +308,14 @@ std::string Config::toYaml() const {
 std::string ConfigView::fullKey(const std::string& key) const { return joinKey(path_, key); }
 
 std::string ConfigView::originOf(const std::string& key) const {
-  const auto found = data_->origins.find(fullKey(key));
-  return found == data_->origins.end() ? "configuration" : found->second;
+  // A missing key is blamed on the nearest enclosing value that has an origin: its block's file.
+  for (std::string dotted = fullKey(key);;) {
+    const auto found = data_->origins.find(dotted);
+    if (found != data_->origins.end()) return found->second;
+    const auto dot = dotted.rfind('.');
+    if (dot == std::string::npos) return "configuration";
+    dotted.resize(dot);
+  }
 }
 
 void ConfigView::fail(const std::string& key, const std::string& problem) const {

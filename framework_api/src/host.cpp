@@ -1,5 +1,6 @@
 #include "framework_api/host.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 
@@ -27,7 +28,13 @@ struct Host::Running {
 
 Host::Host(const Config& config, const std::string& plugin_dir) {
   const ConfigView host = config.block("host");
-  for (const std::string& name : host.getStringList("plugins")) {
+  const std::vector<std::string> names = host.getStringList("plugins");
+  for (std::size_t i = 0; i < names.size(); ++i) {
+    const std::string& name = names[i];
+    if (std::find(names.begin(), names.begin() + i, name) != names.begin() + i) {
+      throw ConfigError(host.originOf("plugins") + ": host.plugins lists '" + name +
+                        "' twice; each plugin runs once (its block configures it)");
+    }
     const ConfigView block = config.block(name);
     auto running = std::make_unique<Running>();
     running->rate_hz = block.has("rate_hz") ? block.getDouble("rate_hz", 0.1, 1000.0) : 0.0;

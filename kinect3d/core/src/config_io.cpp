@@ -44,17 +44,27 @@ DetectorConfig readDetectorConfig(const fw::ConfigView& kinect3d) {
   config.points.pixel_stride = points.getInt("pixel_stride", 1, 8);
   config.points.edge_tolerance_steps = points.getDouble("edge_tolerance_steps", 0.5, 100.0);
   config.points.min_range_m = points.getDouble("min_range_m", 0.1, 20.0);
-  config.points.max_range_m = points.getDouble("max_range_m", config.points.min_range_m, 20.0);
+  config.points.max_range_m = points.getDouble("max_range_m", 0.1, 20.0);
+  if (config.points.max_range_m <= config.points.min_range_m) {
+    throw fw::ConfigError(points.originOf("max_range_m") +
+                          ": kinect3d.points.max_range_m = " + std::to_string(config.points.max_range_m) +
+                          " must exceed kinect3d.points.min_range_m = " + std::to_string(config.points.min_range_m) +
+                          " (" + points.originOf("min_range_m") + ")");
+  }
   config.points.floor_margin_m = points.getDouble("floor_margin_m", 0.0, 0.5);
 
   const fw::ConfigView grid = kinect3d.child("grid");
   config.grid.voxel_m = grid.getDouble("voxel_m", 0.02, 1.0);
   config.mask.core_voxels = grid.getInt("core_voxels", 1, 15);
-  config.mask.mask_voxels = grid.getInt("mask_voxels", config.mask.core_voxels + 2, 31);
-  if ((config.mask.mask_voxels - config.mask.core_voxels) % 2 != 0) {
+  config.mask.mask_voxels = grid.getInt("mask_voxels", 3, 31);
+  const int shell_both_sides = config.mask.mask_voxels - config.mask.core_voxels;
+  if (shell_both_sides < 2 || shell_both_sides % 2 != 0) {
+    // Either value may be the wrong one: name both where they were written.
     throw fw::ConfigError(grid.originOf("mask_voxels") +
                           ": kinect3d.grid.mask_voxels = " + std::to_string(config.mask.mask_voxels) +
-                          " must exceed core_voxels by an even number (an equal shell on each side)");
+                          " and kinect3d.grid.core_voxels = " + std::to_string(config.mask.core_voxels) + " (" +
+                          grid.originOf("core_voxels") +
+                          "): the mask must exceed the core by a positive even number (an equal shell on each side)");
   }
   config.grid.occupied_fraction = grid.getDouble("occupied_fraction", 0.0, 1.0);
   config.grid.min_points = grid.getInt("min_points", 1, 100000);
