@@ -1,5 +1,7 @@
 #include <gtest/gtest.h>
 
+#include <chrono>
+
 #include <opencv2/imgcodecs.hpp>
 
 #include <filesystem>
@@ -81,6 +83,22 @@ TEST_F(TumDir, BadInputNamesTheFileAndLine) {
   EXPECT_NE(errorOpening().find("camera.yaml:2: heigth is an unknown key"), std::string::npos);
   fs::remove(dir_ / "depth.txt");
   EXPECT_NE(errorOpening().find("has no depth.txt"), std::string::npos);
+}
+
+TEST_F(TumDir, RealTimePacingDoesNotSleepThroughAJumpInTheTimeStamps) {
+  write("depth.txt",
+        "0.0 " + kRealTum + "\n0.033 " + kRealTum + "\n1000.066 " + kRealTum + "\n1000.1 " + kRealTum + "\n");
+  kinect3d::SourceOptions options;
+  options.realtime = true;
+  auto source = kinect3d::DepthSourceTable::core().open("tum:" + dir_.string(), options);
+  DepthFrame frame;
+  const auto start = std::chrono::steady_clock::now();
+  int frames = 0;
+  while (source->read(frame) == ReadResult::kFrame) ++frames;
+  const double elapsed_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  EXPECT_EQ(frames, 4);
+  EXPECT_LT(elapsed_s, 5.0) << "paced through the 1000 s jump";
+  EXPECT_GT(elapsed_s, 0.05) << "still paced in real time around it";
 }
 
 TEST_F(TumDir, UnreadableFramesAreReportedAndSkipped) {

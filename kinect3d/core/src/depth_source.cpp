@@ -40,6 +40,15 @@ void DepthSource::paceToRealTime(const DepthFrame& frame) {
     return;
   }
   const double wait_s = (frame.source_time_s - first_source_time_s_) - (now_s - first_wall_time_s_);
+  if (wait_s > kMaxPacingWait_s || wait_s < -kMaxPacingWait_s) {
+    // A jump in the recording's clock (or a stall here): pace from this frame on instead of
+    // sleeping through the jump or racing to catch up.
+    fw::logWarn("depth", describe() + ": frame " + std::to_string(frame.index) + " is " + std::to_string(wait_s) +
+                             " s off the pace; pacing starts again from it");
+    first_source_time_s_ = frame.source_time_s;
+    first_wall_time_s_ = now_s;
+    return;
+  }
   if (wait_s > 0.0) std::this_thread::sleep_for(std::chrono::duration<double>(wait_s));
 }
 

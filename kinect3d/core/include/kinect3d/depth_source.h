@@ -76,7 +76,9 @@ class DepthSource {
   virtual ReadResult readFrame(DepthFrame& frame) = 0;
 
   // Sleeps until the frame's source time, relative to the first frame, has passed on the wall clock.
+  // A frame more than kMaxPacingWait_s off that pace (a time stamp that jumps) restarts the pacing.
   void paceToRealTime(const DepthFrame& frame);
+  static constexpr double kMaxPacingWait_s = 1.0;
 
   SourceOptions options_;
   SourceCounters counters_;
