@@ -70,6 +70,23 @@ TEST(Host, ReportsEndOfStream) {
   EXPECT_EQ(host.world().recentBalls("tp_producer").size(), 3u);
 }
 
+TEST(Host, APluginThatKeepsFailingBacksOffThenGivesUp) {
+  fw::Host host(exchangeConfig({"host.plugins=[tp_faulty]", "host.max_consecutive_errors=4"}), TEST_PLUGIN_DIR);
+  const auto started = Clock::now();
+  host.start();
+  const auto deadline = started + std::chrono::seconds(5);
+  while (!host.sourcesFinished() && Clock::now() < deadline) std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  const double elapsed_s = std::chrono::duration<double>(Clock::now() - started).count();
+  ASSERT_TRUE(host.sourcesFinished()) << "a source that only fails ends";
+  host.stop();
+  const fw::PluginSummary summary = host.summaries().at(0);
+  EXPECT_TRUE(summary.gave_up);
+  EXPECT_EQ(summary.errors, 4u) << "no spinning: exactly the allowed failures";
+  EXPECT_GT(elapsed_s, 0.07) << "10 + 20 + 40 ms of backoff between the failures, plus the steps";
+  EXPECT_NE(fw::formatSummary(summary).find(", gave up, last error: frame checksum mismatch"), std::string::npos)
+      << fw::formatSummary(summary);
+}
+
 TEST(Host, UnknownPluginIsALoadError) {
   try {
     fw::Host host(exchangeConfig({"host.plugins=[tp_valid, tp_throwing]"}), TEST_PLUGIN_DIR);

@@ -90,10 +90,12 @@ int main(int argc, char** argv) {
     fw::logInfo("host", "stopping: " + reason);
     host.stop();
     std::cout << "Summary (" << reason << "):\n";
+    bool gave_up = false;
     for (const fw::PluginSummary& summary : host.summaries()) {
       std::cout << "  " << fw::formatSummary(summary) << "\n";
+      gave_up = gave_up || summary.gave_up;
     }
-    return 0;
+    return gave_up ? 1 : 0;  // a plugin that gave up is a failed run, whatever else went well
   } catch (const std::exception& e) {
     fw::logError("host", e.what());
     return 2;

@@ -13,6 +13,12 @@ using Clock = std::chrono::steady_clock;
 
 double secondsSince(Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); }
 
+// 10 ms after the first failed step in a row, doubling up to a second.
+Clock::duration errorBackoff(int consecutive_errors) {
+  const int doublings = std::min(consecutive_errors - 1, 7);
+  return std::min<Clock::duration>(std::chrono::milliseconds(10) * (1 << doublings), std::chrono::seconds(1));
+}
+
 // Log the first few errors of a plugin, then one in a hundred, so a failing camera cannot flood
 // the log during a match.
 bool shouldLogError(std::uint64_t error_count) { return error_count <= 5 || error_count % 100 == 0; }
@@ -28,6 +34,7 @@ struct Host::Running {
 
 Host::Host(const Config& config, const std::string& plugin_dir) {
   const ConfigView host = config.block("host");
+  max_consecutive_errors_ = host.getInt("max_consecutive_errors", 1, 1000000);
   const std::vector<std::string> names = host.getStringList("plugins");
   for (std::size_t i = 0; i < names.size(); ++i) {
     const std::string& name = names[i];
@@ -78,7 +85,7 @@ bool Host::sourcesFinished() const {
     if (plugin->rate_hz > 0.0) continue;
     any_source = true;
     std::lock_guard<std::mutex> lock(plugin->mutex);
-    if (!plugin->summary.end_of_stream) return false;
+    if (!plugin->summary.end_of_stream && !plugin->summary.gave_up) return false;
   }
   return any_source;
 }
@@ -99,6 +106,7 @@ void Host::run(Running& plugin) {
           ? std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / plugin.rate_hz))
           : Clock::duration::zero();
   Clock::time_point next_tick = start;
+  int consecutive_errors = 0;
   while (!stop_requested_) {
     if (period > Clock::duration::zero()) {
       std::unique_lock<std::mutex> lock(wake_mutex_);
@@ -114,24 +122,39 @@ void Host::run(Running& plugin) {
     } catch (const PluginError& e) {
       error = e.what();
     }
-    std::lock_guard<std::mutex> lock(plugin.mutex);
-    PluginSummary& summary = plugin.summary;
-    ++summary.steps;
-    summary.elapsed_s = secondsSince(start);
-    if (!error.empty()) {
+    Clock::duration backoff = Clock::duration::zero();
+    {
+      std::lock_guard<std::mutex> lock(plugin.mutex);
+      PluginSummary& summary = plugin.summary;
+      ++summary.steps;
+      summary.elapsed_s = secondsSince(start);
+      if (error.empty()) {
+        consecutive_errors = 0;
+        if (result == StepResult::kProcessed) ++summary.frames;
+        if (result == StepResult::kEndOfStream) {
+          summary.end_of_stream = true;
+          logInfo(summary.name, "end of stream");
+          break;
+        }
+        continue;
+      }
       ++summary.errors;
       summary.last_error = error;
       if (shouldLogError(summary.errors)) {
         logError(summary.name, "step failed (" + std::to_string(summary.errors) + "): " + error);
       }
-      continue;
+      if (++consecutive_errors >= max_consecutive_errors_) {
+        summary.gave_up = true;
+        logError(summary.name,
+                 "gave up after " + std::to_string(consecutive_errors) + " failed steps in a row; last: " + error);
+        break;
+      }
+      backoff = errorBackoff(consecutive_errors);
     }
-    if (result == StepResult::kProcessed) ++summary.frames;
-    if (result == StepResult::kEndOfStream) {
-      summary.end_of_stream = true;
-      logInfo(summary.name, "end of stream");
-      break;
-    }
+    // A plugin that keeps failing waits longer each time (a source that cannot read must not spin),
+    // and a stop request ends the wait at once.
+    std::unique_lock<std::mutex> lock(wake_mutex_);
+    if (wake_.wait_for(lock, backoff, [this] { return stop_requested_.load(); })) break;
   }
   std::lock_guard<std::mutex> lock(plugin.mutex);
   plugin.summary.elapsed_s = secondsSince(start);
@@ -142,7 +165,7 @@ std::string formatSummary(const PluginSummary& summary) {
   std::snprintf(line, sizeof line, "%s %s: %llu frames in %.1f s (%.1f Hz), %llu errors%s%s", summary.name.c_str(),
                 summary.version.c_str(), static_cast<unsigned long long>(summary.frames), summary.elapsed_s,
                 summary.frameRate_hz(), static_cast<unsigned long long>(summary.errors),
-                summary.end_of_stream ? ", end of stream" : "",
+                summary.end_of_stream ? ", end of stream" : (summary.gave_up ? ", gave up" : ""),
                 summary.last_error.empty() ? "" : (", last error: " + summary.last_error).c_str());
   return line;
 }

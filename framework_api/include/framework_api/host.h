@@ -26,6 +26,7 @@ struct PluginSummary {
   std::uint64_t errors = 0;
   std::string last_error;
   bool end_of_stream = false;
+  bool gave_up = false;  // stopped after host.max_consecutive_errors failed steps in a row
   double elapsed_s = 0.0;
 
   double frameRate_hz() const { return elapsed_s > 0.0 ? frames / elapsed_s : 0.0; }
@@ -43,8 +44,8 @@ class Host {
   void start();
   // Asks every plugin thread to stop after its current step and joins them. Idempotent.
   void stop();
-  // True once every source-driven plugin (one without rate_hz) has reported end of stream, and
-  // there is at least one: then nothing new can reach the world state.
+  // True once every source-driven plugin (one without rate_hz) has reported end of stream or given
+  // up, and there is at least one: then nothing new can reach the world state.
   bool sourcesFinished() const;
 
   std::vector<PluginSummary> summaries() const;
@@ -57,6 +58,7 @@ class Host {
   WorldState world_;  // declared first: plugins hold a pointer to it and are destroyed before it
   std::vector<std::unique_ptr<Running>> plugins_;
   std::atomic<bool> stop_requested_{false};
+  int max_consecutive_errors_ = 0;
   std::mutex wake_mutex_;
   std::condition_variable wake_;
 };
