@@ -189,6 +189,23 @@ TEST(HostProcess, BadConfigExitsNonZeroNamingTheKey) {
       << out;
 }
 
+TEST(HostProcess, ReportsAStuckPluginAndStillStopsWithinASecond) {
+  HostProcess host({"--robot", std::string(TEST_CONFIG_DIR) + "/robots/exchange.yaml", "--plugin-dir", TEST_PLUGIN_DIR,
+                    "--set", "host.plugins=[tp_producer, tp_stuck]", "--set", "host.stuck_after_s=0.3"});
+  std::this_thread::sleep_for(std::chrono::milliseconds(1000));  // tp_stuck blocks after 40 ms
+  const auto signalled = Clock::now();
+  host.signal(SIGTERM);
+  const int status = host.waitExit(std::chrono::milliseconds(3000));
+  const double stop_s = std::chrono::duration<double>(Clock::now() - signalled).count();
+  EXPECT_EQ(status, 3) << "a plugin left behind is a failed stop";
+  EXPECT_LT(stop_s, 1.0);
+  const std::string out = host.readAll();
+  EXPECT_NE(out.find("[tp_stuck] stuck: inside one step for more than 0.3"), std::string::npos) << out;
+  EXPECT_NE(out.find("[tp_stuck] did not stop within 0.8"), std::string::npos) << out;
+  EXPECT_NE(out.find("tp_stuck 0.1.0: 3 frames"), std::string::npos) << "the summary is still printed:\n" << out;
+  EXPECT_NE(out.find("stuck 1 times"), std::string::npos) << out;
+}
+
 TEST(HostProcess, KeepsRunningWhenItsOutputIsClosed) {
   HostProcess host({"--robot", std::string(PROJECT_CONFIG_DIR) + "/robots/demo.yaml", "--plugin-dir",
                     PRODUCT_PLUGIN_DIR, "--set", "host.duration_s=1.5"});

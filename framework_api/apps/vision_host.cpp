@@ -5,6 +5,7 @@
 #include <unistd.h>
 #include <csignal>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <iostream>
 
@@ -80,7 +81,7 @@ int main(int argc, char** argv) {
       const int signal_number = sigtimedwait(&stop_signals, nullptr, &poll);
       if (signal_number > 0) {
         reason = signal_number == SIGINT ? "SIGINT" : "SIGTERM";
-      } else if (host.sourcesFinished()) {
+      } else if (host.watch(); host.sourcesFinished()) {
         reason = "every source ended";
       } else if (duration_s > 0.0 &&
                  std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count() >= duration_s) {
@@ -88,12 +89,21 @@ int main(int argc, char** argv) {
       }
     }
     fw::logInfo("host", "stopping: " + reason);
-    host.stop();
+    // Every plugin gets this long to leave its step: the whole stop stays within a second.
+    constexpr std::chrono::milliseconds kStopGrace(800);
+    const std::vector<std::string> stuck = host.stop(kStopGrace);
     std::cout << "Summary (" << reason << "):\n";
     bool gave_up = false;
     for (const fw::PluginSummary& summary : host.summaries()) {
       std::cout << "  " << fw::formatSummary(summary) << "\n";
       gave_up = gave_up || summary.gave_up;
+    }
+    if (!stuck.empty()) {
+      // A plugin thread is still inside its code: end the process without running destructors
+      // under it, once what was printed is out.
+      std::cout.flush();
+      std::fflush(nullptr);
+      std::_Exit(3);
     }
     return gave_up ? 1 : 0;  // a plugin that gave up is a failed run, whatever else went well
   } catch (const std::exception& e) {

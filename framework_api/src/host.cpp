@@ -28,13 +28,17 @@ struct Host::Running {
   std::unique_ptr<PluginInstance> instance;
   double rate_hz = 0.0;
   std::thread thread;
-  mutable std::mutex mutex;  // guards summary
+  std::atomic<bool> finished{false};        // the thread has left run()
+  std::atomic<Clock::rep> step_started{0};  // steady clock ticks; 0 = not in a step
+  bool reported_stuck = false;              // this step was reported (watch() only)
+  mutable std::mutex mutex;                 // guards summary
   PluginSummary summary;
 };
 
 Host::Host(const Config& config, const std::string& plugin_dir) {
   const ConfigView host = config.block("host");
   max_consecutive_errors_ = host.getInt("max_consecutive_errors", 1, 1000000);
+  stuck_after_s_ = host.getDouble("stuck_after_s", 0.05, 3600.0);
   const std::vector<std::string> names = host.getStringList("plugins");
   for (std::size_t i = 0; i < names.size(); ++i) {
     const std::string& name = names[i];
@@ -68,14 +72,49 @@ void Host::start() {
   }
 }
 
-void Host::stop() {
+std::vector<std::string> Host::stop(std::chrono::duration<double> grace) {
   {
     std::lock_guard<std::mutex> lock(wake_mutex_);
     stop_requested_ = true;
   }
   wake_.notify_all();
+  const auto deadline = Clock::now() + std::chrono::duration_cast<Clock::duration>(grace);
+  {
+    std::unique_lock<std::mutex> lock(wake_mutex_);
+    wake_.wait_until(lock, deadline, [this] {
+      return std::all_of(plugins_.begin(), plugins_.end(), [](const auto& p) { return p->finished.load(); });
+    });
+  }
+  std::vector<std::string> stuck;
   for (auto& plugin : plugins_) {
-    if (plugin->thread.joinable()) plugin->thread.join();
+    if (!plugin->thread.joinable()) continue;
+    if (plugin->finished) {
+      plugin->thread.join();
+      continue;
+    }
+    stuck.push_back(plugin->summary.name);
+    logError(plugin->summary.name,
+             "did not stop within " + std::to_string(grace.count()) + " s: stuck inside a step; leaving it behind");
+    plugin->thread.detach();
+    (void)plugin->instance.release();  // its code is still running: never destroy it under it
+  }
+  return stuck;
+}
+
+void Host::watch() {
+  const Clock::rep now = Clock::now().time_since_epoch().count();
+  const auto stuck_after = std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(stuck_after_s_));
+  for (auto& plugin : plugins_) {
+    const Clock::rep started = plugin->step_started;
+    if (started == 0) {
+      plugin->reported_stuck = false;
+      continue;
+    }
+    if (plugin->reported_stuck || now - started < stuck_after.count()) continue;
+    plugin->reported_stuck = true;
+    std::lock_guard<std::mutex> lock(plugin->mutex);
+    ++plugin->summary.stuck;
+    logError(plugin->summary.name, "stuck: inside one step for more than " + std::to_string(stuck_after_s_) + " s");
   }
 }
 
@@ -117,11 +156,13 @@ void Host::run(Running& plugin) {
     }
     StepResult result = StepResult::kIdle;
     std::string error;
+    plugin.step_started = Clock::now().time_since_epoch().count();
     try {
       result = plugin.instance->step();
     } catch (const PluginError& e) {
       error = e.what();
     }
+    plugin.step_started = 0;
     Clock::duration backoff = Clock::duration::zero();
     {
       std::lock_guard<std::mutex> lock(plugin.mutex);
@@ -156,16 +197,24 @@ void Host::run(Running& plugin) {
     std::unique_lock<std::mutex> lock(wake_mutex_);
     if (wake_.wait_for(lock, backoff, [this] { return stop_requested_.load(); })) break;
   }
-  std::lock_guard<std::mutex> lock(plugin.mutex);
-  plugin.summary.elapsed_s = secondsSince(start);
+  {
+    std::lock_guard<std::mutex> lock(plugin.mutex);
+    plugin.summary.elapsed_s = secondsSince(start);
+  }
+  {
+    std::lock_guard<std::mutex> lock(wake_mutex_);
+    plugin.finished = true;
+  }
+  wake_.notify_all();
 }
 
 std::string formatSummary(const PluginSummary& summary) {
   char line[512];
-  std::snprintf(line, sizeof line, "%s %s: %llu frames in %.1f s (%.1f Hz), %llu errors%s%s", summary.name.c_str(),
+  std::snprintf(line, sizeof line, "%s %s: %llu frames in %.1f s (%.1f Hz), %llu errors%s%s%s", summary.name.c_str(),
                 summary.version.c_str(), static_cast<unsigned long long>(summary.frames), summary.elapsed_s,
                 summary.frameRate_hz(), static_cast<unsigned long long>(summary.errors),
                 summary.end_of_stream ? ", end of stream" : (summary.gave_up ? ", gave up" : ""),
+                summary.stuck == 0 ? "" : (", stuck " + std::to_string(summary.stuck) + " times").c_str(),
                 summary.last_error.empty() ? "" : (", last error: " + summary.last_error).c_str());
   return line;
 }

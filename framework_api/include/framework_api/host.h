@@ -3,6 +3,7 @@
 #pragma once
 
 #include <atomic>
+#include <chrono>
 #include <condition_variable>
 #include <cstdint>
 #include <memory>
@@ -26,7 +27,8 @@ struct PluginSummary {
   std::uint64_t errors = 0;
   std::string last_error;
   bool end_of_stream = false;
-  bool gave_up = false;  // stopped after host.max_consecutive_errors failed steps in a row
+  bool gave_up = false;     // stopped after host.max_consecutive_errors failed steps in a row
+  std::uint64_t stuck = 0;  // times a step ran longer than host.stuck_after_s
   double elapsed_s = 0.0;
 
   double frameRate_hz() const { return elapsed_s > 0.0 ? frames / elapsed_s : 0.0; }
@@ -42,8 +44,14 @@ class Host {
   Host& operator=(const Host&) = delete;
 
   void start();
-  // Asks every plugin thread to stop after its current step and joins them. Idempotent.
-  void stop();
+  // Asks every plugin thread to stop after its current step and joins those that do within grace.
+  // Returns the plugins still inside a step then (stuck in a blocking call): their threads are
+  // detached and their instances deliberately never destroyed, since their code is still running;
+  // the caller should end the process. Idempotent.
+  std::vector<std::string> stop(std::chrono::duration<double> grace = std::chrono::seconds(1));
+  // Reports (once per step) every plugin that has been inside one step for longer than
+  // host.stuck_after_s, and counts it in its summary. Call it now and then while running.
+  void watch();
   // True once every source-driven plugin (one without rate_hz) has reported end of stream or given
   // up, and there is at least one: then nothing new can reach the world state.
   bool sourcesFinished() const;
@@ -59,6 +67,7 @@ class Host {
   std::vector<std::unique_ptr<Running>> plugins_;
   std::atomic<bool> stop_requested_{false};
   int max_consecutive_errors_ = 0;
+  double stuck_after_s_ = 0.0;
   std::mutex wake_mutex_;
   std::condition_variable wake_;
 };
