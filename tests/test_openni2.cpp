@@ -128,6 +128,23 @@ TEST(OpenNI2Device, QuietDeviceIsReopenedWithoutStoppingTheReader) {
   EXPECT_EQ(source->counters().dropped, 0u) << "a restarted counter is not a gap";
 }
 
+TEST(OpenNI2Device, ADeviceAbsentAtStartIsWaitedForAndOpenedWhenItAppears) {
+  const std::string uri = "openni2:kinect3d-sim://hung_3m?frames=5&appear=3";
+  EXPECT_THROW(kinect3d::sim::sourcesWithSimulator().open(uri), kinect3d::DepthSourceError)
+      << "a command gets an error at once";
+  kinect3d::SourceOptions options;
+  options.wait_for_device = true;
+  // The same URI again: its first attempt above started the 3 s clock, so this one waits ~3 s.
+  const auto start = std::chrono::steady_clock::now();
+  auto source = kinect3d::sim::sourcesWithSimulator().open(uri, options);
+  const std::vector<DepthFrame> frames = readFrames(*source, 5);
+  const double waited_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  ASSERT_EQ(frames.size(), 5u);
+  EXPECT_GT(waited_s, 2.0) << "nothing arrived before the device appeared";
+  EXPECT_EQ(frames.front().index, 1u);
+  EXPECT_EQ(source->counters().reconnects, 0u) << "a first opening is not a reconnection";
+}
+
 TEST(OpenNI2Device, UnknownDeviceIsAnError) {
   EXPECT_THROW(kinect3d::sim::sourcesWithSimulator().open("openni2:kinect3d-sim://no_such_scene"),
                kinect3d::DepthSourceError);

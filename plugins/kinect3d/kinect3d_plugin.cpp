@@ -22,6 +22,7 @@ class Kinect3dPlugin : public fw::Plugin {
         trajectory_(kinect3d::makeTrajectoryEstimator(kinect3d::readTrajectoryConfig(context.config))) {
     kinect3d::SourceOptions options;
     options.realtime = context.config.getBool("realtime");
+    options.wait_for_device = true;  // a Kinect still enumerating at boot is waited for, not fatal
     const std::string uri = context.config.getString("source");
     try {
       source_ = kinect3d::sim::sourcesWithSimulator().open(uri, options);

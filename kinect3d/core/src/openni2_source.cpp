@@ -27,7 +27,15 @@ void initialiseOpenNI() {
   }
 }
 
-std::string lastError() { return openni::OpenNI::getExtendedError(); }
+// OpenNI2's last error on one line ("no reason given" when it has none, as for some truncated files).
+std::string lastError() {
+  std::string text = openni::OpenNI::getExtendedError();
+  for (char& c : text) {
+    if (c == '\n' || c == '\t' || c == '\r') c = ' ';
+  }
+  const auto first = text.find_first_not_of(' '), last = text.find_last_not_of(' ');
+  return first == std::string::npos ? "OpenNI2 gave no reason" : text.substr(first, last - first + 1);
+}
 
 // The depth stream of one opened OpenNI2 device (live or file).
 class OpenNI2Stream {
@@ -137,14 +145,22 @@ class OpenNI2Stream {
 
 // A live device. If it fails, or sends nothing for a second (an unplugged Kinect goes quiet rather
 // than failing), it is reported and reopened every second, delivering no frames meanwhile,
-// without stopping the host.
+// without stopping the host. With wait_for_device, one that is absent at start is handled the same
+// way: waited for, and opened when it appears.
 class OpenNI2Device : public DepthSource {
  public:
   OpenNI2Device(std::string uri, const SourceOptions& options) : DepthSource(options), uri_(std::move(uri)) {
-    stream_.open(uri_, describe());
-    last_frame_ = Clock::now();
-    fw::logInfo("openni2", describe() + ": streaming " + std::to_string(stream_.intrinsics().width) + "x" +
-                               std::to_string(stream_.intrinsics().height));
+    try {
+      stream_.open(uri_, describe());
+    } catch (const DepthSourceError& e) {
+      if (!options.wait_for_device) throw;
+      fw::logWarn("openni2", std::string(e.what()) + "; waiting for the device, trying every second");
+      waiting_since_ = Clock::now();
+      next_attempt_ = Clock::now() + kReopenInterval;
+      next_waiting_message_ = Clock::now() + kWaitingMessageInterval;
+      return;
+    }
+    opened();
   }
   ~OpenNI2Device() override { stream_.close(); }
 
@@ -154,6 +170,14 @@ class OpenNI2Device : public DepthSource {
  private:
   static constexpr std::chrono::seconds kSilenceLimit{1};
   static constexpr std::chrono::seconds kReopenInterval{1};
+  static constexpr std::chrono::seconds kWaitingMessageInterval{5};
+
+  void opened() {
+    last_frame_ = Clock::now();
+    ever_opened_ = true;
+    fw::logInfo("openni2", describe() + ": streaming " + std::to_string(stream_.intrinsics().width) + "x" +
+                               std::to_string(stream_.intrinsics().height));
+  }
 
   ReadResult readFrame(DepthFrame& frame) override {
     const int wait_ms = static_cast<int>(options().max_wait_s * 1000.0);
@@ -187,11 +211,19 @@ class OpenNI2Device : public DepthSource {
     }
     try {
       stream_.open(uri_, describe());
-      last_frame_ = Clock::now();
-      reportReconnected();
-      fw::logInfo("openni2", describe() + ": reopened");
+      if (ever_opened_) {
+        reportReconnected();
+        fw::logInfo("openni2", describe() + ": reopened");
+      }
+      opened();
     } catch (const DepthSourceError&) {
       next_attempt_ = Clock::now() + kReopenInterval;
+      if (!ever_opened_ && Clock::now() >= next_waiting_message_) {
+        const auto waited = std::chrono::duration_cast<std::chrono::seconds>(Clock::now() - waiting_since_);
+        fw::logWarn("openni2",
+                    describe() + ": still waiting for the device (" + std::to_string(waited.count()) + " s)");
+        next_waiting_message_ = Clock::now() + kWaitingMessageInterval;
+      }
     }
     return ReadResult::kNoFrameYet;
   }
@@ -200,6 +232,8 @@ class OpenNI2Device : public DepthSource {
   OpenNI2Stream stream_;
   Clock::time_point last_frame_;
   Clock::time_point next_attempt_{};
+  bool ever_opened_ = false;
+  Clock::time_point waiting_since_{}, next_waiting_message_{};
 };
 
 class OniRecording : public DepthSource {

@@ -10,6 +10,7 @@
 #include <atomic>
 #include <chrono>
 #include <cstring>
+#include <map>
 #include <memory>
 #include <sstream>
 #include <string>
@@ -26,12 +27,13 @@ namespace {
 constexpr char kUriPrefix[] = "kinect3d-sim://";
 
 struct StreamOptions {
-  int frames = 0;      // stop after this many (0: the scene's length)
-  int drop_every = 0;  // leave out every n-th frame, as a busy USB bus does (0: none)
+  int frames = 0;               // stop after this many (0: the scene's length)
+  int drop_every = 0;           // leave out every n-th frame, as a busy USB bus does (0: none)
+  double appear_after_s = 0.0;  // cannot be opened until this long after the first attempt (slow USB at boot)
 };
 
-// "kinect3d-sim://hung_3m?frames=20&seed=3&drop=5" -> the scene with that noise seed, 20 frames,
-// every 5th one dropped (seed absent: the scene's own).
+// "kinect3d-sim://hung_3m?frames=20&seed=3&drop=5&appear=3" -> the scene with that noise seed, 20
+// frames, every 5th one dropped, openable 3 s after the first try (seed absent: the scene's own).
 bool parseUri(const std::string& uri, kinect3d::sim::Scene& scene, StreamOptions& options) {
   if (uri.rfind(kUriPrefix, 0) != 0) return false;
   std::string name = uri.substr(sizeof kUriPrefix - 1);
@@ -48,6 +50,7 @@ bool parseUri(const std::string& uri, kinect3d::sim::Scene& scene, StreamOptions
     if (parameter.rfind("frames=", 0) == 0) options.frames = std::stoi(parameter.substr(7));
     if (parameter.rfind("drop=", 0) == 0) options.drop_every = std::stoi(parameter.substr(5));
     if (parameter.rfind("seed=", 0) == 0) scene.noise.seed = std::stoull(parameter.substr(5));
+    if (parameter.rfind("appear=", 0) == 0) options.appear_after_s = std::stod(parameter.substr(7));
   }
   return true;
 }
@@ -217,6 +220,12 @@ class SimDriver : public oni::driver::DriverBase {
       kinect3d::sim::Scene scene;
       StreamOptions options;
       if (!parseUri(uri, scene, options)) return nullptr;
+      // A device that appears late: absent until appear_after_s after the first attempt to open it.
+      const auto first = first_attempt_.try_emplace(uri, std::chrono::steady_clock::now()).first->second;
+      if (std::chrono::steady_clock::now() - first < std::chrono::duration<double>(options.appear_after_s)) {
+        getServices().errorLoggerAppend("%s: not there yet", uri);
+        return nullptr;
+      }
       return new SimDevice(std::move(scene), options);
     } catch (const std::exception& e) {
       getServices().errorLoggerAppend("%s: %s", uri, e.what());
@@ -225,6 +234,9 @@ class SimDriver : public oni::driver::DriverBase {
   }
   void deviceClose(oni::driver::DeviceBase* device) override { delete device; }
   void shutdown() override {}
+
+ private:
+  std::map<std::string, std::chrono::steady_clock::time_point> first_attempt_;
 };
 
 }  // namespace

@@ -39,6 +39,9 @@ struct SourceOptions {
   bool realtime = false;
   // The longest read() may block waiting for a live device.
   double max_wait_s = 0.1;
+  // Live devices: one that cannot be opened yet (slow USB enumeration at boot) is waited for and
+  // opened when it appears, as the robot wants; otherwise opening it is an error, as a command wants.
+  bool wait_for_device = false;
 };
 
 struct SourceCounters {
