@@ -101,6 +101,19 @@ TEST_F(TumDir, RealTimePacingDoesNotSleepThroughAJumpInTheTimeStamps) {
   EXPECT_GT(elapsed_s, 0.05) << "still paced in real time around it";
 }
 
+TEST_F(TumDir, StaleTimeStampsAndBlankFramesAreCounted) {
+  cv::imwrite((dir_ / "covered.png").string(), cv::Mat(480, 640, CV_16UC1, cv::Scalar(0)));
+  write("depth.txt", "0.0 " + kRealTum + "\n0.033 covered.png\n0.033 " + kRealTum + "\n0.01 " + kRealTum + "\n0.1 " +
+                         kRealTum + "\n");
+  auto source = kinect3d::DepthSourceTable::core().open("tum:" + dir_.string());
+  DepthFrame frame;
+  int frames = 0;
+  while (source->read(frame) == ReadResult::kFrame) ++frames;
+  EXPECT_EQ(frames, 5) << "delivered all the same: the trajectory skips stale frames itself";
+  EXPECT_EQ(source->counters().stale_stamps, 2u) << "one repeated, one going backwards";
+  EXPECT_EQ(source->counters().blank, 1u);
+}
+
 TEST_F(TumDir, UnreadableFramesAreReportedAndSkipped) {
   cv::imwrite((dir_ / "small.png").string(), cv::Mat(240, 320, CV_16UC1, cv::Scalar(1000)));
   cv::imwrite((dir_ / "eight_bit.png").string(), cv::Mat(480, 640, CV_8UC1, cv::Scalar(10)));

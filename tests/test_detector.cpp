@@ -45,6 +45,8 @@ TEST(DetectorConfig, ShippedDefaultsAreTheStructDefaults) {
   EXPECT_EQ(read.ground.max_fit_range_m, code.ground.max_fit_range_m);
   EXPECT_EQ(read.ground.refit_interval_frames, code.ground.refit_interval_frames);
   EXPECT_EQ(read.ground.min_inlier_fraction, code.ground.min_inlier_fraction);
+  EXPECT_EQ(read.ground.min_height_m, code.ground.min_height_m);
+  EXPECT_EQ(read.ground.max_height_m, code.ground.max_height_m);
   EXPECT_EQ(read.points.pixel_stride, code.points.pixel_stride);
   EXPECT_EQ(read.points.edge_tolerance_steps, code.points.edge_tolerance_steps);
   EXPECT_EQ(read.points.min_range_m, code.points.min_range_m);

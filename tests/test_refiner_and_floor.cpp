@@ -118,6 +118,32 @@ TEST(GroundAligner, FindsAPitchedAndRolledSensorOnItsFloor) {
   }
 }
 
+TEST(GroundAligner, KeepsLookingWhenTheFloorItFindsIsImplausible) {
+  // A sensor 3 m up (a ceiling mount, or a plane fitted in clutter) is outside the plausible
+  // heights: no floor is taken, so nothing is detected against a wrong one.
+  sim::Scene scene = sim::loadScene("hung_4m");
+  scene.duration_s = 0.1;
+  scene.sensor_pose = kinect3d::SensorPose{0.0, 0.0, 3.0, 0.0, 35.0 * M_PI / 180.0, 0.0};
+  DetectorConfig config = shippedDetector(scene);
+  config.ground.pose.reset();
+  kinect3d::BallDetector detector(config, "kinect3d");
+  sim::KinectSimulator simulator(scene);
+  DepthFrame frame;
+  sim::GroundTruth truth;
+  kinect3d::Detections detections;
+  simulator.render(0, frame, truth);
+  detector.detect(frame, detections);
+  EXPECT_FALSE(detections.aligned);
+  EXPECT_TRUE(detections.balls.empty());
+  // With the bounds opened for a ceiling mount, the same floor is taken.
+  config.ground.max_height_m = 4.0;
+  kinect3d::BallDetector ceiling(config, "kinect3d");
+  ceiling.detect(frame, detections);
+  EXPECT_TRUE(detections.aligned);
+  ASSERT_TRUE(ceiling.T_R_S().has_value());
+  EXPECT_NEAR(kinect3d::SensorPose::fromTransform(*ceiling.T_R_S()).z_m, 3.0, 0.05);
+}
+
 TEST(BallDetector, FollowsAChangeOfIntrinsics) {
   // VGA first, then the same scene from a QVGA camera with another focal length: the projector,
   // grid, mask and refiner are made again for the new camera, and the ball is still found.

@@ -65,6 +65,9 @@ void runInfo(const std::string& uri) {
   std::printf("frames:            %llu (%llu skipped, %llu dropped)\n", static_cast<unsigned long long>(frames),
               static_cast<unsigned long long>(source->counters().skipped),
               static_cast<unsigned long long>(source->counters().dropped));
+  std::printf("stale time stamps: %llu, frames without depth: %llu\n",
+              static_cast<unsigned long long>(source->counters().stale_stamps),
+              static_cast<unsigned long long>(source->counters().blank));
   std::printf("rate:              %.2f Hz\n",
               frames > 1 && last_t > first_t ? (frames - 1) / (last_t - first_t) : source->frameRate_hz());
   std::printf("size:              %dx%d\n", intrinsics.width, intrinsics.height);

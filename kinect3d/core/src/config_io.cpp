@@ -39,6 +39,13 @@ DetectorConfig readDetectorConfig(const fw::ConfigView& kinect3d) {
   config.ground.max_fit_range_m = ground.getDouble("max_fit_range_m", 1.0, 20.0);
   config.ground.refit_interval_frames = ground.getInt("refit_interval_frames", 1, 100000);
   config.ground.min_inlier_fraction = ground.getDouble("min_inlier_fraction", 0.01, 1.0);
+  config.ground.min_height_m = ground.getDouble("min_height_m", 0.0, 10.0);
+  config.ground.max_height_m = ground.getDouble("max_height_m", 0.0, 10.0);
+  if (config.ground.max_height_m <= config.ground.min_height_m) {
+    throw fw::ConfigError(ground.originOf("max_height_m") +
+                          ": kinect3d.ground.max_height_m must exceed min_height_m (" +
+                          ground.originOf("min_height_m") + ")");
+  }
 
   const fw::ConfigView points = kinect3d.child("points");
   config.points.pixel_stride = points.getInt("pixel_stride", 1, 8);

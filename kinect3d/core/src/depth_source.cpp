@@ -1,5 +1,6 @@
 #include "kinect3d/depth_source.h"
 
+#include <algorithm>
 #include <filesystem>
 #include <stdexcept>
 #include <thread>
@@ -27,6 +28,7 @@ ReadResult DepthSource::read(DepthFrame& frame) {
   has_last_index_ = true;
   last_index_ = frame.index;
   ++counters_.frames;
+  checkSanity(frame);
   if (options_.realtime) paceToRealTime(frame);
   frame.receive_time_s = fw::wallClockNow_s();
   return ReadResult::kFrame;
@@ -50,6 +52,36 @@ void DepthSource::paceToRealTime(const DepthFrame& frame) {
     return;
   }
   if (wait_s > 0.0) std::this_thread::sleep_for(std::chrono::duration<double>(wait_s));
+}
+
+namespace {
+// The first few of a kind, then one in a hundred: a covered sensor must not flood the log.
+bool worthLogging(std::uint64_t count) { return count <= 5 || count % 100 == 0; }
+}  // namespace
+
+void DepthSource::checkSanity(const DepthFrame& frame) {
+  if (counters_.frames > 1 && frame.source_time_s <= last_source_time_s_) {
+    ++counters_.stale_stamps;
+    if (worthLogging(counters_.stale_stamps)) {
+      fw::logWarn("depth", describe() + ": frame " + std::to_string(frame.index) + " is stamped " +
+                               std::to_string(frame.source_time_s) + " s, not after the previous frame's " +
+                               std::to_string(last_source_time_s_) + " s (" + std::to_string(counters_.stale_stamps) +
+                               " so far); the trajectory will not use it");
+    }
+  } else {
+    last_source_time_s_ = frame.source_time_s;
+  }
+  // Searched from the last row up, where the floor usually is: a normal frame stops at once.
+  const bool blank =
+      std::all_of(frame.depth_mm.rbegin(), frame.depth_mm.rend(), [](std::uint16_t d) { return d == 0; });
+  if (blank) {
+    ++counters_.blank;
+    if (worthLogging(counters_.blank)) {
+      fw::logWarn("depth", describe() + ": frame " + std::to_string(frame.index) +
+                               " has no valid depth at all: is the sensor covered or blinded? (" +
+                               std::to_string(counters_.blank) + " such frames so far)");
+    }
+  }
 }
 
 void DepthSource::reportReconnected() {

@@ -106,6 +106,12 @@ std::optional<Eigen::Isometry3d> GroundAligner::fitFloor(const DepthFrame& frame
   T_R_S.linear() = R_S_R.transpose();
   T_R_S.translation() = Eigen::Vector3d(0.0, 0.0, d);  // the sensor is d above the floor
   const SensorPose pose = SensorPose::fromTransform(T_R_S);
+  if (pose.z_m < config_.min_height_m || pose.z_m > config_.max_height_m) {
+    fw::logWarn("ground", "implausible floor in frame " + std::to_string(frame.index) + ": it puts the sensor " +
+                              std::to_string(pose.z_m) + " m up (expected " + std::to_string(config_.min_height_m) +
+                              "-" + std::to_string(config_.max_height_m) + " m); still looking");
+    return std::nullopt;
+  }
   fw::logInfo("ground", "floor found: sensor " + std::to_string(pose.z_m) + " m up, pitch " +
                             std::to_string(pose.pitch_rad * 180.0 / M_PI) + " deg, roll " +
                             std::to_string(pose.roll_rad * 180.0 / M_PI) + " deg (" +

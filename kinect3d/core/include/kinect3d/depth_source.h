@@ -45,10 +45,12 @@ struct SourceOptions {
 };
 
 struct SourceCounters {
-  std::uint64_t frames = 0;      // delivered
-  std::uint64_t dropped = 0;     // gaps in the source's frame indices
-  std::uint64_t skipped = 0;     // unreadable frames reported and skipped
-  std::uint64_t reconnects = 0;  // a live device lost and opened again
+  std::uint64_t frames = 0;        // delivered
+  std::uint64_t dropped = 0;       // gaps in the source's frame indices
+  std::uint64_t skipped = 0;       // unreadable frames reported and skipped
+  std::uint64_t reconnects = 0;    // a live device lost and opened again
+  std::uint64_t stale_stamps = 0;  // frames whose time stamp did not move on (repeated or backwards)
+  std::uint64_t blank = 0;         // frames without one valid pixel (a covered or blinded sensor)
 };
 
 class DepthSource {
@@ -56,7 +58,8 @@ class DepthSource {
   virtual ~DepthSource() = default;
 
   // Fills frame with the next depth image. Checks what every source must deliver (size against
-  // intrinsics), stamps receive time, counts dropped frames. Throws DepthSourceError when the
+  // intrinsics), stamps receive time, counts dropped frames, and reports (counted, logged with the
+  // frame) time stamps that do not move on and frames without any valid depth. Throws DepthSourceError when the
   // source cannot go on.
   ReadResult read(DepthFrame& frame);
 
@@ -81,6 +84,7 @@ class DepthSource {
   // Sleeps until the frame's source time, relative to the first frame, has passed on the wall clock.
   // A frame more than kMaxPacingWait_s off that pace (a time stamp that jumps) restarts the pacing.
   void paceToRealTime(const DepthFrame& frame);
+  void checkSanity(const DepthFrame& frame);
   static constexpr double kMaxPacingWait_s = 1.0;
 
   SourceOptions options_;
@@ -89,6 +93,7 @@ class DepthSource {
   std::uint64_t last_index_ = 0;
   std::uint64_t skipped_since_last_frame_ = 0;
   double first_source_time_s_ = 0.0;
+  double last_source_time_s_ = 0.0;
   double first_wall_time_s_ = 0.0;
 };
 

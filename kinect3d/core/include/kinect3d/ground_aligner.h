@@ -22,6 +22,8 @@ class GroundAligner {
     double max_fit_range_m = 5.0;               // fit on points nearer than this, where depth is precise
     int refit_interval_frames = 30;             // how often the floor fit is checked
     double min_inlier_fraction = 0.1;           // of the sampled points; below it the fit has degraded
+    double min_height_m = 0.2;                  // a floor fit that puts the sensor lower or higher than these
+    double max_height_m = 2.0;                  // is a plane found in noise or clutter: keep looking
   };
 
   explicit GroundAligner(const Config& config);
