@@ -263,26 +263,6 @@ TEST(BallDetector, NoPhantomsOnRealKinectFrames) {
   EXPECT_TRUE(detections.balls.empty());
 }
 
-TEST(BallDetector, FindsTheFloorWhenNoPoseIsConfigured) {
-  const sim::Scene scene = sim::loadScene("hung_4m");
-  DetectorConfig config = shippedDetector(scene);
-  config.ground.pose.reset();
-  kinect3d::BallDetector detector(config, "kinect3d");
-  sim::KinectSimulator simulator(scene);
-  DepthFrame frame;
-  sim::GroundTruth truth;
-  kinect3d::Detections detections;
-  simulator.render(0, frame, truth);
-  detector.detect(frame, detections);
-  ASSERT_TRUE(detector.T_R_S().has_value());
-  const kinect3d::SensorPose found = kinect3d::SensorPose::fromTransform(*detector.T_R_S());
-  EXPECT_NEAR(found.z_m, 0.70, 0.02);
-  EXPECT_NEAR(found.pitch_rad, 0.0, 0.01);
-  EXPECT_NEAR(found.roll_rad, 0.0, 0.01);
-  ASSERT_EQ(detections.balls.size(), 1u);
-  EXPECT_LT((detections.balls[0].position_m - truth.ball_center_R).norm(), 0.03);
-}
-
 TEST(BallDetector, CovarianceGrowsWithRangeAlongTheRay) {
   auto covarianceAt = [](int d) {
     sim::Scene scene = sim::loadScene("hung_" + std::to_string(d) + "m");

@@ -2,6 +2,9 @@
 // awkwardly mounted sensor, and the detector after its camera's intrinsics change.
 #include <gtest/gtest.h>
 
+#include <optional>
+#include <tuple>
+
 #include "framework_api/config.h"
 #include "kinect3d/ball_detector.h"
 #include "kinect3d/config_io.h"
@@ -93,55 +96,69 @@ TEST(BallRefiner, RejectsWhatIsNotBallSized) {
   EXPECT_EQ(too_small.balls, 0);
 }
 
+// The first frame of the hung_4m scene seen from `pose`, through a detector that searches for
+// the floor (no configured pose).
+struct FloorSearch {
+  kinect3d::Detections detections;
+  sim::GroundTruth truth;
+  std::optional<kinect3d::SensorPose> found;  // the pose the floor implies, if one was taken
+};
+
+FloorSearch searchFloor(const kinect3d::SensorPose& pose, double max_height_m = 2.0) {
+  sim::Scene scene = sim::loadScene("hung_4m");
+  scene.duration_s = 0.1;
+  scene.sensor_pose = pose;
+  DetectorConfig config = shippedDetector(scene);
+  config.ground.pose.reset();
+  config.ground.max_height_m = max_height_m;
+  kinect3d::BallDetector detector(config, "kinect3d");
+  sim::KinectSimulator simulator(scene);
+  DepthFrame frame;
+  FloorSearch search;
+  simulator.render(0, frame, search.truth);
+  detector.detect(frame, search.detections);
+  if (detector.T_R_S()) search.found = kinect3d::SensorPose::fromTransform(*detector.T_R_S());
+  return search;
+}
+
+constexpr double kDeg = M_PI / 180.0;
+
+TEST(GroundAligner, FindsTheFloorAndTheBallWhenNoPoseIsConfigured) {
+  const FloorSearch level = searchFloor(kinect3d::SensorPose{0.0, 0.0, 0.7, 0.0, 0.0, 0.0});
+  ASSERT_TRUE(level.found.has_value());
+  EXPECT_NEAR(level.found->z_m, 0.70, 0.02);
+  EXPECT_NEAR(level.found->pitch_rad, 0.0, 0.01);
+  EXPECT_NEAR(level.found->roll_rad, 0.0, 0.01);
+  ASSERT_EQ(level.detections.balls.size(), 1u);
+  EXPECT_LT((level.detections.balls[0].position_m - level.truth.ball_center_R).norm(), 0.03);
+}
+
 TEST(GroundAligner, FindsAPitchedAndRolledSensorOnItsFloor) {
   for (const auto& [pitch_deg, roll_deg, height_m] :
        {std::tuple{12.0, 0.0, 0.7}, std::tuple{-4.0, 6.0, 0.5}, std::tuple{20.0, -8.0, 0.9}}) {
     SCOPED_TRACE("pitch " + std::to_string(pitch_deg) + " roll " + std::to_string(roll_deg));
-    sim::Scene scene = sim::loadScene("hung_4m");
-    scene.duration_s = 0.1;
-    scene.sensor_pose =
-        kinect3d::SensorPose{0.0, 0.0, height_m, 0.0, pitch_deg * M_PI / 180.0, roll_deg * M_PI / 180.0};
-    DetectorConfig config = shippedDetector(scene);
-    config.ground.pose.reset();
-    kinect3d::BallDetector detector(config, "kinect3d");
-    sim::KinectSimulator simulator(scene);
-    DepthFrame frame;
-    sim::GroundTruth truth;
-    kinect3d::Detections detections;
-    simulator.render(0, frame, truth);
-    detector.detect(frame, detections);
-    ASSERT_TRUE(detector.T_R_S().has_value());
-    const kinect3d::SensorPose found = kinect3d::SensorPose::fromTransform(*detector.T_R_S());
-    EXPECT_NEAR(found.z_m, height_m, 0.02);
-    EXPECT_NEAR(found.pitch_rad, scene.sensor_pose.pitch_rad, 0.01);
-    EXPECT_NEAR(found.roll_rad, scene.sensor_pose.roll_rad, 0.01);
+    const FloorSearch tilted =
+        searchFloor(kinect3d::SensorPose{0.0, 0.0, height_m, 0.0, pitch_deg * kDeg, roll_deg * kDeg});
+    ASSERT_TRUE(tilted.found.has_value());
+    EXPECT_NEAR(tilted.found->z_m, height_m, 0.02);
+    EXPECT_NEAR(tilted.found->pitch_rad, pitch_deg * kDeg, 0.01);
+    EXPECT_NEAR(tilted.found->roll_rad, roll_deg * kDeg, 0.01);
   }
 }
 
 TEST(GroundAligner, KeepsLookingWhenTheFloorItFindsIsImplausible) {
   // A sensor 3 m up (a ceiling mount, or a plane fitted in clutter) is outside the plausible
   // heights: no floor is taken, so nothing is detected against a wrong one.
-  sim::Scene scene = sim::loadScene("hung_4m");
-  scene.duration_s = 0.1;
-  scene.sensor_pose = kinect3d::SensorPose{0.0, 0.0, 3.0, 0.0, 35.0 * M_PI / 180.0, 0.0};
-  DetectorConfig config = shippedDetector(scene);
-  config.ground.pose.reset();
-  kinect3d::BallDetector detector(config, "kinect3d");
-  sim::KinectSimulator simulator(scene);
-  DepthFrame frame;
-  sim::GroundTruth truth;
-  kinect3d::Detections detections;
-  simulator.render(0, frame, truth);
-  detector.detect(frame, detections);
-  EXPECT_FALSE(detections.aligned);
-  EXPECT_TRUE(detections.balls.empty());
+  const kinect3d::SensorPose ceiling{0.0, 0.0, 3.0, 0.0, 35.0 * kDeg, 0.0};
+  const FloorSearch refused = searchFloor(ceiling);
+  EXPECT_FALSE(refused.detections.aligned);
+  EXPECT_FALSE(refused.found.has_value());
+  EXPECT_TRUE(refused.detections.balls.empty());
   // With the bounds opened for a ceiling mount, the same floor is taken.
-  config.ground.max_height_m = 4.0;
-  kinect3d::BallDetector ceiling(config, "kinect3d");
-  ceiling.detect(frame, detections);
-  EXPECT_TRUE(detections.aligned);
-  ASSERT_TRUE(ceiling.T_R_S().has_value());
-  EXPECT_NEAR(kinect3d::SensorPose::fromTransform(*ceiling.T_R_S()).z_m, 3.0, 0.05);
+  const FloorSearch allowed = searchFloor(ceiling, 4.0);
+  EXPECT_TRUE(allowed.detections.aligned);
+  ASSERT_TRUE(allowed.found.has_value());
+  EXPECT_NEAR(allowed.found->z_m, 3.0, 0.05);
 }
 
 TEST(BallDetector, FollowsAChangeOfIntrinsics) {

@@ -27,6 +27,18 @@ Intrinsics readIntrinsics(const fw::ConfigView& intrinsics) {
   return result;
 }
 
+namespace {
+// A lower and an upper bound read from one block: the upper must exceed the lower, and the error
+// names both where they were written.
+void requireIncreasing(const fw::ConfigView& block, const std::string& lower_key, double lower,
+                       const std::string& upper_key, double upper) {
+  if (upper > lower) return;
+  throw fw::ConfigError(block.originOf(upper_key) + ": " + block.path() + "." + upper_key + " = " +
+                        std::to_string(upper) + " must exceed " + block.path() + "." + lower_key + " = " +
+                        std::to_string(lower) + " (" + block.originOf(lower_key) + ")");
+}
+}  // namespace
+
 DetectorConfig readDetectorConfig(const fw::ConfigView& kinect3d) {
   DetectorConfig config;
   const fw::ConfigView sensor = kinect3d.child("sensor");
@@ -41,23 +53,14 @@ DetectorConfig readDetectorConfig(const fw::ConfigView& kinect3d) {
   config.ground.min_inlier_fraction = ground.getDouble("min_inlier_fraction", 0.01, 1.0);
   config.ground.min_height_m = ground.getDouble("min_height_m", 0.0, 10.0);
   config.ground.max_height_m = ground.getDouble("max_height_m", 0.0, 10.0);
-  if (config.ground.max_height_m <= config.ground.min_height_m) {
-    throw fw::ConfigError(ground.originOf("max_height_m") +
-                          ": kinect3d.ground.max_height_m must exceed min_height_m (" +
-                          ground.originOf("min_height_m") + ")");
-  }
+  requireIncreasing(ground, "min_height_m", config.ground.min_height_m, "max_height_m", config.ground.max_height_m);
 
   const fw::ConfigView points = kinect3d.child("points");
   config.points.pixel_stride = points.getInt("pixel_stride", 1, 8);
   config.points.edge_tolerance_steps = points.getDouble("edge_tolerance_steps", 0.5, 100.0);
   config.points.min_range_m = points.getDouble("min_range_m", 0.1, 20.0);
   config.points.max_range_m = points.getDouble("max_range_m", 0.1, 20.0);
-  if (config.points.max_range_m <= config.points.min_range_m) {
-    throw fw::ConfigError(points.originOf("max_range_m") +
-                          ": kinect3d.points.max_range_m = " + std::to_string(config.points.max_range_m) +
-                          " must exceed kinect3d.points.min_range_m = " + std::to_string(config.points.min_range_m) +
-                          " (" + points.originOf("min_range_m") + ")");
-  }
+  requireIncreasing(points, "min_range_m", config.points.min_range_m, "max_range_m", config.points.max_range_m);
   config.points.floor_margin_m = points.getDouble("floor_margin_m", 0.0, 0.5);
 
   const fw::ConfigView grid = kinect3d.child("grid");
