@@ -5,6 +5,8 @@
 #include <octomap/OcTree.h>
 
 #include <algorithm>
+#include <optional>
+#include <vector>
 
 #include "framework_api/config.h"
 #include "kinect3d/ball_detector.h"
@@ -139,6 +141,38 @@ TEST(SceneMap, FlagsABallHungInPlaceAsStaticButNeverAFlyingOne) {
     }
   }
   EXPECT_GT(flying, 10);
+}
+
+// Runs the detector over hung_3m (3 s) with the robot's field pose given from frame
+// `pose_from` on; returns which frames flagged the ball static.
+std::vector<bool> staticFlagsWithPoseFrom(int pose_from, const fw::RobotPose& pose) {
+  const kinect3d::sim::Scene hung = kinect3d::sim::loadScene("hung_3m");
+  kinect3d::BallDetector detector(shippedDetector(hung), "kinect3d");
+  kinect3d::sim::KinectSimulator simulator(hung);
+  DepthFrame frame;
+  kinect3d::sim::GroundTruth truth;
+  kinect3d::Detections detections;
+  std::vector<bool> flags;
+  for (int i = 0; i < simulator.frameCount(); ++i) {
+    simulator.render(i, frame, truth);
+    detector.detect(frame, detections, i >= pose_from ? std::optional<Eigen::Isometry3d>(pose.T_F_R()) : std::nullopt);
+    flags.push_back(detections.balls.size() == 1 && detections.balls.front().is_static);
+  }
+  return flags;
+}
+
+TEST(SceneMap, WorksInTheFieldFrameAndStartsAfreshWhenAPoseAppears) {
+  fw::RobotPose turned;  // standing off the centre spot, turned 30 degrees
+  turned.x_m = 1.5;
+  turned.y_m = -2.0;
+  turned.theta_rad = 30.0 * M_PI / 180.0;
+  const std::vector<bool> field = staticFlagsWithPoseFrom(0, turned);
+  EXPECT_TRUE(std::all_of(field.begin() + 75, field.end(), [](bool f) { return f; }))
+      << "the map kept in the field frame flags the hung ball as in the robot frame";
+  // A pose from 1 s on (at the centre spot, so field and robot voxels would coincide): the
+  // robot-frame map is dropped, and 2 s of field-frame rays are not over before the scene ends.
+  const std::vector<bool> late = staticFlagsWithPoseFrom(30, fw::RobotPose{});
+  EXPECT_TRUE(std::none_of(late.begin(), late.end(), [](bool f) { return f; }));
 }
 
 TEST(Trajectory, DoesNotFollowABallInStaticSpaceInTheAir) {

@@ -58,8 +58,9 @@ void BallDetector::detect(const DepthFrame& frame, Detections& out, const std::o
     refiner_ =
         std::make_unique<BallRefiner>(config_.ball, DepthNoiseModel{frame.intrinsics.fx, config_.points.baseline_m});
   }
-  if (!map_ || T_F_R.has_value() != map_in_field_) {
-    map_ = std::make_unique<SceneMap>(config_.map, config_.points.min_range_m, config_.points.max_range_m);
+  if (!map_) map_ = std::make_unique<SceneMap>(config_.map, config_.points.min_range_m, config_.points.max_range_m);
+  if (T_F_R.has_value() != map_in_field_) {
+    map_->clear();  // what it holds is in the other frame
     map_in_field_ = T_F_R.has_value();
   }
   const Eigen::Isometry3d T_M_R = T_F_R.value_or(Eigen::Isometry3d::Identity());
