@@ -101,6 +101,32 @@ TEST_F(TumDir, RealTimePacingDoesNotSleepThroughAJumpInTheTimeStamps) {
   EXPECT_GT(elapsed_s, 0.05) << "still paced in real time around it";
 }
 
+TEST_F(TumDir, RealTimeReadsNeverBlockLongerThanTheirWait) {
+  // Half a second between two frames: the reader is handed back control every 0.1 s meanwhile
+  // (kNoFrameYet), so a plugin's step stays short and a stop is never held up by pacing.
+  write("depth.txt", "0.0 " + kRealTum + "\n0.5 " + kRealTum + "\n");
+  kinect3d::SourceOptions options;
+  options.realtime = true;
+  auto source = kinect3d::DepthSourceTable::core().open("tum:" + dir_.string(), options);
+  DepthFrame frame;
+  int frames = 0, waits = 0;
+  double longest_call_s = 0.0;
+  const auto start = std::chrono::steady_clock::now();
+  for (;;) {
+    const auto call = std::chrono::steady_clock::now();
+    const ReadResult result = source->read(frame);
+    longest_call_s =
+        std::max(longest_call_s, std::chrono::duration<double>(std::chrono::steady_clock::now() - call).count());
+    if (result == ReadResult::kEnd) break;
+    frames += result == ReadResult::kFrame;
+    waits += result == ReadResult::kNoFrameYet;
+  }
+  EXPECT_EQ(frames, 2);
+  EXPECT_GE(waits, 3);
+  EXPECT_LT(longest_call_s, 0.2);
+  EXPECT_GT(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(), 0.45);
+}
+
 TEST_F(TumDir, StaleTimeStampsAndBlankFramesAreCounted) {
   cv::imwrite((dir_ / "covered.png").string(), cv::Mat(480, 640, CV_16UC1, cv::Scalar(0)));
   write("depth.txt", "0.0 " + kRealTum + "\n0.033 covered.png\n0.033 " + kRealTum + "\n0.01 " + kRealTum + "\n0.1 " +

@@ -12,8 +12,22 @@
 namespace kinect3d {
 
 ReadResult DepthSource::read(DepthFrame& frame) {
-  const ReadResult result = readFrame(frame);
-  if (result != ReadResult::kFrame) return result;
+  if (!has_pending_) {
+    const ReadResult result = readFrame(pending_);
+    if (result != ReadResult::kFrame) return result;
+    accept(pending_);
+    has_pending_ = true;
+  }
+  // In real time a frame waits for its moment in slices of at most max_wait_s, so a caller (a
+  // plugin's step) is never blocked longer and can be stopped meanwhile.
+  if (options_.realtime && !dueNow(pending_)) return ReadResult::kNoFrameYet;
+  std::swap(frame, pending_);  // buffers change hands: nothing is allocated once warm
+  has_pending_ = false;
+  frame.receive_time_s = fw::wallClockNow_s();
+  return ReadResult::kFrame;
+}
+
+void DepthSource::accept(const DepthFrame& frame) {
   const std::size_t expected = static_cast<std::size_t>(frame.intrinsics.width) * frame.intrinsics.height;
   if (frame.depth_mm.size() != expected) {
     throw DepthSourceError(describe() + ": frame " + std::to_string(frame.index) + " has " +
@@ -29,17 +43,15 @@ ReadResult DepthSource::read(DepthFrame& frame) {
   last_index_ = frame.index;
   ++counters_.frames;
   checkSanity(frame);
-  if (options_.realtime) paceToRealTime(frame);
-  frame.receive_time_s = fw::wallClockNow_s();
-  return ReadResult::kFrame;
 }
 
-void DepthSource::paceToRealTime(const DepthFrame& frame) {
+bool DepthSource::dueNow(const DepthFrame& frame) {
   const double now_s = fw::wallClockNow_s();
-  if (counters_.frames == 1) {
+  if (!paced_) {
+    paced_ = true;
     first_source_time_s_ = frame.source_time_s;
     first_wall_time_s_ = now_s;
-    return;
+    return true;
   }
   const double wait_s = (frame.source_time_s - first_source_time_s_) - (now_s - first_wall_time_s_);
   if (wait_s > kMaxPacingWait_s || wait_s < -kMaxPacingWait_s) {
@@ -49,9 +61,14 @@ void DepthSource::paceToRealTime(const DepthFrame& frame) {
                              " s off the pace; pacing starts again from it");
     first_source_time_s_ = frame.source_time_s;
     first_wall_time_s_ = now_s;
-    return;
+    return true;
+  }
+  if (wait_s > options_.max_wait_s) {
+    std::this_thread::sleep_for(std::chrono::duration<double>(options_.max_wait_s));
+    return false;
   }
   if (wait_s > 0.0) std::this_thread::sleep_for(std::chrono::duration<double>(wait_s));
+  return true;
 }
 
 namespace {

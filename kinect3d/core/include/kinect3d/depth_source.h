@@ -81,9 +81,12 @@ class DepthSource {
  private:
   virtual ReadResult readFrame(DepthFrame& frame) = 0;
 
-  // Sleeps until the frame's source time, relative to the first frame, has passed on the wall clock.
-  // A frame more than kMaxPacingWait_s off that pace (a time stamp that jumps) restarts the pacing.
-  void paceToRealTime(const DepthFrame& frame);
+  // Size check, dropped-frame and sanity counts for a frame the source delivered.
+  void accept(const DepthFrame& frame);
+  // Real time: whether the frame's source time, relative to the first frame, has passed on the
+  // wall clock, sleeping at most max_wait_s towards it. A frame more than kMaxPacingWait_s off that
+  // pace (a time stamp that jumps) restarts the pacing.
+  bool dueNow(const DepthFrame& frame);
   void checkSanity(const DepthFrame& frame);
   static constexpr double kMaxPacingWait_s = 1.0;
 
@@ -92,6 +95,9 @@ class DepthSource {
   bool has_last_index_ = false;
   std::uint64_t last_index_ = 0;
   std::uint64_t skipped_since_last_frame_ = 0;
+  DepthFrame pending_;  // read from the source, waiting for its moment in real time
+  bool has_pending_ = false;
+  bool paced_ = false;  // the first frame has anchored the pacing
   double first_source_time_s_ = 0.0;
   double last_source_time_s_ = 0.0;
   double first_wall_time_s_ = 0.0;
