@@ -18,7 +18,8 @@ TEST(Kinect3dPlugin, PublishesTheBallToTheWorldState) {
       {"host.plugins=[kinect3d]", "kinect3d.source=sim:hung_3m", "kinect3d.realtime=false"});
   fw::Host host(config, PRODUCT_PLUGIN_DIR);
   host.start();
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+  // A generous bound: the loop ends as soon as the source does (seconds; more under sanitizers).
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(120);
   while (!host.sourcesFinished() && std::chrono::steady_clock::now() < deadline) {
     std::this_thread::sleep_for(std::chrono::milliseconds(10));
   }
