@@ -4,11 +4,14 @@
 
 namespace fw {
 
+namespace {
+// The folder of the running executable.
 std::string executableDir() {
   std::error_code error;
   const std::filesystem::path self = std::filesystem::read_symlink("/proc/self/exe", error);
   return error ? std::string(".") : self.parent_path().string();
 }
+}  // namespace
 
 // The sub-folders come from CMake (the top-level CMakeLists.txt), which also builds and installs there.
 std::string defaultPluginDir() {

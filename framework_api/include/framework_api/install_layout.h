@@ -10,8 +10,6 @@
 
 namespace fw {
 
-// The folder of the running executable.
-std::string executableDir();
 // <prefix>/lib/kinect3d/plugins for the running executable.
 std::string defaultPluginDir();
 // <prefix>/share/kinect3d/config for the running executable.

@@ -179,18 +179,4 @@ void SceneMap::writeBinary(const std::string& path) const {
   }
 }
 
-const char* toString(SceneMap::VoxelState state) {
-  switch (state) {
-    case SceneMap::VoxelState::kUnknown:
-      return "unknown";
-    case SceneMap::VoxelState::kFree:
-      return "free";
-    case SceneMap::VoxelState::kOccupied:
-      return "occupied";
-    case SceneMap::VoxelState::kStatic:
-      return "static";
-  }
-  return "?";
-}
-
 }  // namespace kinect3d

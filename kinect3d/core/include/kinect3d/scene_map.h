@@ -35,7 +35,7 @@ class SceneMap {
 
   // Depths outside [min_range_m, max_range_m] (the sensor's, as the detector uses) cast no ray.
   SceneMap(const Config& config, double min_range_m, double max_range_m);
-  ~SceneMap();  // waits for rays in flight
+  ~SceneMap();  // lets the rays in flight finish
   SceneMap(const SceneMap&) = delete;
   SceneMap& operator=(const SceneMap&) = delete;
 
@@ -66,7 +66,5 @@ class SceneMap {
   int integrations_ = 0;
   double last_integration_s_ = 0.0;
 };
-
-const char* toString(SceneMap::VoxelState state);
 
 }  // namespace kinect3d
