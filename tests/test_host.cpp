@@ -42,8 +42,8 @@ TEST(Host, PluginsExchangeDataThroughWorldState) {
 
   const auto fused = host.world().fusedBall();
   ASSERT_TRUE(fused.has_value()) << "the consumer never republished the producer's ball";
-  EXPECT_TRUE(fused->position_m.isApprox(Eigen::Vector3d(0.5, 3.0, 1.25)));
-  EXPECT_EQ(fused->sources, "tp_producer");
+  EXPECT_TRUE(fused->position_R.isApprox(Eigen::Vector3d(0.5, 3.0, 1.25)));
+  EXPECT_EQ(fused->sources, std::vector<std::string>{"tp_producer"});
 
   const auto summaries = host.summaries();
   ASSERT_EQ(summaries.size(), 3u);

@@ -29,19 +29,19 @@ TEST(WorldState, ConcurrentWritersAndReadersSeeWholeValues) {
   std::thread writer([&] {
     for (int i = 0; i < 20000; ++i) {
       fw::FusedBall ball;
-      ball.position_m = Eigen::Vector3d::Constant(i);  // all three coordinates equal
+      ball.position_F = Eigen::Vector3d::Constant(i);  // all three coordinates equal
       world.publishFusedBall(ball);
     }
   });
   int torn = 0;
   for (int i = 0; i < 20000; ++i) {
     if (const auto ball = world.fusedBall()) {
-      if (ball->position_m.x() != ball->position_m.z()) ++torn;
+      if (ball->position_F.x() != ball->position_F.z()) ++torn;
     }
   }
   writer.join();
   EXPECT_EQ(torn, 0);
-  EXPECT_DOUBLE_EQ(world.fusedBall()->position_m.y(), 19999.0);
+  EXPECT_DOUBLE_EQ(world.fusedBall()->position_F.y(), 19999.0);
 }
 
 TEST(WorldState, HoldsRobotPoseOmniBallsAndTrajectories) {

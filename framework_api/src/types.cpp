@@ -4,6 +4,8 @@
 #include <chrono>
 #include <cmath>
 
+#include <Eigen/Eigenvalues>
+
 namespace fw {
 
 double wallClockNow_s() {
@@ -111,6 +113,11 @@ BallTrajectory BallTrajectory::movedTo(double t_s) const {
   propagate(t_s, moved.position_m, moved.velocity_mps);
   moved.time_s = t_s;
   return moved;
+}
+
+double FusedBall::sigmaHorizontal_m() const {
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> solver(covariance_F.topLeftCorner<2, 2>());
+  return std::sqrt(std::max(0.0, solver.eigenvalues().maxCoeff()));
 }
 
 }  // namespace fw

@@ -46,7 +46,7 @@ void WorldState::publishFusedBall(const FusedBall& ball) {
 
 void WorldState::publishRobotPose(const RobotPose& pose) {
   std::lock_guard<std::mutex> lock(mutex_);
-  robot_pose_ = pose;
+  pushCapped(robot_poses_, pose);
   ++version_;
 }
 
@@ -78,7 +78,13 @@ std::optional<FusedBall> WorldState::fusedBall() const {
 
 std::optional<RobotPose> WorldState::robotPose() const {
   std::lock_guard<std::mutex> lock(mutex_);
-  return robot_pose_;
+  if (robot_poses_.empty()) return std::nullopt;
+  return robot_poses_.front();
+}
+
+std::vector<RobotPose> WorldState::recentRobotPoses() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return {robot_poses_.begin(), robot_poses_.end()};
 }
 
 std::uint64_t WorldState::version() const {

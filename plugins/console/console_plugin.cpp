@@ -1,4 +1,5 @@
-// console: prints what the world state holds, a line per new ball, at a fixed rate. It is how a
+// console: prints what the world state holds (each source's newest ball, its trajectory, and the
+// world's fused ball with the sources behind it), a line per change, at a fixed rate. It is how a
 // person sees what the robot believes, and the visible end of the demo.
 #include <cstdio>
 #include <string>
@@ -30,6 +31,16 @@ std::string describe(const fw::BallTrajectory& trajectory) {
   return result;
 }
 
+// " world: air, field (+1.20, +3.40, +0.95) m, robot (...) m, 5.1 m/s +-0.04 m, from kinect3d+omni".
+std::string describe(const fw::FusedBall& ball) {
+  std::string sources;
+  for (const std::string& source : ball.sources) sources += (sources.empty() ? "" : "+") + source;
+  char text[96];
+  std::snprintf(text, sizeof text, ", %.1f m/s +-%.2f m, from ", ball.velocity_F.norm(), ball.sigmaHorizontal_m());
+  return " world: " + std::string(fw::toString(ball.state)) + ", field " + formatPosition(ball.position_F) +
+         ", robot " + formatPosition(ball.position_R) + text + sources;
+}
+
 class Console : public fw::Plugin {
  public:
   explicit Console(const fw::PluginContext& context)
@@ -49,7 +60,7 @@ class Console : public fw::Plugin {
       if (const auto trajectory = world_.trajectory(source)) line += describe(*trajectory);
     }
     if (const auto fused = world_.fusedBall(); fused && now_s - fused->stamp.receive_time_s <= max_age_s_) {
-      line += " fused: " + std::string(fw::toString(fused->state)) + " " + formatPosition(fused->position_m);
+      line += describe(*fused);
     }
     if (line.empty()) return fw::StepResult::kIdle;
     std::printf("[console] ball%s\n", line.c_str());

@@ -10,10 +10,10 @@ class Consumer : public fw::Plugin {
     const auto balls = world_.recentBalls("tp_producer");
     if (balls.empty()) return fw::StepResult::kIdle;
     fw::FusedBall fused;
-    fused.position_m = balls.front().position_m;
+    fused.position_R = balls.front().position_m;
     fused.state = balls.front().state;
     fused.stamp = balls.front().stamp;
-    fused.sources = "tp_producer";
+    fused.sources = {"tp_producer"};
     world_.publishFusedBall(fused);
     return fw::StepResult::kProcessed;
   }

@@ -9,6 +9,7 @@
 // the file and line (or the --set argument), the dotted key and the expected form.
 #pragma once
 
+#include <cmath>
 #include <map>
 #include <memory>
 #include <stdexcept>
@@ -16,6 +17,9 @@
 #include <vector>
 
 namespace fw {
+
+// YAML keys ending in _deg hold degrees; code works in radians.
+inline double degreesToRadians(double degrees) { return degrees * M_PI / 180.0; }
 
 class ConfigError : public std::runtime_error {
  public:

@@ -6,6 +6,7 @@
 #include <Eigen/Geometry>
 #include <optional>
 #include <string>
+#include <vector>
 
 namespace fw {
 
@@ -128,14 +129,22 @@ struct BallTrajectory {
   void propagate(double t_s, Eigen::Vector3d& p, Eigen::Vector3d& v) const;
 };
 
-// The world model's best ball: one estimate from every source, in the robot frame.
+// The world's ball: one estimate from every source (fusion/), kept in the field frame, where a ball's
+// physics lives, and reported in the robot frame too. stamp.source_time_s is on the reference
+// source's clock (the depth sensor's); other sources' times are corrected onto it.
 struct FusedBall {
-  Eigen::Vector3d position_m = Eigen::Vector3d::Zero();
-  Eigen::Vector3d velocity_mps = Eigen::Vector3d::Zero();
-  Eigen::Matrix3d covariance_m2 = Eigen::Matrix3d::Identity();
+  Eigen::Vector3d position_F = Eigen::Vector3d::Zero();
+  Eigen::Vector3d position_R = Eigen::Vector3d::Zero();  // with the robot pose at the same time
+  Eigen::Vector3d velocity_F = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d covariance_F = Eigen::Matrix3d::Identity();  // of position_F, m^2
   BallState state = BallState::kGround;
+  double air_probability = 0.0;      // of the motion modes, how much the air mode explains the data
+  std::vector<std::string> sources;  // those that supported it during the last second, e.g. {"kinect3d", "omni"}
+  double age_s = 0.0;                // since the last measurement that supported it
   Stamp stamp;
-  std::string sources;  // comma-separated sources that contributed
+
+  // 1-sigma radius of the horizontal position (the larger axis of its error ellipse).
+  double sigmaHorizontal_m() const;
 };
 
 }  // namespace fw

@@ -32,7 +32,8 @@ class WorldState {
   std::vector<std::string> ballSources() const;
   std::optional<BallTrajectory> trajectory(const std::string& source) const;
   std::optional<FusedBall> fusedBall() const;
-  std::optional<RobotPose> robotPose() const;
+  std::optional<RobotPose> robotPose() const;       // the newest
+  std::vector<RobotPose> recentRobotPoses() const;  // newest first, kHistoryPerSource of them
 
   // Increases with every publish; a reader that saw version v has nothing new while it is still v.
   std::uint64_t version() const;
@@ -46,7 +47,7 @@ class WorldState {
   std::map<std::string, std::deque<OmniBallObservation>> omni_balls_;
   std::map<std::string, BallTrajectory> trajectories_;
   std::optional<FusedBall> fused_ball_;
-  std::optional<RobotPose> robot_pose_;
+  std::deque<RobotPose> robot_poses_;
   std::uint64_t version_ = 0;
 };
 

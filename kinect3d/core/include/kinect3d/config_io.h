@@ -13,7 +13,7 @@
 namespace kinect3d {
 
 // Configuration writes angles in degrees; code works in radians.
-inline double degreesToRadians(double degrees) { return degrees * M_PI / 180.0; }
+using fw::degreesToRadians;
 
 // The fixed interface {x, y, z (metres), yaw_deg, pitch_deg, roll_deg}; every key is required.
 SensorPose readSensorPose(const fw::ConfigView& pose);

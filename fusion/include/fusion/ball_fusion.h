@@ -1,0 +1,125 @@
+// The world's one ball, from the Kinect's 3D balls, the omni camera's ground balls and the robot's
+// pose: tracks kept in the field frame (BallFilter), measurements associated by Mahalanobis gates,
+// a track confirmed before it becomes the world's ball and dropped after a time without support,
+// static floaters refused unless a flight led there, the omni's latency against the Kinect learnt
+// from balls both see rolling, and measurements up to max_delay_s late put back in time order.
+//
+// Times: every source's stamps are moved onto the Kinect's clock (the reference) by its configured
+// latency, and the omni's also by the estimated one. The same code runs live (plugins/fusion) and
+// offline (`kinect3d fuse`).
+#pragma once
+
+#include <deque>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "framework_api/types.h"
+#include "fusion/ball_filter.h"
+#include "fusion/fusion_config.h"
+#include "fusion/pose_history.h"
+
+namespace fusion {
+
+// An observation the fusion saw and did not use for the world's ball, and why.
+struct RejectedObservation {
+  std::string source;
+  Eigen::Vector3d position_F = Eigen::Vector3d::Zero();
+  std::string reason;  // "static": in space occupied for seconds, with no flight leading there
+};
+
+// The world after one source frame, at that frame's (corrected) time.
+struct FusionUpdate {
+  double time_s = 0.0;
+  std::optional<fw::FusedBall> ball;
+  std::vector<RejectedObservation> rejected;
+};
+
+// How the omni camera's latency relative to the Kinect is learnt: from omni balls on a track both
+// sensors support, rolling fast enough that a time offset shows as a position offset along the
+// velocity (an offset L moves the omni's ball by -v L).
+class LatencyEstimator {
+ public:
+  static constexpr int kMinExamples = 10;
+  static constexpr std::size_t kWindow = 200;
+
+  // One example: the omni's ground ball minus the track's prediction at the omni's corrected time,
+  // the track's velocity, and the estimate that corrected that time.
+  void add(const Eigen::Vector2d& residual_m, const Eigen::Vector2d& velocity_mps, double applied_s);
+  // The relative latency (seconds the omni's stamps are late beyond its configured latency), once
+  // kMinExamples were seen.
+  std::optional<double> estimate() const;
+  int examples() const { return static_cast<int>(examples_.size()); }
+
+ private:
+  struct Example {
+    double latency_s, weight;
+  };
+  std::deque<Example> examples_;
+};
+
+class BallFusion {
+ public:
+  explicit BallFusion(const FusionConfig& config);
+
+  void addPose(const fw::RobotPose& pose);
+  // One frame of a source: every ball it saw at one time (possibly none), stamps on its own clock.
+  // Each returns the world after that frame (for a late frame, after re-processing those after it).
+  const FusionUpdate& addKinectFrame(double stamp_s, const std::vector<fw::BallObservation>& balls_R);
+  const FusionUpdate& addOmniFrame(double stamp_s, const std::vector<fw::OmniBallObservation>& balls);
+
+  const FusionUpdate& latest() const { return state_.update; }
+  // The omni camera's latency relative to the Kinect, once learnt; and from how many examples.
+  std::optional<double> omniLatency_s() const { return state_.latency.estimate(); }
+  int omniLatencyExamples() const { return state_.latency.examples(); }
+  // Frames that arrived more than max_delay_s behind the newest and were not used.
+  int lateFramesDropped() const { return late_dropped_; }
+
+ private:
+  struct Track {
+    int id = 0;
+    BallFilter filter;
+    int updates = 0;
+    double born_s = 0.0;
+    double last_support_s = 0.0;
+    double last_kinect_s = -1e18;
+    double last_omni_s = -1e18;
+    bool seen_on_ground = false;  // a lamp is only ever seen in the air
+    bool confirmed = false;
+  };
+  struct State {
+    std::vector<Track> tracks;
+    int next_id = 1;
+    int world_id = 0;  // 0: no world ball
+    LatencyEstimator latency;
+    FusionUpdate update;
+  };
+  enum class Source { kKinect, kOmni };
+  struct Frame {
+    Source source;
+    double time_s;              // corrected onto the reference clock
+    double omni_latency_s = 0;  // the estimated omni latency that correction used
+    std::vector<fw::BallObservation> kinect;
+    std::vector<fw::OmniBallObservation> omni;
+  };
+
+  struct Candidate;
+
+  const FusionUpdate& insert(Frame frame);
+  void process(const Frame& frame);
+  std::vector<Candidate> candidatesOf(const Frame& frame, const fw::RobotPose& pose) const;
+  void startTrack(const Candidate& candidate, double t_s);
+  const std::string& nameOf(Source source) const;
+  void maintainTracks(double t_s);
+  std::optional<fw::FusedBall> worldBall(double t_s) const;
+
+  FusionConfig config_;
+  PoseHistory poses_;
+  State state_;
+  // Frames of the last max_delay_s with the state before each, to re-process after a late one.
+  std::deque<std::pair<Frame, State>> recent_;
+  int late_dropped_ = 0;
+};
+
+}  // namespace fusion

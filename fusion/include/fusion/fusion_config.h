@@ -1,0 +1,66 @@
+// What the fusion knows about the ball, the sensors and its own tracking: the `fusion` block of a
+// robot file (config/defaults/fusion.yaml documents every key), as structs with the shipped defaults.
+#pragma once
+
+#include <string>
+
+#include "framework_api/config.h"
+
+namespace fusion {
+
+// The ball's physics and how much the motion models may be wrong.
+struct MotionConfig {
+  double radius_m = 0.11;
+  double drag_per_m = 0.024;             // quadratic air drag rho Cd A / 2m (as fw::BallTrajectory)
+  double rolling_decel_mps2 = 0.4;       // a rolling ball slows by this
+  double restitution = 0.6;              // vertical speed kept at a bounce
+  double bounce_friction = 0.2;          // share of horizontal speed lost at a bounce
+  double air_accel_sigma_mps2 = 2.0;     // unmodelled acceleration in flight (drag and spin unknown)
+  double ground_accel_sigma_mps2 = 1.0;  // on the ground (dribbling, nudges, uneven carpet)
+  double kick_rate_hz = 0.5;             // how often a ball on the ground is expected to be kicked
+  double kick_speed_sigma_mps = 6.0;     // spread of the velocity a kick gives
+};
+
+struct KinectConfig {
+  std::string source = "kinect3d";  // world-state source name of the 3D balls
+  double latency_s = 0.0;           // its stamps are this much later than the capture
+};
+
+struct OmniConfig {
+  std::string source = "omni";
+  double latency_s = 0.0;
+  double viewpoint_height_m = 0.75;       // height of the omni mirror's viewpoint above the floor
+  double bearing_sigma_rad = 0.026;       // when the observation carries none
+  double distance_sigma_m = 0.05;         // at the robot ...
+  double distance_sigma_fraction = 0.05;  // ... growing with distance
+  bool estimate_latency = true;           // learn the omni's latency relative to the Kinect online
+};
+
+struct PoseConfig {
+  double latency_s = 0.0;
+  double sigma_xy_m = 0.03;  // localisation error, added to every measurement mapped by the pose
+  double sigma_theta_rad = 0.017;
+};
+
+struct TrackConfig {
+  double gate_sigma = 4.0;               // a measurement joins a track within this Mahalanobis distance
+  int confirm_updates = 3;               // measurements before a track may become the world's ball
+  double confirm_window_s = 0.5;         // a track not confirmed this long after its start is dropped
+  double lost_after_s = 1.0;             // a track without support this long is dropped
+  double min_flight_speed_mps = 1.0;     // a track born in the air must move this fast (lamps do not)
+  double initial_speed_sigma_mps = 3.0;  // velocity uncertainty of a new track
+};
+
+struct FusionConfig {
+  MotionConfig motion;
+  KinectConfig kinect;
+  OmniConfig omni;
+  PoseConfig pose;
+  TrackConfig track;
+  double max_delay_s = 0.15;  // measurements later than this behind the newest are dropped
+};
+
+// Reads the `fusion` block; throws fw::ConfigError naming file, line and key.
+FusionConfig readFusionConfig(const fw::ConfigView& block);
+
+}  // namespace fusion

@@ -1,0 +1,57 @@
+// The measurement models the fusion uses, in the field frame: what each sensor would report for a
+// ball centre p_F, given where the robot stood when the sensor looked.
+#pragma once
+
+#include "framework_api/types.h"
+#include "fusion/ball_filter.h"
+
+namespace fusion {
+
+// The Kinect's 3D ball: the centre itself. Its covariance (mostly along the viewing ray) is turned
+// into the field frame, plus what the pose's own error does to a point that far from the robot.
+class PositionMeasurement : public MeasurementModel {
+ public:
+  PositionMeasurement(const Eigen::Vector3d& p_R, const Eigen::Matrix3d& covariance_R, const fw::RobotPose& pose,
+                      const PoseConfig& pose_config);
+
+  Eigen::VectorXd predict(const Eigen::Vector3d& p_F) const override { return p_F; }
+  const Eigen::VectorXd& value() const override { return z_; }
+  Eigen::MatrixXd noise(const Eigen::Vector3d&) const override { return R_; }
+
+ private:
+  Eigen::VectorXd z_;
+  Eigen::MatrixXd R_;
+};
+
+// The omni camera's ball: a bearing and a distance on the floor. The camera's ray from its viewpoint
+// (height h above the robot centre) through a centre at height z meets the plane of resting centres
+// (height r) at d (h - r) / (h - z) for a horizontal distance d. On the floor that is d itself; a
+// ball in the air appears farther out along the same bearing, and the model says by how much, so
+// the phantom constrains the ray instead of pulling the ball to the wrong place.
+class OmniMeasurement : public MeasurementModel {
+ public:
+  OmniMeasurement(const fw::OmniBallObservation& observation, const fw::RobotPose& pose, const OmniConfig& omni,
+                  const PoseConfig& pose_config, double ball_radius_m);
+
+  Eigen::VectorXd predict(const Eigen::Vector3d& p_F) const override;
+  const Eigen::VectorXd& value() const override { return z_; }
+  Eigen::MatrixXd noise(const Eigen::Vector3d& p_F) const override;
+  Eigen::VectorXd residual(const Eigen::VectorXd& z, const Eigen::VectorXd& h) const override;
+
+  // Where a ball on the floor would be for this observation, in the field frame (z = radius).
+  Eigen::Vector3d groundBall_F() const;
+
+ private:
+  fw::RobotPose pose_;
+  OmniConfig omni_;
+  PoseConfig pose_config_;
+  double radius_m_;
+  double bearing_sigma_rad_;
+  double distance_sigma_m_;  // 0: from the configured model
+  Eigen::VectorXd z_;
+};
+
+// Wraps an angle into [-pi, pi).
+double wrapAngle(double a_rad);
+
+}  // namespace fusion

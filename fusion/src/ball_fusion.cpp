@@ -1,0 +1,269 @@
+#include "fusion/ball_fusion.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "fusion/measurements.h"
+
+namespace fusion {
+
+namespace {
+// What a track must show before its omni balls teach the latency: the Kinect saw it this recently,
+// it rolls at least this fast, and it is on the ground with at least this probability.
+constexpr double kLatencyKinectWithin_s = 0.1;
+constexpr double kLatencyMinSpeed_mps = 0.5;
+constexpr double kLatencyMinGroundProbability = 0.95;
+constexpr double kLatencyMaxResidual_m = 1.0;  // farther off is a misassociation, not a time offset
+// A source counts as supporting the world's ball if it did within this time.
+constexpr double kSourceRecent_s = 1.0;
+// At most this many tracks at once (the ball, shirts, posters); the oldest unconfirmed goes first.
+constexpr std::size_t kMaxTracks = 8;
+}  // namespace
+
+void LatencyEstimator::add(const Eigen::Vector2d& residual_m, const Eigen::Vector2d& velocity_mps, double applied_s) {
+  // The omni's ball is where the track was L - applied earlier: residual = -v (L - applied).
+  const double speed2 = velocity_mps.squaredNorm();
+  examples_.push_back({applied_s - residual_m.dot(velocity_mps) / speed2, speed2});
+  if (examples_.size() > kWindow) examples_.pop_front();
+}
+
+std::optional<double> LatencyEstimator::estimate() const {
+  if (examples_.size() < static_cast<std::size_t>(kMinExamples)) return std::nullopt;
+  double sum = 0.0, weights = 0.0;
+  for (const Example& e : examples_) {
+    sum += e.weight * e.latency_s;
+    weights += e.weight;
+  }
+  return sum / weights;
+}
+
+// One ball of one frame, ready to associate: its measurement model, where it puts the ball in the
+// field frame (for a new track and for the report of a rejected one) and with what covariance.
+struct BallFusion::Candidate {
+  Source source;
+  std::unique_ptr<MeasurementModel> measurement;
+  Eigen::Vector3d p_F;
+  Eigen::Matrix3d covariance_F;
+  bool in_air = false;
+  bool is_static = false;  // an air ball in space occupied for seconds
+};
+
+BallFusion::BallFusion(const FusionConfig& config) : config_(config) {}
+
+void BallFusion::addPose(const fw::RobotPose& pose) {
+  fw::RobotPose corrected = pose;
+  corrected.stamp.source_time_s -= config_.pose.latency_s;
+  poses_.add(corrected);
+}
+
+const FusionUpdate& BallFusion::addKinectFrame(double stamp_s, const std::vector<fw::BallObservation>& balls_R) {
+  return insert(Frame{Source::kKinect, stamp_s - config_.kinect.latency_s, 0.0, balls_R, {}});
+}
+
+const FusionUpdate& BallFusion::addOmniFrame(double stamp_s, const std::vector<fw::OmniBallObservation>& balls) {
+  const double learnt = config_.omni.estimate_latency ? state_.latency.estimate().value_or(0.0) : 0.0;
+  return insert(Frame{Source::kOmni, stamp_s - config_.omni.latency_s - learnt, learnt, {}, balls});
+}
+
+const FusionUpdate& BallFusion::insert(Frame frame) {
+  const double newest = recent_.empty() ? frame.time_s : recent_.back().first.time_s;
+  if (frame.time_s < newest - config_.max_delay_s) {
+    ++late_dropped_;
+    return state_.update;
+  }
+  // A late frame: back to the state before the first frame after it, then everything again in order.
+  const auto later = std::find_if(recent_.begin(), recent_.end(), [&](const std::pair<Frame, State>& entry) {
+    return entry.first.time_s > frame.time_s;
+  });
+  std::vector<Frame> replay{std::move(frame)};
+  if (later != recent_.end()) {
+    state_ = later->second;
+    for (auto it = later; it != recent_.end(); ++it) replay.push_back(std::move(it->first));
+    recent_.erase(later, recent_.end());
+  }
+  for (Frame& f : replay) {
+    recent_.emplace_back(std::move(f), state_);
+    process(recent_.back().first);
+  }
+  while (recent_.front().first.time_s < recent_.back().first.time_s - config_.max_delay_s) recent_.pop_front();
+  return state_.update;
+}
+
+std::vector<BallFusion::Candidate> BallFusion::candidatesOf(const Frame& frame, const fw::RobotPose& pose) const {
+  std::vector<Candidate> candidates;
+  const double r = config_.motion.radius_m;
+  for (const fw::BallObservation& ball : frame.kinect) {
+    Candidate c{Source::kKinect,
+                std::make_unique<PositionMeasurement>(ball.position_m, ball.covariance_m2, pose, config_.pose),
+                Eigen::Vector3d::Zero(), Eigen::Matrix3d::Identity()};
+    c.p_F = c.measurement->value();
+    c.covariance_F = c.measurement->noise(c.p_F);
+    c.in_air = ball.state == fw::BallState::kAir;
+    c.is_static = ball.is_static && c.in_air;  // a ball lying still for seconds is still the ball
+    candidates.push_back(std::move(c));
+  }
+  for (const fw::OmniBallObservation& ball : frame.omni) {
+    auto omni = std::make_unique<OmniMeasurement>(ball, pose, config_.omni, config_.pose, r);
+    Candidate c{Source::kOmni, nullptr, omni->groundBall_F(), Eigen::Matrix3d::Zero()};
+    // Bearing and distance noise turned into the floor's x, y (the Jacobian of the ground point).
+    const Eigen::MatrixXd R = omni->noise(c.p_F);
+    const double s = std::sin(ball.bearing_rad), co = std::cos(ball.bearing_rad), d = ball.distance_m;
+    Eigen::Matrix2d J;
+    J << -d * co, -s, -d * s, co;
+    const Eigen::Matrix2d turn = Eigen::Rotation2Dd(pose.theta_rad).toRotationMatrix();
+    c.covariance_F.topLeftCorner<2, 2>() = turn * J * R * J.transpose() * turn.transpose();
+    c.measurement = std::move(omni);
+    candidates.push_back(std::move(c));
+  }
+  return candidates;
+}
+
+void BallFusion::process(const Frame& frame) {
+  const double t = frame.time_s;
+  const fw::RobotPose pose = poses_.at(t);
+  State& state = state_;
+  state.update = FusionUpdate{t, std::nullopt, {}};
+  std::vector<Candidate> candidates = candidatesOf(frame, pose);
+
+  // Gate every candidate against every track's branches at t, then pair them nearest first.
+  std::vector<std::vector<Hypothesis>> branches;
+  for (const Track& track : state.tracks) branches.push_back(track.filter.branchesAt(t));
+  struct Pair {
+    double distance;
+    std::size_t candidate, track;
+  };
+  std::vector<Pair> pairs;
+  for (std::size_t c = 0; c < candidates.size(); ++c) {
+    for (std::size_t k = 0; k < state.tracks.size(); ++k) {
+      const Track& track = state.tracks[k];
+      // A static floater only continues a confirmed flight.
+      if (candidates[c].is_static && !(track.confirmed && track.filter.airProbability() > 0.5)) continue;
+      const double d = BallFilter::mahalanobis(branches[k], *candidates[c].measurement);
+      if (d <= config_.track.gate_sigma) pairs.push_back({d, c, k});
+    }
+  }
+  std::sort(pairs.begin(), pairs.end(), [](const Pair& a, const Pair& b) { return a.distance < b.distance; });
+  std::vector<bool> candidate_used(candidates.size(), false), track_used(state.tracks.size(), false);
+  for (const Pair& pair : pairs) {
+    if (candidate_used[pair.candidate] || track_used[pair.track]) continue;
+    candidate_used[pair.candidate] = track_used[pair.track] = true;
+    const Candidate& c = candidates[pair.candidate];
+    Track& track = state.tracks[pair.track];
+    if (c.source == Source::kOmni && track.id == state.world_id && t - track.last_kinect_s < kLatencyKinectWithin_s &&
+        track.filter.airProbability() < 1.0 - kLatencyMinGroundProbability) {
+      BallFilter predicted = track.filter;
+      predicted.predict(t);
+      const Vector6d x = predicted.best().x;
+      const Eigen::Vector2d residual = c.p_F.head<2>() - x.head<2>();
+      if (x.segment<2>(3).norm() >= kLatencyMinSpeed_mps && residual.norm() < kLatencyMaxResidual_m) {
+        state.latency.add(residual, x.segment<2>(3), frame.omni_latency_s);
+      }
+    }
+    track.filter.update(branches[pair.track], t, *c.measurement);
+    ++track.updates;
+    track.last_support_s = t;
+    (c.source == Source::kKinect ? track.last_kinect_s : track.last_omni_s) = t;
+    if (track.filter.best().mode == fw::BallState::kGround) track.seen_on_ground = true;
+  }
+  for (std::size_t c = 0; c < candidates.size(); ++c) {
+    if (candidate_used[c]) continue;
+    if (candidates[c].is_static) {
+      state.update.rejected.push_back({nameOf(candidates[c].source), candidates[c].p_F, "static"});
+      continue;
+    }
+    startTrack(candidates[c], t);
+  }
+  maintainTracks(t);
+  state.update.ball = worldBall(t);
+}
+
+const std::string& BallFusion::nameOf(Source source) const {
+  return source == Source::kKinect ? config_.kinect.source : config_.omni.source;
+}
+
+void BallFusion::startTrack(const Candidate& candidate, double t_s) {
+  if (state_.tracks.size() >= kMaxTracks) {
+    const auto oldest_tentative =
+        std::find_if(state_.tracks.begin(), state_.tracks.end(), [](const Track& track) { return !track.confirmed; });
+    if (oldest_tentative == state_.tracks.end()) return;  // eight confirmed balls: no room for a ninth
+    state_.tracks.erase(oldest_tentative);
+  }
+  Hypothesis h;
+  h.x.head<3>() = candidate.p_F;
+  h.P.setZero();
+  h.P.topLeftCorner<3, 3>() = candidate.covariance_F;
+  h.P.bottomRightCorner<3, 3>() = std::pow(config_.track.initial_speed_sigma_mps, 2) * Eigen::Matrix3d::Identity();
+  std::vector<Hypothesis> hypotheses;
+  if (candidate.in_air) {
+    h.mode = fw::BallState::kAir;
+    hypotheses.push_back(h);
+  } else {
+    // On the floor by its looks; a ball just kicked looks the same for a frame.
+    h.weight = 0.9;
+    hypotheses.push_back(h);
+    h.mode = fw::BallState::kAir;
+    h.weight = 0.1;
+    hypotheses.push_back(h);
+  }
+  Track track{state_.next_id++, BallFilter(config_.motion, t_s, hypotheses)};
+  track.updates = 1;
+  track.born_s = track.last_support_s = t_s;
+  (candidate.source == Source::kKinect ? track.last_kinect_s : track.last_omni_s) = t_s;
+  track.seen_on_ground = !candidate.in_air;
+  state_.tracks.push_back(std::move(track));
+}
+
+void BallFusion::maintainTracks(double t_s) {
+  const TrackConfig& config = config_.track;
+  auto& tracks = state_.tracks;
+  tracks.erase(std::remove_if(tracks.begin(), tracks.end(),
+                              [&](const Track& track) {
+                                return t_s - track.last_support_s > config.lost_after_s ||
+                                       (!track.confirmed && t_s - track.born_s > config.confirm_window_s);
+                              }),
+               tracks.end());
+  for (Track& track : tracks) {
+    if (track.confirmed || track.updates < config.confirm_updates) continue;
+    // Born in the air, a track must fly: its speed, less one sigma, above the minimum.
+    const Hypothesis& best = track.filter.best();
+    const double speed_sigma = std::sqrt(best.P.bottomRightCorner<3, 3>().trace());
+    track.confirmed = track.seen_on_ground || best.x.tail<3>().norm() - speed_sigma > config.min_flight_speed_mps;
+  }
+  const bool world_alive =
+      std::any_of(tracks.begin(), tracks.end(), [&](const Track& track) { return track.id == state_.world_id; });
+  if (world_alive) return;
+  // The world's ball is kept while it lives; then the most recently supported confirmed track.
+  state_.world_id = 0;
+  const Track* chosen = nullptr;
+  for (const Track& track : tracks) {
+    if (!track.confirmed) continue;
+    if (!chosen || track.last_support_s > chosen->last_support_s ||
+        (track.last_support_s == chosen->last_support_s && track.updates > chosen->updates)) {
+      chosen = &track;
+    }
+  }
+  if (chosen) state_.world_id = chosen->id;
+}
+
+std::optional<fw::FusedBall> BallFusion::worldBall(double t_s) const {
+  const auto world = std::find_if(state_.tracks.begin(), state_.tracks.end(),
+                                  [&](const Track& track) { return track.id == state_.world_id; });
+  if (world == state_.tracks.end()) return std::nullopt;
+  BallFilter filter = world->filter;
+  filter.predict(t_s);
+  const Hypothesis& best = filter.best();
+  fw::FusedBall ball;
+  ball.position_F = best.x.head<3>();
+  ball.velocity_F = best.x.tail<3>();
+  ball.covariance_F = best.P.topLeftCorner<3, 3>();
+  ball.position_R = poses_.at(t_s).T_F_R().inverse() * ball.position_F;
+  ball.state = best.mode;
+  ball.air_probability = filter.airProbability();
+  if (t_s - world->last_kinect_s <= kSourceRecent_s) ball.sources.push_back(config_.kinect.source);
+  if (t_s - world->last_omni_s <= kSourceRecent_s) ball.sources.push_back(config_.omni.source);
+  ball.age_s = t_s - world->last_support_s;
+  ball.stamp.source_time_s = t_s;
+  return ball;
+}
+
+}  // namespace fusion

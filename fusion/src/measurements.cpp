@@ -1,0 +1,77 @@
+#include "fusion/measurements.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace fusion {
+
+namespace {
+// Centres closer than this below the viewpoint are out of the camera's view; the model is held
+// there so that a hypothesis that high predicts a phantom far away instead of dividing by zero.
+constexpr double kMinDepthBelowViewpoint_m = 0.1;
+}  // namespace
+
+double wrapAngle(double a_rad) { return a_rad - 2.0 * M_PI * std::floor((a_rad + M_PI) / (2.0 * M_PI)); }
+
+PositionMeasurement::PositionMeasurement(const Eigen::Vector3d& p_R, const Eigen::Matrix3d& covariance_R,
+                                         const fw::RobotPose& pose, const PoseConfig& pose_config) {
+  const Eigen::Isometry3d T_F_R = pose.T_F_R();
+  const Eigen::Matrix3d R_F_R = T_F_R.linear();
+  const Eigen::Vector3d p_F = T_F_R * p_R;
+  z_ = p_F;
+  Eigen::Matrix3d R = R_F_R * covariance_R * R_F_R.transpose();
+  R(0, 0) += pose_config.sigma_xy_m * pose_config.sigma_xy_m;
+  R(1, 1) += pose_config.sigma_xy_m * pose_config.sigma_xy_m;
+  // A heading error turns the point about the robot: d p / d theta.
+  const Eigen::Vector3d d_dtheta(-(p_F.y() - pose.y_m), p_F.x() - pose.x_m, 0.0);
+  R += pose_config.sigma_theta_rad * pose_config.sigma_theta_rad * d_dtheta * d_dtheta.transpose();
+  R_ = R;
+}
+
+OmniMeasurement::OmniMeasurement(const fw::OmniBallObservation& observation, const fw::RobotPose& pose,
+                                 const OmniConfig& omni, const PoseConfig& pose_config, double ball_radius_m)
+    : pose_(pose),
+      omni_(omni),
+      pose_config_(pose_config),
+      radius_m_(ball_radius_m),
+      bearing_sigma_rad_(observation.bearing_sigma_rad > 0.0 ? observation.bearing_sigma_rad : omni.bearing_sigma_rad),
+      distance_sigma_m_(observation.distance_sigma_m),
+      z_(2) {
+  z_ << observation.bearing_rad, observation.distance_m;
+}
+
+Eigen::VectorXd OmniMeasurement::predict(const Eigen::Vector3d& p_F) const {
+  const Eigen::Vector3d p_R = pose_.T_F_R().inverse() * p_F;
+  const double h = omni_.viewpoint_height_m;
+  const double below = std::max(h - p_R.z(), kMinDepthBelowViewpoint_m);
+  Eigen::VectorXd prediction(2);
+  prediction << std::atan2(-p_R.x(), p_R.y()), p_R.head<2>().norm() * (h - radius_m_) / below;
+  return prediction;
+}
+
+Eigen::MatrixXd OmniMeasurement::noise(const Eigen::Vector3d& p_F) const {
+  const double distance = predict(p_F)[1];
+  const double sigma_d =
+      distance_sigma_m_ > 0.0 ? distance_sigma_m_ : omni_.distance_sigma_m + omni_.distance_sigma_fraction * distance;
+  Eigen::MatrixXd R = Eigen::MatrixXd::Zero(2, 2);
+  R(0, 0) = bearing_sigma_rad_ * bearing_sigma_rad_ + pose_config_.sigma_theta_rad * pose_config_.sigma_theta_rad;
+  R(1, 1) = sigma_d * sigma_d + pose_config_.sigma_xy_m * pose_config_.sigma_xy_m;
+  return R;
+}
+
+Eigen::VectorXd OmniMeasurement::residual(const Eigen::VectorXd& z, const Eigen::VectorXd& h) const {
+  Eigen::VectorXd r = z - h;
+  r[0] = wrapAngle(r[0]);
+  return r;
+}
+
+Eigen::Vector3d OmniMeasurement::groundBall_F() const {
+  fw::OmniBallObservation ground;
+  ground.bearing_rad = z_[0];
+  ground.distance_m = z_[1];
+  Eigen::Vector3d p_F = pose_.T_F_R() * ground.groundPoint_R();
+  p_F.z() = radius_m_;
+  return p_F;
+}
+
+}  // namespace fusion

@@ -1,0 +1,49 @@
+#include "fusion/pose_history.h"
+
+#include <algorithm>
+
+#include "fusion/measurements.h"
+
+namespace fusion {
+
+namespace {
+double timeOf(const fw::RobotPose& pose) { return pose.stamp.source_time_s; }
+
+fw::RobotPose blend(const fw::RobotPose& a, const fw::RobotPose& b, double t_s) {
+  const double span = timeOf(b) - timeOf(a);
+  const double w = span > 0.0 ? (t_s - timeOf(a)) / span : 0.0;
+  fw::RobotPose pose = a;
+  pose.x_m = a.x_m + w * (b.x_m - a.x_m);
+  pose.y_m = a.y_m + w * (b.y_m - a.y_m);
+  pose.theta_rad = wrapAngle(a.theta_rad + w * wrapAngle(b.theta_rad - a.theta_rad));
+  pose.stamp.source_time_s = t_s;
+  return pose;
+}
+}  // namespace
+
+void PoseHistory::add(const fw::RobotPose& pose) {
+  const auto later = std::upper_bound(poses_.begin(), poses_.end(), timeOf(pose),
+                                      [](double t, const fw::RobotPose& p) { return t < timeOf(p); });
+  poses_.insert(later, pose);
+  while (timeOf(poses_.front()) < timeOf(poses_.back()) - kKeep_s) poses_.pop_front();
+}
+
+fw::RobotPose PoseHistory::at(double t_s) const {
+  if (poses_.empty()) {
+    fw::RobotPose origin;
+    origin.stamp.source_time_s = t_s;
+    return origin;
+  }
+  if (t_s <= timeOf(poses_.front())) return poses_.front();
+  if (t_s >= timeOf(poses_.back())) {
+    if (poses_.size() < 2) return poses_.back();
+    const fw::RobotPose& a = poses_[poses_.size() - 2];
+    const fw::RobotPose& b = poses_.back();
+    return blend(a, b, std::min(t_s, timeOf(b) + kMaxExtrapolation_s));
+  }
+  const auto after = std::upper_bound(poses_.begin(), poses_.end(), t_s,
+                                      [](double t, const fw::RobotPose& p) { return t < timeOf(p); });
+  return blend(*(after - 1), *after, t_s);
+}
+
+}  // namespace fusion

@@ -1,0 +1,360 @@
+// The fusion on exact and noisy synthetic data: each measurement model, the phantom of a ball in
+// the air, late measurements, a turning robot, a lost and re-acquired ball, a static floater, the
+// mode switches and the omni latency it learns.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <functional>
+#include <random>
+
+#include "fusion/ball_fusion.h"
+#include "fusion/measurements.h"
+
+namespace {
+
+constexpr double kT0 = 1.7e9;  // source clock of the synthetic runs
+constexpr double kRadius = 0.11;
+constexpr double kKinectSigma_m = 0.02;
+
+fw::RobotPose poseAt(double x, double y, double theta, double t) {
+  fw::RobotPose pose{x, y, theta, {}};
+  pose.stamp.source_time_s = t;
+  return pose;
+}
+
+// A true ball: position in the field frame at time t.
+using Truth = std::function<Eigen::Vector3d(double)>;
+
+// The omni camera's exact view of a centre p_F from a robot pose: the ray through the centre
+// meets the plane of resting centres.
+fw::OmniBallObservation omniView(const Eigen::Vector3d& p_F, const fw::RobotPose& pose, double viewpoint_m) {
+  const Eigen::Vector3d p_R = pose.T_F_R().inverse() * p_F;
+  fw::OmniBallObservation omni;
+  omni.bearing_rad = std::atan2(-p_R.x(), p_R.y());
+  omni.distance_m = p_R.head<2>().norm() * (viewpoint_m - kRadius) / (viewpoint_m - p_R.z());
+  omni.source = "omni";
+  return omni;
+}
+
+fw::BallObservation kinectView(const Eigen::Vector3d& p_F, const fw::RobotPose& pose, std::mt19937& random,
+                               double sigma_m = kKinectSigma_m) {
+  std::normal_distribution<double> noise(0.0, sigma_m);
+  const Eigen::Vector3d p_R =
+      pose.T_F_R().inverse() * p_F + Eigen::Vector3d(noise(random), noise(random), noise(random));
+  const fw::BallState state = p_R.z() > kRadius + 0.08 ? fw::BallState::kAir : fw::BallState::kGround;
+  return fw::BallObservation::inRobotFrame(p_R, sigma_m * sigma_m * Eigen::Matrix3d::Identity(), state, "kinect3d", {});
+}
+
+// A lob from the floor: ballistic with the fusion's own drag, then bouncing, then rolling.
+Eigen::Vector3d lobAt(double t, double kick_t, Eigen::Vector3d p0, Eigen::Vector3d v0) {
+  if (t <= kick_t) return p0;
+  fw::BallTrajectory flight;
+  flight.state = fw::BallState::kAir;
+  flight.position_m = p0;
+  flight.velocity_mps = v0;
+  flight.drag_per_m = 0.024;
+  flight.time_s = kick_t;
+  // March to t, reflecting at the floor with restitution 0.6 and 20 % friction.
+  const double step = 0.001;
+  double now = kick_t;
+  while (now + step <= t) {
+    flight = flight.movedTo(now + step);
+    now += step;
+    if (flight.state == fw::BallState::kAir && flight.position_m.z() < kRadius && flight.velocity_mps.z() < 0) {
+      flight.position_m.z() = kRadius;
+      flight.velocity_mps.z() *= -0.6;
+      flight.velocity_mps.head<2>() *= 0.8;
+      if (flight.velocity_mps.z() < 0.5) {
+        flight.velocity_mps.z() = 0.0;
+        flight.state = fw::BallState::kGround;
+        flight.rolling_decel_mps2 = 0.4;
+      }
+    }
+  }
+  return flight.movedTo(t).position_m;
+}
+
+fusion::FusionConfig testConfig() {
+  fusion::FusionConfig config;
+  config.omni.estimate_latency = false;
+  return config;
+}
+
+struct FedRun {
+  std::vector<fusion::FusionUpdate> updates;
+  std::vector<Eigen::Vector3d> truth;  // at each update's time
+};
+
+// Feeds a Kinect at 30 Hz and an omni camera at 30 Hz (half a frame later) watching `truth` from
+// a robot at `pose(t)`, in time order. The Kinect only sees the ball while kinect_sees(t, p).
+FedRun feed(fusion::BallFusion& fusion, const Truth& truth, double duration_s,
+            const std::function<fw::RobotPose(double)>& pose,
+            const std::function<bool(double, const Eigen::Vector3d&)>& kinect_sees, bool with_omni = true,
+            double omni_stamp_late_s = 0.0) {
+  std::mt19937 random(7);
+  FedRun run;
+  for (int i = 0; i * (1.0 / 30) < duration_s; ++i) {
+    const double t = kT0 + i / 30.0;
+    fusion.addPose(pose(t));
+    const Eigen::Vector3d p = truth(t);
+    std::vector<fw::BallObservation> kinect;
+    if (kinect_sees(t, p)) kinect.push_back(kinectView(p, pose(t), random));
+    run.updates.push_back(fusion.addKinectFrame(t, kinect));
+    run.truth.push_back(p);
+    if (!with_omni) continue;
+    const double t_omni = t + 0.5 / 30.0;
+    const Eigen::Vector3d q = truth(t_omni);
+    std::vector<fw::OmniBallObservation> omni;
+    if (q.z() < 0.6) omni.push_back(omniView(q, pose(t_omni), 0.75));
+    fusion.addPose(pose(t_omni));
+    run.updates.push_back(fusion.addOmniFrame(t_omni + omni_stamp_late_s, omni));
+    run.truth.push_back(q);
+  }
+  return run;
+}
+
+auto standingAtOrigin = [](double t) { return poseAt(0.0, 0.0, 0.0, t); };
+auto always = [](double, const Eigen::Vector3d&) { return true; };
+auto never = [](double, const Eigen::Vector3d&) { return false; };
+
+}  // namespace
+
+TEST(FusionMeasurements, KinectPositionIsMovedToTheFieldWithThePoseAndItsCovarianceTurned) {
+  const fw::RobotPose pose = poseAt(1.0, 2.0, M_PI / 2, 0.0);              // facing the field's -x
+  Eigen::Matrix3d cov_R = Eigen::Vector3d(0.01, 0.09, 0.04).asDiagonal();  // long along the robot's y
+  fusion::PoseConfig exact;
+  exact.sigma_xy_m = exact.sigma_theta_rad = 0.0;
+  const fusion::PositionMeasurement m({0.0, 3.0, 0.5}, cov_R, pose, exact);
+  EXPECT_TRUE(m.value().isApprox(Eigen::Vector3d(-2.0, 2.0, 0.5), 1e-12));
+  const Eigen::MatrixXd R = m.noise(m.value());
+  EXPECT_NEAR(R(0, 0), 0.09, 1e-12);  // the robot's y is the field's -x
+  EXPECT_NEAR(R(1, 1), 0.01, 1e-12);
+  EXPECT_NEAR(R(2, 2), 0.04, 1e-12);
+  // The pose's heading error widens the point across its bearing from the robot: 3 m away.
+  fusion::PoseConfig heading;
+  heading.sigma_xy_m = 0.0;
+  heading.sigma_theta_rad = 0.01;
+  const fusion::PositionMeasurement turned({0.0, 3.0, 0.5}, cov_R, pose, heading);
+  EXPECT_NEAR(turned.noise(m.value())(1, 1), 0.01 + 0.03 * 0.03, 1e-12);
+}
+
+TEST(FusionMeasurements, OmniPredictsTheGroundBallAndThePhantomOfABallInTheAir) {
+  const fw::RobotPose pose = poseAt(-1.0, 0.5, 0.3, 0.0);
+  fusion::OmniConfig omni;
+  omni.viewpoint_height_m = 0.75;
+  const fusion::OmniMeasurement m(fw::OmniBallObservation{}, pose, omni, fusion::PoseConfig{}, kRadius);
+  // On the floor: bearing and distance of the ball itself.
+  const Eigen::Vector3d ground_R(-1.0, 2.0, kRadius);
+  const Eigen::VectorXd on_floor = m.predict(pose.T_F_R() * ground_R);
+  EXPECT_NEAR(on_floor[0], std::atan2(1.0, 2.0), 1e-12);
+  EXPECT_NEAR(on_floor[1], std::sqrt(5.0), 1e-12);
+  // 0.43 m up, 2.24 m away: the ray from 0.75 m meets the resting plane twice as far out.
+  const Eigen::Vector3d air_R(-1.0, 2.0, 0.43);
+  const Eigen::VectorXd in_air = m.predict(pose.T_F_R() * air_R);
+  EXPECT_NEAR(in_air[0], on_floor[0], 1e-12);
+  EXPECT_NEAR(in_air[1], std::sqrt(5.0) * (0.75 - kRadius) / (0.75 - 0.43), 1e-12);
+  // Bearings wrap: just either side of the robot's back are 0.02 rad apart, not 2 pi.
+  Eigen::VectorXd a(2), b(2);
+  a << M_PI - 0.01, 1.0;
+  b << -M_PI + 0.01, 1.0;
+  EXPECT_NEAR(m.residual(a, b)[0], -0.02, 1e-12);
+}
+
+TEST(FusionPoseHistory, InterpolatesAcrossTheTurnAndExtrapolatesOnlyALittle) {
+  fusion::PoseHistory poses;
+  EXPECT_TRUE(poses.at(5.0).T_F_R().isApprox(Eigen::Isometry3d::Identity()));
+  poses.add(poseAt(0.0, 0.0, M_PI - 0.1, 1.0));
+  poses.add(poseAt(2.0, 0.0, -M_PI + 0.1, 2.0));  // turned through the back, not the front
+  const fw::RobotPose mid = poses.at(1.5);
+  EXPECT_NEAR(mid.x_m, 1.0, 1e-12);
+  EXPECT_NEAR(std::abs(mid.theta_rad), M_PI, 1e-9);
+  EXPECT_NEAR(poses.at(5.0).x_m, 2.0 + 2.0 * fusion::PoseHistory::kMaxExtrapolation_s, 1e-9);
+  EXPECT_NEAR(poses.at(0.0).x_m, 0.0, 1e-12);
+}
+
+TEST(Fusion, ARollingBallSeenByBothIsConfirmedPublishedAndAccurate) {
+  fusion::BallFusion fusion(testConfig());
+  const Truth rolling = [](double t) { return Eigen::Vector3d(-1.0 + 1.5 * (t - kT0), 3.0, kRadius); };
+  const FedRun run = feed(fusion, rolling, 2.0, standingAtOrigin, always);
+  EXPECT_FALSE(run.updates[0].ball) << "one measurement is not a confirmed ball";
+  ASSERT_TRUE(run.updates.back().ball);
+  const fw::FusedBall& ball = *run.updates.back().ball;
+  EXPECT_LT((ball.position_F - run.truth.back()).norm(), 0.05);
+  EXPECT_LT((ball.velocity_F - Eigen::Vector3d(1.5, 0, 0)).norm(), 0.2);
+  EXPECT_EQ(ball.state, fw::BallState::kGround);
+  EXPECT_EQ(ball.sources, (std::vector<std::string>{"kinect3d", "omni"}));
+  EXPECT_TRUE(ball.position_R.isApprox(ball.position_F, 1e-9)) << "the robot stands at the origin facing +y";
+}
+
+TEST(Fusion, ALobIsFollowedThroughTheAirAndItsOmniPhantomNeverBecomesTheBall) {
+  fusion::BallFusion fusion(testConfig());
+  const Eigen::Vector3d p0(0.2, 2.0, kRadius), v0(0.0, 4.0, 4.5);
+  const Truth lob = [&](double t) { return lobAt(t, kT0 + 0.5, p0, v0); };
+  const FedRun run = feed(fusion, lob, 2.5, standingAtOrigin, always);
+  int air_updates = 0, on_phantom = 0, switched_to_air_after = -1, kick_index = -1;
+  for (std::size_t i = 0; i < run.updates.size(); ++i) {
+    const auto& ball = run.updates[i].ball;
+    const Eigen::Vector3d& truth = run.truth[i];
+    if (truth.z() > kRadius + 0.01 && kick_index < 0) kick_index = static_cast<int>(i);
+    if (!ball) continue;
+    if (truth.z() > 0.3) {
+      ++air_updates;
+      EXPECT_LT((ball->position_F - truth).norm(), 0.10) << "update " << i;
+      // The omni's phantom of this ball lies farther out along the same bearing.
+      const double d = truth.head<2>().norm();
+      const double phantom_d = d * (0.75 - kRadius) / (0.75 - std::min(truth.z(), 0.6));
+      if (std::abs(ball->position_F.head<2>().norm() - phantom_d) < 0.3 && phantom_d - d > 0.5) ++on_phantom;
+    }
+    if (kick_index >= 0 && switched_to_air_after < 0 && ball->state == fw::BallState::kAir) {
+      switched_to_air_after = static_cast<int>(i) - kick_index;
+    }
+  }
+  EXPECT_GT(air_updates, 20);
+  EXPECT_EQ(on_phantom, 0);
+  EXPECT_GE(switched_to_air_after, 0);
+  EXPECT_LE(switched_to_air_after, 4) << "two frames of each sensor";
+  ASSERT_TRUE(run.updates.back().ball);
+  EXPECT_EQ(run.updates.back().ball->state, fw::BallState::kGround) << "rolling again at the end";
+  EXPECT_LT((run.updates.back().ball->position_F - run.truth.back()).norm(), 0.1);
+}
+
+TEST(Fusion, TheOmniAloneFollowsAGroundBallAndKeepsALobOnItsBearing) {
+  fusion::BallFusion fusion(testConfig());
+  const Eigen::Vector3d p0(-2.0, -1.0, kRadius), v0(0.5, -2.0, 0.0);
+  const Truth rolling = [&](double t) { return p0 + v0 * (t - kT0); };
+  const FedRun run = feed(fusion, rolling, 1.5, standingAtOrigin, never);
+  ASSERT_TRUE(run.updates.back().ball);
+  EXPECT_LT((run.updates.back().ball->position_F - run.truth.back()).norm(), 0.15);
+  EXPECT_EQ(run.updates.back().ball->sources, std::vector<std::string>{"omni"});
+}
+
+TEST(Fusion, LateMeasurementsGiveTheSameWorldAsInOrderOnes) {
+  const Eigen::Vector3d p0(0.2, 2.0, kRadius), v0(0.3, 3.0, 3.0);
+  const Truth lob = [&](double t) { return lobAt(t, kT0 + 0.3, p0, v0); };
+  fusion::BallFusion in_order(testConfig());
+  feed(in_order, lob, 1.5, standingAtOrigin, always);
+
+  // The same frames, every omni frame delivered 80 ms late (after the Kinect frames that follow it).
+  fusion::BallFusion late(testConfig());
+  std::mt19937 random(7);
+  std::vector<std::pair<double, std::vector<fw::OmniBallObservation>>> held;
+  for (int i = 0; i * (1.0 / 30) < 1.5; ++i) {
+    const double t = kT0 + i / 30.0;
+    late.addPose(standingAtOrigin(t));
+    std::vector<fw::BallObservation> kinect{kinectView(lob(t), standingAtOrigin(t), random)};
+    late.addKinectFrame(t, kinect);
+    const double t_omni = t + 0.5 / 30.0;
+    std::vector<fw::OmniBallObservation> omni;
+    if (lob(t_omni).z() < 0.6) omni.push_back(omniView(lob(t_omni), standingAtOrigin(t_omni), 0.75));
+    late.addPose(standingAtOrigin(t_omni));
+    held.emplace_back(t_omni, omni);
+    while (!held.empty() && held.front().first < t - 0.08) {
+      late.addOmniFrame(held.front().first, held.front().second);
+      held.erase(held.begin());
+    }
+  }
+  for (const auto& [t, omni] : held) late.addOmniFrame(t, omni);
+  ASSERT_TRUE(in_order.latest().ball);
+  ASSERT_TRUE(late.latest().ball);
+  EXPECT_DOUBLE_EQ(late.latest().time_s, in_order.latest().time_s);
+  EXPECT_TRUE(late.latest().ball->position_F.isApprox(in_order.latest().ball->position_F, 1e-12));
+  EXPECT_EQ(late.lateFramesDropped(), 0);
+  // Beyond max_delay_s a frame is refused and counted, and the world is left as it was.
+  const Eigen::Vector3d before = late.latest().ball->position_F;
+  late.addOmniFrame(late.latest().time_s - 0.5, {omniView({3.0, 3.0, kRadius}, standingAtOrigin(0), 0.75)});
+  EXPECT_EQ(late.lateFramesDropped(), 1);
+  EXPECT_TRUE(late.latest().ball->position_F.isApprox(before, 1e-12));
+}
+
+TEST(Fusion, AStillBallStaysStillInTheFieldWhileTheRobotTurnsAndDrives) {
+  fusion::BallFusion fusion(testConfig());
+  const Truth still = [](double) { return Eigen::Vector3d(1.0, 3.0, kRadius); };
+  // Turning at 1 rad/s while driving at 1 m/s: the ball sweeps across both cameras.
+  const auto driving = [](double t) { return poseAt(0.0, 1.0 * (t - kT0), 0.5 * std::sin(2.0 * (t - kT0)), t); };
+  const auto in_view = [&](double t, const Eigen::Vector3d& p) {
+    const Eigen::Vector3d p_R = driving(t).T_F_R().inverse() * p;
+    return p_R.y() > 0.5 && std::abs(std::atan2(p_R.x(), p_R.y())) < 0.5;
+  };
+  const FedRun run = feed(fusion, still, 2.0, driving, in_view);
+  int checked = 0;
+  for (std::size_t i = 10; i < run.updates.size(); ++i) {
+    const auto& ball = run.updates[i].ball;
+    ASSERT_TRUE(ball) << "update " << i;
+    EXPECT_LT((ball->position_F - still(0)).head<2>().norm(), 0.08) << "update " << i;
+    EXPECT_LT(ball->velocity_F.norm(), 0.5) << "update " << i;
+    // And in the robot frame it is where the robot sees it.
+    EXPECT_LT((ball->position_R - driving(run.updates[i].time_s).T_F_R().inverse() * still(0)).norm(), 0.08);
+    ++checked;
+  }
+  EXPECT_GT(checked, 100);
+}
+
+TEST(Fusion, ALostBallIsDroppedAfterTheConfiguredTimeAndReacquired) {
+  fusion::FusionConfig config = testConfig();
+  config.track.lost_after_s = 0.5;
+  fusion::BallFusion fusion(config);
+  const Truth rolling = [](double t) { return Eigen::Vector3d(0.5, 2.0 + 0.5 * (t - kT0), kRadius); };
+  const auto gap = [](double t, const Eigen::Vector3d&) { return t - kT0 < 1.0 || t - kT0 > 2.0; };
+  const FedRun run = feed(fusion, rolling, 3.0, standingAtOrigin, gap, /*with_omni=*/false);
+  auto at = [&](double since_start) -> const fusion::FusionUpdate& {
+    return run.updates[static_cast<std::size_t>(std::lround(since_start * 30))];
+  };
+  EXPECT_TRUE(at(0.9).ball);
+  EXPECT_TRUE(at(1.0).ball) << "within lost_after_s it is predicted on";
+  // The world only changes with a measurement: the first one after the gap finds the old track gone.
+  EXPECT_FALSE(at(2.0 + 1.0 / 30).ball);
+  EXPECT_TRUE(at(2.0 + 4.0 / 30).ball) << "confirmed again after three measurements";
+  EXPECT_LT((at(2.9).ball->position_F - at(2.9).ball->position_F).norm(), 1e-12);
+  EXPECT_LT((run.updates.back().ball->position_F - run.truth.back()).norm(), 0.05);
+}
+
+TEST(Fusion, AStaticFloaterIsNeverTheBallAndIsReportedAsRejected) {
+  fusion::BallFusion fusion(testConfig());
+  std::mt19937 random(3);
+  const Eigen::Vector3d lamp(0.5, 3.0, 1.6);
+  for (int i = 0; i < 90; ++i) {
+    const double t = kT0 + i / 30.0;
+    fw::BallObservation seen = kinectView(lamp, standingAtOrigin(t), random);
+    seen.is_static = i >= 60;  // the scene map calls it static after two seconds
+    const fusion::FusionUpdate& update = fusion.addKinectFrame(t, {seen});
+    EXPECT_FALSE(update.ball) << "frame " << i;
+    if (i >= 60) {
+      ASSERT_EQ(update.rejected.size(), 1u);
+      EXPECT_EQ(update.rejected[0].reason, "static");
+      EXPECT_EQ(update.rejected[0].source, "kinect3d");
+      EXPECT_LT((update.rejected[0].position_F - lamp).norm(), 0.1);
+    }
+  }
+}
+
+TEST(Fusion, AFalseOrangeObjectDoesNotTakeTheBallAway) {
+  fusion::BallFusion fusion(testConfig());
+  const Truth rolling = [](double t) { return Eigen::Vector3d(0.0, 2.0 + 1.0 * (t - kT0), kRadius); };
+  std::mt19937 random(5);
+  for (int i = 0; i < 60; ++i) {
+    const double t = kT0 + i / 30.0;
+    fusion.addKinectFrame(t, {kinectView(rolling(t), standingAtOrigin(t), random)});
+    std::vector<fw::OmniBallObservation> omni{omniView(rolling(t + 0.01), standingAtOrigin(t), 0.75)};
+    if (i > 20) omni.push_back(omniView({-3.0, -2.0, kRadius}, standingAtOrigin(t), 0.75));  // a shirt
+    const fusion::FusionUpdate& update = fusion.addOmniFrame(t + 0.01, omni);
+    if (i > 5) {
+      ASSERT_TRUE(update.ball);
+      EXPECT_LT((update.ball->position_F - rolling(t + 0.01)).norm(), 0.1) << "frame " << i;
+    }
+  }
+}
+
+TEST(Fusion, LearnsTheOmniLatencyFromABallBothSeeRolling) {
+  fusion::FusionConfig config;  // estimate_latency on, as shipped
+  ASSERT_TRUE(config.omni.estimate_latency);
+  fusion::BallFusion fusion(config);
+  // A ball rolled around the robot: 2 m/s on a 2.5 m circle.
+  const Truth circling = [](double t) {
+    const double a = 0.8 * (t - kT0);
+    return Eigen::Vector3d(2.5 * std::sin(a), 2.5 * std::cos(a), kRadius);
+  };
+  const FedRun run = feed(fusion, circling, 4.0, standingAtOrigin, always, true, /*omni_stamp_late_s=*/0.04);
+  ASSERT_TRUE(fusion.omniLatency_s());
+  EXPECT_GE(fusion.omniLatencyExamples(), fusion::LatencyEstimator::kMinExamples);
+  EXPECT_NEAR(*fusion.omniLatency_s(), 0.04, 0.01);
+}
