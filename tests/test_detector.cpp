@@ -223,6 +223,29 @@ TEST(BallDetector, HungBallMeetsThePaperTable1Targets) {
   }
 }
 
+TEST(BallDetector, SeesAHungBallAtItsFieldPlaceFromADrivingTurningRobot) {
+  sim::Scene scene = sim::loadScene("hung_3m");
+  scene.duration_s = 1.0;
+  // The robot drives 0.5 m sideways while turning at 11 degrees per second, starting turned so the
+  // ball is straight ahead of the sensor at 3 m; it ends 20 degrees to the left.
+  scene.robot.theta_rad = 0.3;
+  scene.robot.x_m = 3.0 * std::sin(0.3);
+  scene.robot.y_m = -3.0 * std::cos(0.3) + 3.0;
+  scene.robot.path_m = {{scene.robot.x_m, scene.robot.y_m}, {scene.robot.x_m + 0.5, scene.robot.y_m}};
+  scene.robot.speed_mps = 0.5;
+  scene.robot.turn_rate_radps = -0.2;
+  const auto frames = sim::runDetectorOnScene(scene, shippedDetector(scene));
+  ASSERT_EQ(frames.size(), 30u);
+  for (const auto& f : frames) {
+    ASSERT_EQ(f.balls.size(), 1u) << "frame " << f.truth.frame_index;
+    EXPECT_LT((f.balls[0].position_m - f.truth.ball_center_R).norm(), 0.06) << "frame " << f.truth.frame_index;
+    const Eigen::Vector3d p_F = f.truth.robot_pose.T_F_R() * f.balls[0].position_m;
+    EXPECT_LT((p_F - Eigen::Vector3d(0.0, 3.0, 1.0)).norm(), 0.06) << "frame " << f.truth.frame_index;
+  }
+  EXPECT_GT((frames.back().truth.ball_center_R - frames.front().truth.ball_center_R).norm(), 0.5)
+      << "the ball moved in the robot frame";
+}
+
 TEST(BallDetector, FindsKicksAndShotsAndNothingElse) {
   sim::DetectionScore total;
   for (const std::string name : {"kick_away", "ground_kick", "shot_goalkeeper", "lob_goalkeeper"}) {

@@ -358,3 +358,48 @@ TEST(Fusion, LearnsTheOmniLatencyFromABallBothSeeRolling) {
   EXPECT_GE(fusion.omniLatencyExamples(), fusion::LatencyEstimator::kMinExamples);
   EXPECT_NEAR(*fusion.omniLatency_s(), 0.04, 0.01);
 }
+
+TEST(FusionConfig, ShippedDefaultsAreTheStructDefaults) {
+  const fw::Config shipped = fw::Config::load(std::string(PROJECT_CONFIG_DIR) + "/defaults", "", {});
+  const fusion::FusionConfig read = fusion::readFusionConfig(shipped.block("fusion"));
+  const fusion::FusionConfig code;
+  EXPECT_EQ(read.max_delay_s, code.max_delay_s);
+  EXPECT_EQ(read.motion.radius_m, code.motion.radius_m);
+  EXPECT_EQ(read.motion.drag_per_m, code.motion.drag_per_m);
+  EXPECT_EQ(read.motion.rolling_decel_mps2, code.motion.rolling_decel_mps2);
+  EXPECT_EQ(read.motion.restitution, code.motion.restitution);
+  EXPECT_EQ(read.motion.bounce_friction, code.motion.bounce_friction);
+  EXPECT_EQ(read.motion.air_accel_sigma_mps2, code.motion.air_accel_sigma_mps2);
+  EXPECT_EQ(read.motion.ground_accel_sigma_mps2, code.motion.ground_accel_sigma_mps2);
+  EXPECT_EQ(read.motion.kick_rate_hz, code.motion.kick_rate_hz);
+  EXPECT_EQ(read.motion.kick_speed_sigma_mps, code.motion.kick_speed_sigma_mps);
+  EXPECT_EQ(read.kinect.source, code.kinect.source);
+  EXPECT_EQ(read.kinect.latency_s, code.kinect.latency_s);
+  EXPECT_EQ(read.omni.source, code.omni.source);
+  EXPECT_EQ(read.omni.latency_s, code.omni.latency_s);
+  EXPECT_EQ(read.omni.viewpoint_height_m, code.omni.viewpoint_height_m);
+  EXPECT_NEAR(read.omni.bearing_sigma_rad, code.omni.bearing_sigma_rad, 1e-4);  // 1.5 degrees
+  EXPECT_EQ(read.omni.distance_sigma_m, code.omni.distance_sigma_m);
+  EXPECT_EQ(read.omni.distance_sigma_fraction, code.omni.distance_sigma_fraction);
+  EXPECT_EQ(read.omni.estimate_latency, code.omni.estimate_latency);
+  EXPECT_EQ(read.pose.latency_s, code.pose.latency_s);
+  EXPECT_EQ(read.pose.sigma_xy_m, code.pose.sigma_xy_m);
+  EXPECT_NEAR(read.pose.sigma_theta_rad, code.pose.sigma_theta_rad, 1e-4);  // 1 degree
+  EXPECT_EQ(read.track.gate_sigma, code.track.gate_sigma);
+  EXPECT_EQ(read.track.confirm_updates, code.track.confirm_updates);
+  EXPECT_EQ(read.track.confirm_window_s, code.track.confirm_window_s);
+  EXPECT_EQ(read.track.lost_after_s, code.track.lost_after_s);
+  EXPECT_EQ(read.track.min_flight_speed_mps, code.track.min_flight_speed_mps);
+  EXPECT_EQ(read.track.initial_speed_sigma_mps, code.track.initial_speed_sigma_mps);
+}
+
+TEST(FusionConfig, AViewpointBelowTheBallIsRefusedWithItsKey) {
+  const fw::Config config = fw::Config::load(std::string(PROJECT_CONFIG_DIR) + "/defaults", "",
+                                             {"fusion.omni.viewpoint_height_m=0.05"});
+  try {
+    fusion::readFusionConfig(config.block("fusion"));
+    FAIL() << "a viewpoint at 5 cm was accepted";
+  } catch (const fw::ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("fusion.omni.viewpoint_height_m"), std::string::npos) << e.what();
+  }
+}

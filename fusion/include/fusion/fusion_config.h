@@ -30,7 +30,7 @@ struct OmniConfig {
   std::string source = "omni";
   double latency_s = 0.0;
   double viewpoint_height_m = 0.75;       // height of the omni mirror's viewpoint above the floor
-  double bearing_sigma_rad = 0.026;       // when the observation carries none
+  double bearing_sigma_rad = 0.0262;     // when the observation carries none
   double distance_sigma_m = 0.05;         // at the robot ...
   double distance_sigma_fraction = 0.05;  // ... growing with distance
   bool estimate_latency = true;           // learn the omni's latency relative to the Kinect online
@@ -39,7 +39,7 @@ struct OmniConfig {
 struct PoseConfig {
   double latency_s = 0.0;
   double sigma_xy_m = 0.03;  // localisation error, added to every measurement mapped by the pose
-  double sigma_theta_rad = 0.017;
+  double sigma_theta_rad = 0.0175;
 };
 
 struct TrackConfig {

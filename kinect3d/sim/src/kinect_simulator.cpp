@@ -144,9 +144,9 @@ struct PlacedShape {
   }
 };
 
-// Distance from a point to a shape's surface (0 inside), in the robot frame.
-double distanceToShape(const Shape& shape, const Eigen::Vector3d& offset_R, const Eigen::Vector3d& p_R) {
-  const Eigen::Vector3d rel = p_R - (shape.center_m + offset_R);
+// Distance from a point to a shape's surface (0 inside), in the field frame.
+double distanceToShape(const Shape& shape, const Eigen::Vector3d& offset_F, const Eigen::Vector3d& p_F) {
+  const Eigen::Vector3d rel = p_F - (shape.center_m + offset_F);
   const Eigen::Vector3d p = Eigen::AngleAxisd(-shape.yaw_rad, Eigen::Vector3d::UnitZ()) * rel;
   switch (shape.kind) {
     case Shape::Kind::kSphere:
@@ -183,7 +183,7 @@ struct KinectSimulator::Renderer {
 
   // The frame being rendered.
   const Scene* scene = nullptr;
-  Eigen::Isometry3d T_R_S = Eigen::Isometry3d::Identity();
+  Eigen::Isometry3d T_F_S = Eigen::Isometry3d::Identity();  // where the sensor is in the field now
   bool jittered = false;
 
   void resize(std::size_t pixels) {
@@ -228,17 +228,17 @@ struct KinectSimulator::Renderer {
   // 1. Geometry: the floor, then every obstacle shape where it stands at time t.
   void castGeometry(double t) {
     const int W = width(), H = height();
-    const Eigen::Matrix3d R_R_S = T_R_S.linear();
-    const Eigen::Vector3d o_R = T_R_S.translation();
+    const Eigen::Matrix3d R_F_S = T_F_S.linear();
+    const Eigen::Vector3d o_F = T_F_S.translation();
     for (int v = 0; v < H; ++v) {
       for (int u = 0; u < W; ++u) {
         const std::size_t i = static_cast<std::size_t>(v) * W + u;
         depth_m[i] = kNoHit;
         id[i] = kIdNone;
         if (!scene->floor) continue;
-        const double down = (R_R_S * ray(u, v)).z();
+        const double down = (R_F_S * ray(u, v)).z();
         if (down < -1e-9) {
-          depth_m[i] = static_cast<float>(-o_R.z() / down);
+          depth_m[i] = static_cast<float>(-o_F.z() / down);
           id[i] = kIdFloor;
         }
       }
@@ -246,10 +246,10 @@ struct KinectSimulator::Renderer {
     placed.clear();
     shape_dropout.assign(1, 0.0);
     for (const SceneObject& object : scene->objects) {
-      const Eigen::Vector3d offset_R = object.displacementAt(t);
+      const Eigen::Vector3d offset_F = object.displacementAt(t);
       for (const Shape& shape : object.shapes) {
-        const Eigen::Matrix3d R_L_R = Eigen::AngleAxisd(-shape.yaw_rad, Eigen::Vector3d::UnitZ()).toRotationMatrix();
-        PlacedShape shape_S{shape.kind, R_L_R * R_R_S, R_L_R * (o_R - shape.center_m - offset_R), shape.size_m / 2.0};
+        const Eigen::Matrix3d R_L_F = Eigen::AngleAxisd(-shape.yaw_rad, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+        PlacedShape shape_S{shape.kind, R_L_F * R_F_S, R_L_F * (o_F - shape.center_m - offset_F), shape.size_m / 2.0};
         if (shape.kind == Shape::Kind::kCylinder) shape_S.half.z() = shape.size_m.z();
         placed.push_back(shape_S);
         shape_dropout.push_back(shape.dropout);
@@ -281,7 +281,7 @@ struct KinectSimulator::Renderer {
     for (int k = 0; k < samples; ++k) {
       const double tk = samples == 1 ? t : t + noise.exposure_s * (double(k) / (samples - 1) - 0.5);
       ball_at[k] =
-          PlacedShape{Shape::Kind::kSphere, Eigen::Matrix3d::Identity(), -(T_R_S.inverse() * motion.positionAt(tk)),
+          PlacedShape{Shape::Kind::kSphere, Eigen::Matrix3d::Identity(), -(T_F_S.inverse() * motion.positionAt(tk)),
                       Eigen::Vector3d::Constant(scene->physics.radius_m)};
       const PixelRect rk = rectOf(ball_at[k].corners_S());
       rect = {std::min(rect.u0, rk.u0), std::min(rect.v0, rk.v0), std::max(rect.u1, rk.u1), std::max(rect.v1, rk.v1)};
@@ -422,7 +422,6 @@ KinectSimulator::KinectSimulator(Scene scene) : scene_(std::move(scene)), render
   }
   renderer_->resize(static_cast<std::size_t>(scene_.intrinsics.width) * scene_.intrinsics.height);
   renderer_->scene = &scene_;
-  renderer_->T_R_S = scene_.sensor_pose.T_R_S();
 }
 
 KinectSimulator::~KinectSimulator() = default;
@@ -431,18 +430,23 @@ GroundTruth KinectSimulator::truthAt(int frame_index, double t) const {
   GroundTruth truth;
   truth.frame_index = static_cast<std::uint64_t>(frame_index);
   truth.time_s = t;
+  truth.robot_pose = scene_.robot.poseAt(t);
+  truth.robot_pose.stamp.source_time_s = scene_.start_time_s + t;
   if (!ball_motion_) return truth;
   const double radius = scene_.physics.radius_m;
   constexpr double kAirborneAbove_m = 0.01;  // above resting height: in the air
   truth.has_ball = true;
-  truth.ball_center_R = ball_motion_->positionAt(t);
-  truth.ball_velocity_R = ball_motion_->velocityAt(t);
-  truth.airborne = truth.ball_center_R.z() > radius + kAirborneAbove_m;
+  truth.ball_center_F = ball_motion_->positionAt(t);
+  truth.ball_velocity_F = ball_motion_->velocityAt(t);
+  const Eigen::Isometry3d T_R_F = truth.robot_pose.T_F_R().inverse();
+  truth.ball_center_R = T_R_F * truth.ball_center_F;
+  truth.ball_velocity_R = T_R_F.linear() * truth.ball_velocity_F;
+  truth.airborne = truth.ball_center_F.z() > radius + kAirborneAbove_m;
   truth.clearance_m = std::numeric_limits<double>::infinity();
   for (const SceneObject& object : scene_.objects) {
     for (const Shape& shape : object.shapes) {
       truth.clearance_m =
-          std::min(truth.clearance_m, distanceToShape(shape, object.displacementAt(t), truth.ball_center_R) - radius);
+          std::min(truth.clearance_m, distanceToShape(shape, object.displacementAt(t), truth.ball_center_F) - radius);
     }
   }
   truth.clearance_m = std::max(0.0, truth.clearance_m);
@@ -454,6 +458,7 @@ void KinectSimulator::render(int frame_index, DepthFrame& frame, GroundTruth& tr
   Random random(scene_.noise.seed, static_cast<std::uint64_t>(frame_index));
   const double t = frame_index / scene_.fps;
   r.jitterRays(random);
+  r.T_F_S = scene_.robot.poseAt(t).T_F_R() * scene_.sensor_pose.T_R_S();
   r.castGeometry(t);
   truth = truthAt(frame_index, t);
   if (ball_motion_) r.castBall(*ball_motion_, t, random);

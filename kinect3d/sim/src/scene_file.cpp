@@ -63,6 +63,46 @@ std::vector<Shape> shapesOf(const fw::ConfigView& object, const std::string& typ
                            "' is unknown; expected box, cylinder, sphere, robot, human or goal");
 }
 
+// Waypoints [[x, y], ...] under key.
+std::vector<Eigen::Vector2d> readPath(const fw::ConfigView& view, const std::string& key) {
+  std::vector<Eigen::Vector2d> path;
+  const std::size_t points = view.listSize(key);
+  for (std::size_t i = 0; i < points; ++i) {
+    const std::vector<double> xy = view.getDoubleList(key + "." + std::to_string(i), 2);
+    path.emplace_back(xy[0], xy[1]);
+  }
+  return path;
+}
+
+CarrierRobot readCarrier(const fw::ConfigView& robot) {
+  robot.requireOnlyKeys({"pose", "path", "speed_mps", "turn_rate_deg_s"});
+  CarrierRobot carrier;
+  if (robot.has("pose")) {
+    const fw::ConfigView pose = robot.child("pose");
+    pose.requireOnlyKeys({"x", "y", "theta_deg"});
+    carrier.x_m = pose.getDouble("x", -20.0, 20.0);
+    carrier.y_m = pose.getDouble("y", -20.0, 20.0);
+    carrier.theta_rad = degreesToRadians(pose.getDouble("theta_deg", -360.0, 360.0));
+  }
+  if (robot.has("path")) {
+    carrier.path_m = readPath(robot, "path");
+    carrier.speed_mps = robot.getDouble("speed_mps", 0.0, 10.0);
+    if (!robot.has("pose") && !carrier.path_m.empty()) {
+      carrier.x_m = carrier.path_m.front().x();
+      carrier.y_m = carrier.path_m.front().y();
+    }
+    const Eigen::Vector2d start(carrier.x_m, carrier.y_m);
+    if (!carrier.path_m.empty() && (carrier.path_m.front() - start).norm() > 1e-6) {
+      throw fw::ConfigError(robot.originOf("path") + ": " + robot.path() +
+                            ".path must start where robot.pose stands (a path walks from its first waypoint)");
+    }
+  }
+  if (robot.has("turn_rate_deg_s")) {
+    carrier.turn_rate_radps = degreesToRadians(robot.getDouble("turn_rate_deg_s", -720.0, 720.0));
+  }
+  return carrier;
+}
+
 SceneObject readObject(const fw::ConfigView& object) {
   object.requireOnlyKeys({"type", "center", "size", "radius", "height", "yaw_deg", "dropout", "path", "speed_mps"});
   SceneObject result;
@@ -70,11 +110,7 @@ SceneObject readObject(const fw::ConfigView& object) {
   result.shapes = shapesOf(object, result.type);
   if (object.has("path")) {
     // Waypoints [[x, y], ...]; the object walks them back and forth, starting at the first.
-    const std::size_t points = object.listSize("path");
-    for (std::size_t i = 0; i < points; ++i) {
-      const std::vector<double> xy = object.getDoubleList("path." + std::to_string(i), 2);
-      result.path_m.emplace_back(xy[0], xy[1]);
-    }
+    result.path_m = readPath(object, "path");
     result.speed_mps = object.getDouble("speed_mps", 0.0, 15.0);
   }
   return result;
@@ -102,13 +138,14 @@ KinectNoise readNoise(const fw::ConfigView& view) {
 }
 
 Scene readScene(const fw::ConfigView& root) {
-  root.requireOnlyKeys({"name", "description", "duration_s", "fps", "start_time_s", "sensor", "noise", "floor",
+  root.requireOnlyKeys({"name", "description", "duration_s", "fps", "start_time_s", "robot", "sensor", "noise", "floor",
                         "objects", "ball", "physics"});
   Scene scene;
   scene.name = root.getString("name");
   scene.duration_s = root.getDouble("duration_s", 0.0, 3600.0);
   readOptional(root, "fps", scene.fps, 1.0, 120.0);
   readOptional(root, "start_time_s", scene.start_time_s, 0.0, 1e10);
+  if (root.has("robot")) scene.robot = readCarrier(root.child("robot"));
   const fw::ConfigView sensor = root.child("sensor");
   sensor.requireOnlyKeys({"pose_in_robot", "intrinsics"});
   scene.sensor_pose = readSensorPose(sensor.child("pose_in_robot"));
@@ -152,11 +189,11 @@ Scene readScene(const fw::ConfigView& root) {
 
 int Scene::frameCount() const { return static_cast<int>(std::lround(duration_s * fps)); }
 
-Eigen::Vector3d SceneObject::displacementAt(double t_s) const {
-  if (path_m.size() < 2 || speed_mps <= 0.0) return Eigen::Vector3d::Zero();
+Eigen::Vector2d walkPath(const std::vector<Eigen::Vector2d>& path_m, double speed_mps, double t_s) {
+  if (path_m.size() < 2 || speed_mps <= 0.0) return Eigen::Vector2d::Zero();
   double length = 0.0;
   for (std::size_t i = 1; i < path_m.size(); ++i) length += (path_m[i] - path_m[i - 1]).norm();
-  if (length <= 0.0) return Eigen::Vector3d::Zero();
+  if (length <= 0.0) return Eigen::Vector2d::Zero();
   // Walk the path to its end and back again, forever.
   double s = std::fmod(speed_mps * t_s, 2.0 * length);
   if (s > length) s = 2.0 * length - s;
@@ -164,11 +201,25 @@ Eigen::Vector3d SceneObject::displacementAt(double t_s) const {
     const double leg = (path_m[i] - path_m[i - 1]).norm();
     if (s <= leg || i + 1 == path_m.size()) {
       const Eigen::Vector2d p = path_m[i - 1] + (leg > 0 ? std::min(s / leg, 1.0) : 0.0) * (path_m[i] - path_m[i - 1]);
-      return {p.x() - path_m.front().x(), p.y() - path_m.front().y(), 0.0};
+      return p - path_m.front();
     }
     s -= leg;
   }
-  return Eigen::Vector3d::Zero();
+  return Eigen::Vector2d::Zero();
+}
+
+Eigen::Vector3d SceneObject::displacementAt(double t_s) const {
+  const Eigen::Vector2d offset = walkPath(path_m, speed_mps, t_s);
+  return {offset.x(), offset.y(), 0.0};
+}
+
+fw::RobotPose CarrierRobot::poseAt(double t_s) const {
+  const Eigen::Vector2d offset = walkPath(path_m, speed_mps, t_s);
+  fw::RobotPose pose;
+  pose.x_m = x_m + offset.x();
+  pose.y_m = y_m + offset.y();
+  pose.theta_rad = std::remainder(theta_rad + turn_rate_radps * t_s, 2.0 * M_PI);
+  return pose;
 }
 
 Scene loadScene(const std::string& name_or_path) {

@@ -16,11 +16,14 @@ namespace kinect3d::sim {
 // What was really there when a frame was taken.
 struct GroundTruth {
   std::uint64_t frame_index = 0;
-  double time_s = 0.0;  // scene time (0 at the first frame); the frame carries the source time
+  double time_s = 0.0;       // scene time (0 at the first frame); the frame carries the source time
+  fw::RobotPose robot_pose;  // of the robot carrying the sensor, stamped with the frame's source time
   bool has_ball = false;
-  Eigen::Vector3d ball_center_R = Eigen::Vector3d::Zero();
-  Eigen::Vector3d ball_velocity_R = Eigen::Vector3d::Zero();
-  bool airborne = false;     // centre more than 1 cm above resting height
+  Eigen::Vector3d ball_center_F = Eigen::Vector3d::Zero();
+  Eigen::Vector3d ball_velocity_F = Eigen::Vector3d::Zero();
+  Eigen::Vector3d ball_center_R = Eigen::Vector3d::Zero();    // in the carrying robot's frame
+  Eigen::Vector3d ball_velocity_R = Eigen::Vector3d::Zero();  // the field velocity in its axes
+  bool airborne = false;                                      // centre more than 1 cm above resting height
   int visible_pixels = 0;    // pixels that show the ball (fully covered, with valid depth)
   double clearance_m = 0.0;  // from the ball's surface to the nearest obstacle (floor excluded)
 };

@@ -1,5 +1,7 @@
-// A simulated scene: the floor, static and moving obstacles, the ball and the sensor, all in the
-// robot frame of the robot that carries the sensor (x right, y forward, z up, floor z = 0).
+// A simulated scene: the floor, static and moving obstacles and the ball in the field frame (origin
+// at the centre spot, y towards the opponent goal, z up, floor z = 0), and the robot that carries
+// the sensors, which may drive and turn. By default that robot stands at the origin facing +y, so
+// the field and robot frames coincide.
 // Scene files are YAML (docs/simulator.md); built-in scenes are such files compiled in.
 #pragma once
 
@@ -9,6 +11,7 @@
 
 #include <Eigen/Core>
 
+#include "framework_api/types.h"
 #include "kinect3d/depth_frame.h"
 #include "kinect3d/sensor_pose.h"
 #include "kinect3d/sim/kinect_noise.h"
@@ -36,6 +39,22 @@ struct SceneObject {
   Eigen::Vector3d displacementAt(double t_s) const;
 };
 
+// Walks waypoints [x, y] back and forth from the first at a constant speed; the offset from the
+// first waypoint at time t.
+Eigen::Vector2d walkPath(const std::vector<Eigen::Vector2d>& path_m, double speed_mps, double t_s);
+
+// The robot carrying the sensors: its pose in the field at t = 0, a path it drives (its centre
+// walks the waypoints like an obstacle) and a constant turn rate.
+struct CarrierRobot {
+  double x_m = 0.0, y_m = 0.0, theta_rad = 0.0;
+  std::vector<Eigen::Vector2d> path_m;  // waypoints in the field frame; the first is (x_m, y_m)
+  double speed_mps = 0.0;
+  double turn_rate_radps = 0.0;
+
+  // Its pose at scene time t (stamp.source_time_s left for the caller).
+  fw::RobotPose poseAt(double t_s) const;
+};
+
 struct BallPhysics {
   double radius_m = 0.11;  // FIFA size 5
   double gravity_mps2 = 9.81;
@@ -57,7 +76,8 @@ struct Scene {
   double duration_s = 2.0;
   double fps = 30.0;
   double start_time_s = 1.7e9;  // source clock of frame 0
-  SensorPose sensor_pose;
+  SensorPose sensor_pose;       // on the carrying robot
+  CarrierRobot robot;
   Intrinsics intrinsics;
   KinectNoise noise;
   bool floor = true;
