@@ -19,14 +19,18 @@
 #include "framework_api/config.h"
 #include "framework_api/install_layout.h"
 #include "framework_api/log.h"
+#include "fusion/json_lines.h"
+#include "fusion_report.h"
 #include "kinect3d/ball_detector.h"
 #include "kinect3d/config_io.h"
 #include "kinect3d/depth_source.h"
 #include "kinect3d/sim/accuracy_report.h"
+#include "kinect3d/sim/field_sensors.h"
 #include "kinect3d/sim/sequence_writer.h"
 #include "kinect3d/sim/sim_sources.h"
 #include "kinect3d/sim/trajectory_report.h"
 #include "kinect3d/trajectory.h"
+#include "offline_fusion.h"
 
 namespace {
 
@@ -236,13 +240,49 @@ struct ConfigOptions {
   fw::Config load() const { return fw::Config::load(defaults_dir, robot_file, overrides); }
 };
 
+void runFuse(const std::string& depth_uri, const std::string& omni_file, const std::string& pose_file,
+             const fw::Config& config, const std::string& output) {
+  const kinect3d::FusionRun run = kinect3d::fuseFiles(config, depth_uri, omni_file, pose_file);
+  fusion::writeFusedFile(output, run.updates);
+  const auto with_ball = std::count_if(run.updates.begin(), run.updates.end(),
+                                       [](const fusion::FusionUpdate& update) { return update.ball.has_value(); });
+  std::string latency = "not learnt";
+  if (run.omni_latency_s) latency = std::to_string(std::lround(1000 * *run.omni_latency_s)) + " ms";
+  fw::logInfo("fuse", std::to_string(run.updates.size()) + " updates, " + std::to_string(with_ball) +
+                          " with a ball; omni latency behind the Kinect " + latency + " (from " +
+                          std::to_string(run.latency_examples) + " examples)");
+}
+
+void addFuse(CLI::App& app) {
+  struct Options {
+    std::string depth, omni, pose, output;
+    ConfigOptions config;
+  };
+  auto options = std::make_shared<Options>();
+  CLI::App* command = app.add_subcommand(
+      "fuse", "Detection and fusion offline, in source-time order: one JSON line per fused update (docs/fusion.md)");
+  command->add_option("--depth", options->depth, "Depth source URI (none: the omni camera alone)");
+  command->add_option("--omni", options->omni, "Omni camera balls, JSON lines")->check(CLI::ExistingFile);
+  command->add_option("--pose", options->pose, "Robot poses, JSON lines (none: at the field origin facing +y)")
+      ->check(CLI::ExistingFile);
+  command->add_option("--output", options->output, "Fused balls, JSON lines")->required();
+  options->config.addTo(command);
+  command->callback([options] {
+    if (options->depth.empty() && options->omni.empty()) {
+      throw CLI::ValidationError("fuse", "give --depth, --omni or both");
+    }
+    runFuse(options->depth, options->omni, options->pose, options->config.load(), options->output);
+  });
+}
+
 void addSimulate(CLI::App& app) {
   struct Options {
     std::string scene, out_dir, format = "tum";
     int frames = 0, seed = -1;
   };
   auto options = std::make_shared<Options>();
-  CLI::App* command = app.add_subcommand("simulate", "Render a simulated scene to a sequence on disk");
+  CLI::App* command = app.add_subcommand(
+      "simulate", "Render a simulated scene to a sequence on disk, with the omni camera's and localisation's files");
   command->add_option("scene", options->scene, "Built-in scene name or scene file (.yaml)")->required();
   command->add_option("--out", options->out_dir, "Output folder")->required();
   command->add_option("--format", options->format, "Sequence format")
@@ -254,6 +294,12 @@ void addSimulate(CLI::App& app) {
   command->callback([options] {
     kinect3d::sim::writeSimulatedSequence(options->scene, options->out_dir, options->format, options->frames,
                                           options->seed);
+    kinect3d::sim::Scene scene = kinect3d::sim::loadScene(options->scene);
+    kinect3d::sim::OmniCameraModel omni;
+    kinect3d::sim::LocalisationModel localisation;
+    if (options->seed >= 0) omni.seed = localisation.seed = static_cast<std::uint64_t>(options->seed);
+    if (options->frames > 0) scene.duration_s = options->frames / scene.fps;
+    kinect3d::writeFieldSensorFiles(scene, omni, localisation, options->out_dir);
   });
 }
 
@@ -312,7 +358,7 @@ void addDetect(CLI::App& app) {
 
 void addReport(CLI::App& app) {
   struct Options {
-    std::string kind, out;
+    std::string kind, out, keep;
     kinect3d::ReportOptions report;
     ConfigOptions config;
   };
@@ -320,21 +366,26 @@ void addReport(CLI::App& app) {
   options->report.real_depth_dir = KINECT3D_REAL_DEPTH_DIR;
   CLI::App* command =
       app.add_subcommand("report", "Measure detection accuracy or trajectory prediction on simulated scenes");
-  command->add_option("kind", options->kind, "detection (docs/accuracy.md) or trajectory (docs/trajectory.md)")
+  command
+      ->add_option("kind", options->kind,
+                   "detection (docs/accuracy.md), trajectory (docs/trajectory.md) or fusion (docs/fusion-report.md)")
       ->required()
-      ->check(CLI::IsMember({"detection", "trajectory"}));
+      ->check(CLI::IsMember({"detection", "trajectory", "fusion"}));
   command->add_option("--out", options->out, "Markdown file to write, e.g. docs/accuracy.md")->required();
-  command->add_option("--seeds", options->report.seeds, "detection: noise seeds per kick/shot scene")
+  command->add_option("--seeds", options->report.seeds, "detection and fusion: noise seeds per scene")
       ->capture_default_str();
   command->add_option("--clutter-frames", options->report.clutter_frames, "detection: frames of the clutter scene")
       ->capture_default_str();
   command->add_option("--real-depth", options->report.real_depth_dir, "detection: folder of the real Kinect frames")
       ->capture_default_str();
+  command->add_option("--keep", options->keep, "fusion: keep every case's input files and fused output here");
   options->config.addTo(command, /*with_robot_file=*/false);
   command->callback([options] {
     const fw::Config config = options->config.load();
     if (options->kind == "trajectory") {
       kinect3d::writeTrajectoryReport(config, options->out);
+    } else if (options->kind == "fusion") {
+      kinect3d::writeFusionReport(config, options->report.seeds, options->out, options->keep);
     } else {
       kinect3d::writeAccuracyReport(config, options->report, options->out);
     }
@@ -352,6 +403,7 @@ int main(int argc, char** argv) {
   addInfo(app);
   addSnapshot(app);
   addDetect(app);
+  addFuse(app);
   addReport(app);
   try {
     app.parse(argc, argv);

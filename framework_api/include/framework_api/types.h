@@ -86,6 +86,12 @@ struct OmniBallObservation {
   Eigen::Vector3d groundPoint_R() const;
 };
 
+// One image of the omni camera: every ball it saw (none, the ball, orange shirts), one stamp.
+struct OmniFrame {
+  Stamp stamp;
+  std::vector<OmniBallObservation> balls;
+};
+
 // Where a ball in flight will land: the centre's ground point when its height comes down to
 // the ball's radius, in the robot frame, with a 1-sigma radius from the fit's uncertainty.
 struct Touchdown {

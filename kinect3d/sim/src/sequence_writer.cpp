@@ -60,9 +60,13 @@ void TumSequenceWriter::write(const DepthFrame& frame) {
 void writeTruthJson(const std::string& path, const Scene& scene, const std::vector<GroundTruth>& truth) {
   nlohmann::json frames = nlohmann::json::array();
   for (const GroundTruth& t : truth) {
-    nlohmann::json entry{{"frame", t.frame_index}, {"t", scene.start_time_s + t.time_s}, {"has_ball", t.has_ball}};
+    nlohmann::json entry{{"frame", t.frame_index},
+                         {"t", scene.start_time_s + t.time_s},
+                         {"robot_pose", {t.robot_pose.x_m, t.robot_pose.y_m, t.robot_pose.theta_rad}},
+                         {"has_ball", t.has_ball}};
     if (t.has_ball) {
       entry["ball"] = {t.ball_center_R.x(), t.ball_center_R.y(), t.ball_center_R.z()};
+      entry["ball_field"] = {t.ball_center_F.x(), t.ball_center_F.y(), t.ball_center_F.z()};
       entry["velocity"] = {t.ball_velocity_R.x(), t.ball_velocity_R.y(), t.ball_velocity_R.z()};
       entry["state"] = t.airborne ? "air" : "ground";
       entry["visible_pixels"] = t.visible_pixels;
@@ -80,29 +84,39 @@ void writeTruthJson(const std::string& path, const Scene& scene, const std::vect
   if (!out) throw std::runtime_error("cannot write '" + path + "'");
 }
 
-void writeSimulatedSequence(const std::string& scene_name, const std::string& out_dir, const std::string& format,
-                            int frames, int seed) {
-  Scene scene = loadScene(scene_name);
-  if (seed >= 0) scene.noise.seed = static_cast<std::uint64_t>(seed);
-  if (frames > 0) scene.duration_s = frames / scene.fps;
+namespace {
+// Renders every frame; writes them as a TUM sequence when with_depth; writes truth.json either way.
+void renderToDisk(const Scene& scene, const std::string& out_dir, bool with_depth) {
   KinectSimulator simulator(scene);
   std::vector<GroundTruth> truth(simulator.frameCount());
   DepthFrame frame;
   std::unique_ptr<TumSequenceWriter> writer;
-  if (format == "tum") writer = std::make_unique<TumSequenceWriter>(out_dir);
+  if (with_depth) writer = std::make_unique<TumSequenceWriter>(out_dir);
   fs::create_directories(out_dir);
   for (int i = 0; i < simulator.frameCount(); ++i) {
     simulator.render(i, frame, truth[i]);
     if (writer) writer->write(frame);
   }
+  writeTruthJson(out_dir + "/truth.json", scene, truth);
+}
+}  // namespace
+
+void writeTumSequence(const Scene& scene, const std::string& out_dir) { renderToDisk(scene, out_dir, true); }
+
+void writeSimulatedSequence(const std::string& scene_name, const std::string& out_dir, const std::string& format,
+                            int frames, int seed) {
+  Scene scene = loadScene(scene_name);
+  if (seed >= 0) scene.noise.seed = static_cast<std::uint64_t>(seed);
+  if (frames > 0) scene.duration_s = frames / scene.fps;
+  renderToDisk(scene, out_dir, format == "tum");
   if (format == "oni") {
     // The device plays in real time; allow the scene's length and a margin for OpenNI2's start-up.
     constexpr double kStartupMargin_s = 10.0;
-    recordOni(simulatedDeviceUri(scene_name, simulator.frameCount(), seed), out_dir + "/" + scene.name + ".oni",
-              simulator.frameCount(), scene.duration_s + kStartupMargin_s);
+    recordOni(simulatedDeviceUri(scene_name, scene.frameCount(), seed), out_dir + "/" + scene.name + ".oni",
+              scene.frameCount(), scene.duration_s + kStartupMargin_s);
   }
-  writeTruthJson(out_dir + "/truth.json", scene, truth);
-  fw::logInfo("simulate", "wrote " + std::to_string(truth.size()) + " frames of '" + scene.name + "' to " + out_dir);
+  fw::logInfo("simulate",
+              "wrote " + std::to_string(scene.frameCount()) + " frames of '" + scene.name + "' to " + out_dir);
 }
 
 }  // namespace kinect3d::sim

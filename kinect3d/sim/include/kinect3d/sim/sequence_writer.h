@@ -24,6 +24,9 @@ class TumSequenceWriter {
 // truth.json: the scene name and one object per frame (see docs/simulator.md).
 void writeTruthJson(const std::string& path, const Scene& scene, const std::vector<GroundTruth>& truth);
 
+// A scene (as loaded, or changed in code) rendered to out_dir as a TUM sequence with truth.json.
+void writeTumSequence(const Scene& scene, const std::string& out_dir);
+
 // `kinect3d simulate`: the scene (built-in name or file) written to out_dir as a TUM sequence
 // (format "tum", frames rendered directly) or as an .oni recording (format "oni", frames served by
 // the simulated OpenNI2 device and recorded by OpenNI2's Recorder in real time), with truth.json

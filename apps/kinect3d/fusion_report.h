@@ -1,0 +1,14 @@
+// `kinect3d report fusion`: the world's ball against omni-only and Kinect-only on simulated scenes
+// with a driving robot, physics and sensor latency drawn across their ranges per seed.
+#pragma once
+
+#include <string>
+
+#include "framework_api/config.h"
+
+namespace kinect3d {
+
+// keep_dir: where each case's input files and fused output stay (empty: a temporary folder).
+void writeFusionReport(const fw::Config& config, int seeds, const std::string& out_path, const std::string& keep_dir);
+
+}  // namespace kinect3d

@@ -1,0 +1,162 @@
+#include "fusion/json_lines.h"
+
+#include <cmath>
+#include <fstream>
+#include <functional>
+#include <nlohmann/json.hpp>
+#include <stdexcept>
+
+namespace fusion {
+
+namespace {
+
+using nlohmann::json;
+
+// Calls parse(object, where) for every non-blank line; where is "file:line" for errors.
+void forEachLine(const std::string& path, const std::function<void(const json&, const std::string&)>& parse) {
+  std::ifstream in(path);
+  if (!in) throw std::runtime_error(path + ": cannot open for reading");
+  std::string line;
+  for (int number = 1; std::getline(in, line); ++number) {
+    if (line.find_first_not_of(" \t\r") == std::string::npos) continue;
+    const std::string where = path + ":" + std::to_string(number);
+    json object;
+    try {
+      object = json::parse(line);
+    } catch (const json::parse_error& e) {
+      throw std::runtime_error(where + ": not JSON (" + e.what() + ")");
+    }
+    if (!object.is_object()) throw std::runtime_error(where + ": expected a JSON object per line");
+    parse(object, where);
+  }
+}
+
+// A finite number under key, or an error naming it; optional keys return fallback when absent.
+double number(const json& object, const char* key, const std::string& where, double min, double max) {
+  const auto found = object.find(key);
+  if (found == object.end()) throw std::runtime_error(where + ": missing \"" + key + "\"");
+  if (!found->is_number()) throw std::runtime_error(where + ": \"" + key + "\" must be a number");
+  const double value = found->get<double>();
+  if (!std::isfinite(value) || value < min || value > max) {
+    throw std::runtime_error(where + ": \"" + key + "\" = " + found->dump() + " is outside [" + std::to_string(min) +
+                             ", " + std::to_string(max) + "]");
+  }
+  return value;
+}
+
+double optionalNumber(const json& object, const char* key, const std::string& where, double min, double max) {
+  return object.contains(key) ? number(object, key, where, min, max) : 0.0;
+}
+
+void requireOnlyKeys(const json& object, const std::vector<std::string>& allowed, const std::string& where) {
+  for (const auto& item : object.items()) {
+    if (std::find(allowed.begin(), allowed.end(), item.key()) == allowed.end()) {
+      throw std::runtime_error(where + ": unknown key \"" + item.key() + "\"");
+    }
+  }
+}
+
+// Times are seconds on the source's clock; anything before 0 or past the year 2100 is a unit slip.
+constexpr double kMaxTime_s = 4.1e9;
+
+void writeLines(const std::string& path, const std::vector<json>& lines) {
+  std::ofstream out(path);
+  if (!out) throw std::runtime_error(path + ": cannot open for writing");
+  for (const json& line : lines) out << line.dump() << '\n';
+  if (!out.flush()) throw std::runtime_error(path + ": write failed");
+}
+
+json vector3(const Eigen::Vector3d& v) { return json::array({v.x(), v.y(), v.z()}); }
+
+}  // namespace
+
+std::vector<fw::OmniFrame> readOmniFile(const std::string& path, const std::string& source) {
+  std::vector<fw::OmniFrame> frames;
+  forEachLine(path, [&](const json& object, const std::string& where) {
+    requireOnlyKeys(object, {"t", "balls"}, where);
+    fw::OmniFrame frame;
+    frame.stamp.source_time_s = frame.stamp.receive_time_s = number(object, "t", where, 0.0, kMaxTime_s);
+    const auto balls = object.find("balls");
+    if (balls == object.end() || !balls->is_array()) throw std::runtime_error(where + ": \"balls\" must be a list");
+    for (std::size_t i = 0; i < balls->size(); ++i) {
+      const json& item = (*balls)[i];
+      const std::string at = where + ": balls[" + std::to_string(i) + "]";
+      if (!item.is_object()) throw std::runtime_error(at + ": expected an object");
+      requireOnlyKeys(item, {"bearing_rad", "distance_m", "sigma_bearing_rad", "sigma_distance_m"}, at);
+      fw::OmniBallObservation ball;
+      ball.bearing_rad = number(item, "bearing_rad", at, -2.0 * M_PI, 2.0 * M_PI);
+      ball.distance_m = number(item, "distance_m", at, 0.0, 100.0);
+      ball.bearing_sigma_rad = optionalNumber(item, "sigma_bearing_rad", at, 0.0, M_PI);
+      ball.distance_sigma_m = optionalNumber(item, "sigma_distance_m", at, 0.0, 100.0);
+      ball.source = source;
+      ball.stamp = frame.stamp;
+      frame.balls.push_back(ball);
+    }
+    frames.push_back(std::move(frame));
+  });
+  return frames;
+}
+
+void writeOmniFile(const std::string& path, const std::vector<fw::OmniFrame>& frames) {
+  std::vector<json> lines;
+  for (const fw::OmniFrame& frame : frames) {
+    json balls = json::array();
+    for (const fw::OmniBallObservation& ball : frame.balls) {
+      json item{{"bearing_rad", ball.bearing_rad}, {"distance_m", ball.distance_m}};
+      if (ball.bearing_sigma_rad > 0.0) item["sigma_bearing_rad"] = ball.bearing_sigma_rad;
+      if (ball.distance_sigma_m > 0.0) item["sigma_distance_m"] = ball.distance_sigma_m;
+      balls.push_back(item);
+    }
+    lines.push_back({{"t", frame.stamp.source_time_s}, {"balls", balls}});
+  }
+  writeLines(path, lines);
+}
+
+std::vector<fw::RobotPose> readPoseFile(const std::string& path) {
+  std::vector<fw::RobotPose> poses;
+  forEachLine(path, [&](const json& object, const std::string& where) {
+    requireOnlyKeys(object, {"t", "x_m", "y_m", "theta_rad"}, where);
+    fw::RobotPose pose;
+    pose.stamp.source_time_s = pose.stamp.receive_time_s = number(object, "t", where, 0.0, kMaxTime_s);
+    pose.x_m = number(object, "x_m", where, -100.0, 100.0);
+    pose.y_m = number(object, "y_m", where, -100.0, 100.0);
+    pose.theta_rad = number(object, "theta_rad", where, -4.0 * M_PI, 4.0 * M_PI);
+    poses.push_back(pose);
+  });
+  return poses;
+}
+
+void writePoseFile(const std::string& path, const std::vector<fw::RobotPose>& poses) {
+  std::vector<json> lines;
+  for (const fw::RobotPose& pose : poses) {
+    lines.push_back(
+        {{"t", pose.stamp.source_time_s}, {"x_m", pose.x_m}, {"y_m", pose.y_m}, {"theta_rad", pose.theta_rad}});
+  }
+  writeLines(path, lines);
+}
+
+std::string fusedLine(const FusionUpdate& update) {
+  json line{{"t", update.time_s}, {"ball", nullptr}};
+  if (const auto& ball = update.ball) {
+    line["ball"] = {{"field", vector3(ball->position_F)},   {"robot", vector3(ball->position_R)},
+                    {"v_field", vector3(ball->velocity_F)}, {"state", fw::toString(ball->state)},
+                    {"sigma_m", ball->sigmaHorizontal_m()}, {"sources", ball->sources}};
+  }
+  if (!update.rejected.empty()) {
+    json rejected = json::array();
+    for (const RejectedObservation& r : update.rejected) {
+      rejected.push_back({{"source", r.source}, {"field", vector3(r.position_F)}, {"reason", r.reason}});
+    }
+    line["rejected"] = rejected;
+  }
+  return line.dump();
+}
+
+void writeFusedFile(const std::string& path, const std::vector<FusionUpdate>& updates) {
+  std::ofstream out(path);
+  if (!out) throw std::runtime_error(path + ": cannot open for writing");
+  for (const FusionUpdate& update : updates) out << fusedLine(update) << '\n';
+  if (!out.flush()) throw std::runtime_error(path + ": write failed");
+}
+
+}  // namespace fusion

@@ -1,0 +1,129 @@
+#include "kinect3d/sim/field_sensors.h"
+
+#include <cmath>
+#include <random>
+
+namespace kinect3d::sim {
+
+namespace {
+// Each image draws from its own stream, so image i is the same whatever was asked before it.
+std::mt19937_64 streamFor(std::uint64_t seed, int index) {
+  std::seed_seq sequence{seed, static_cast<std::uint64_t>(index), std::uint64_t{0x6f6d6e69}};
+  return std::mt19937_64(sequence);
+}
+
+// The ray from the viewpoint through a centre at height z meets the plane of resting centres at
+// this multiple of the horizontal distance.
+double phantomFactor(double viewpoint_m, double radius_m, double z_m) {
+  return (viewpoint_m - radius_m) / (viewpoint_m - z_m);
+}
+}  // namespace
+
+OmniCameraSimulator::OmniCameraSimulator(const Scene& scene, const OmniCameraModel& model)
+    : scene_(scene), model_(model) {
+  if (scene_.ball) ball_ = std::make_unique<BallMotion>(*scene_.ball, scene_.physics, scene_.duration_s + 1.0);
+  // Orange things: a Poisson process over the scene, each somewhere 1.5-6 m around the robot.
+  std::mt19937_64 random(model_.seed);
+  std::exponential_distribution<double> gap(std::max(model_.false_rate_hz, 1e-9));
+  std::uniform_real_distribution<double> distance(1.5, 6.0), bearing(-M_PI, M_PI);
+  for (double t = gap(random); model_.false_rate_hz > 0.0 && t < scene_.duration_s; t += gap(random)) {
+    const fw::RobotPose pose = scene_.robot.poseAt(t);
+    const double d = distance(random), b = bearing(random);
+    false_balls_.push_back({t, {pose.x_m + d * std::cos(b), pose.y_m + d * std::sin(b)}});
+  }
+}
+
+int OmniCameraSimulator::frameCount() const {
+  return static_cast<int>(std::floor((scene_.duration_s - model_.phase_s) * model_.rate_hz)) + 1;
+}
+
+double OmniCameraSimulator::captureTime_s(int index) const {
+  return scene_.start_time_s + model_.phase_s + index / model_.rate_hz;
+}
+
+bool OmniCameraSimulator::occluded(const Eigen::Vector3d& ball_F, const fw::RobotPose& pose, double t_s) const {
+  const Eigen::Vector2d from(pose.x_m, pose.y_m);
+  const Eigen::Vector2d to = ball_F.head<2>();
+  const Eigen::Vector2d along = to - from;
+  const double length2 = std::max(along.squaredNorm(), 1e-12);
+  for (const SceneObject& object : scene_.objects) {
+    const Eigen::Vector3d offset = object.displacementAt(t_s);
+    for (const Shape& shape : object.shapes) {
+      const Eigen::Vector3d c = shape.center_m + offset;
+      // Where the ray passes the shape, and how high it is there.
+      const double s = std::clamp((c.head<2>() - from).dot(along) / length2, 0.0, 1.0);
+      if (s <= 0.0 || s >= 1.0) continue;
+      const double footprint = 0.5 * std::max(shape.size_m.x(), shape.size_m.y());
+      if ((from + s * along - c.head<2>()).norm() > footprint) continue;
+      const double ray_z = model_.viewpoint_height_m + s * (ball_F.z() - model_.viewpoint_height_m);
+      const double bottom = shape.kind == Shape::Kind::kCylinder ? c.z() : c.z() - shape.size_m.z() / 2;
+      const double top = shape.kind == Shape::Kind::kCylinder ? c.z() + shape.size_m.z() : c.z() + shape.size_m.z() / 2;
+      if (ray_z >= bottom && ray_z <= top) return true;
+    }
+  }
+  return false;
+}
+
+fw::OmniFrame OmniCameraSimulator::frame(int index) const {
+  const double t = captureTime_s(index) - scene_.start_time_s;
+  fw::OmniFrame frame;
+  frame.stamp.source_time_s = captureTime_s(index) + model_.stamp_late_s;
+  frame.stamp.receive_time_s = frame.stamp.source_time_s;
+  std::mt19937_64 random = streamFor(model_.seed, index);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  std::uniform_real_distribution<double> uniform(0.0, 1.0);
+  const fw::RobotPose pose = scene_.robot.poseAt(t);
+  const double r = scene_.physics.radius_m;
+  auto observe = [&](const Eigen::Vector3d& p_F) {
+    const Eigen::Vector3d p_R = pose.T_F_R().inverse() * p_F;
+    const double d = p_R.head<2>().norm() * phantomFactor(model_.viewpoint_height_m, r, p_R.z());
+    fw::OmniBallObservation ball;
+    ball.bearing_sigma_rad = model_.bearing_sigma_rad;
+    ball.distance_sigma_m = model_.distance_sigma_m + model_.distance_sigma_fraction * d;
+    ball.bearing_rad = std::atan2(-p_R.x(), p_R.y()) + ball.bearing_sigma_rad * normal(random);
+    ball.distance_m = std::max(0.0, d + ball.distance_sigma_m * normal(random));
+    ball.source = "omni";
+    ball.stamp = frame.stamp;
+    if (ball.distance_m <= model_.max_distance_m) frame.balls.push_back(ball);
+  };
+  if (ball_) {
+    const Eigen::Vector3d p_F = ball_->positionAt(t);
+    const bool missed = uniform(random) < model_.miss_probability;
+    if (!missed && p_F.z() <= model_.max_height_m && !occluded(p_F, pose, t)) observe(p_F);
+  }
+  for (const FalseBall& orange : false_balls_) {
+    if (t >= orange.start_s && t < orange.start_s + model_.false_duration_s) {
+      observe({orange.p_F.x(), orange.p_F.y(), r});
+    }
+  }
+  return frame;
+}
+
+LocalisationSimulator::LocalisationSimulator(const Scene& scene, const LocalisationModel& model)
+    : scene_(scene), model_(model) {
+  // First-order Gauss-Markov errors: stationary with the given sigmas, correlated over correlation_s.
+  std::mt19937_64 random(model_.seed);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  const int count = static_cast<int>(std::floor(scene_.duration_s * model_.rate_hz)) + 1;
+  const double a = std::exp(-1.0 / (model_.rate_hz * model_.correlation_s));
+  const double b = std::sqrt(1.0 - a * a);
+  const Eigen::Vector3d sigma(model_.sigma_xy_m, model_.sigma_xy_m, model_.sigma_theta_rad);
+  Eigen::Vector3d e(normal(random), normal(random), normal(random));
+  for (int i = 0; i < count; ++i) {
+    errors_.push_back(e.cwiseProduct(sigma));
+    e = a * e + b * Eigen::Vector3d(normal(random), normal(random), normal(random));
+  }
+}
+
+fw::RobotPose LocalisationSimulator::pose(int index) const {
+  const double t = index / model_.rate_hz;
+  fw::RobotPose pose = scene_.robot.poseAt(t);
+  const Eigen::Vector3d& e = errors_[static_cast<std::size_t>(index)];
+  pose.x_m += e.x();
+  pose.y_m += e.y();
+  pose.theta_rad += e.z();
+  pose.stamp.source_time_s = pose.stamp.receive_time_s = scene_.start_time_s + t;
+  return pose;
+}
+
+}  // namespace kinect3d::sim
