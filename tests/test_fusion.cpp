@@ -142,7 +142,7 @@ TEST(FusionMeasurements, OmniPredictsTheGroundBallAndThePhantomOfABallInTheAir) 
   const fw::RobotPose pose = poseAt(-1.0, 0.5, 0.3, 0.0);
   fusion::OmniConfig omni;
   omni.viewpoint_height_m = 0.75;
-  const fusion::OmniMeasurement m(fw::OmniBallObservation{}, pose, omni, fusion::PoseConfig{}, kRadius);
+  const fusion::OmniMeasurement m(fw::OmniBallObservation{}, pose, omni, fusion::PoseConfig{}, kRadius, 0.0);
   // On the floor: bearing and distance of the ball itself.
   const Eigen::Vector3d ground_R(-1.0, 2.0, kRadius);
   const Eigen::VectorXd on_floor = m.predict(pose.T_F_R() * ground_R);
@@ -382,6 +382,7 @@ TEST(FusionConfig, ShippedDefaultsAreTheStructDefaults) {
   EXPECT_EQ(read.omni.distance_sigma_m, code.omni.distance_sigma_m);
   EXPECT_EQ(read.omni.distance_sigma_fraction, code.omni.distance_sigma_fraction);
   EXPECT_EQ(read.omni.estimate_latency, code.omni.estimate_latency);
+  EXPECT_EQ(read.omni.timing_sigma_s, code.omni.timing_sigma_s);
   EXPECT_EQ(read.pose.latency_s, code.pose.latency_s);
   EXPECT_EQ(read.pose.sigma_xy_m, code.pose.sigma_xy_m);
   EXPECT_NEAR(read.pose.sigma_theta_rad, code.pose.sigma_theta_rad, 1e-4);  // 1 degree
@@ -394,8 +395,8 @@ TEST(FusionConfig, ShippedDefaultsAreTheStructDefaults) {
 }
 
 TEST(FusionConfig, AViewpointBelowTheBallIsRefusedWithItsKey) {
-  const fw::Config config = fw::Config::load(std::string(PROJECT_CONFIG_DIR) + "/defaults", "",
-                                             {"fusion.omni.viewpoint_height_m=0.05"});
+  const fw::Config config =
+      fw::Config::load(std::string(PROJECT_CONFIG_DIR) + "/defaults", "", {"fusion.omni.viewpoint_height_m=0.05"});
   try {
     fusion::readFusionConfig(config.block("fusion"));
     FAIL() << "a viewpoint at 5 cm was accepted";

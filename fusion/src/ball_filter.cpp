@@ -12,11 +12,14 @@ namespace fusion {
 namespace {
 
 constexpr int kZ = 2, kVz = 5;
-// A branch lighter than this share of the heaviest is not worth gating against.
-constexpr double kNegligibleWeight = 1e-3;
+// A branch lighter than this share of the heaviest is not worth gating against. Kept small: an
+// unlikely branch (a kick) is exactly the one a surprising measurement belongs to.
+constexpr double kNegligibleWeight = 1e-6;
 // A branch with less than this share of its mode's heaviest is pruned, not merged: merged, an
 // unlikely kick would widen the velocity of every rolling ball at every step.
 constexpr double kPruneWeight = 0.01;
+// A kick is seen at most this long after it happened (a sensor frame at 30 Hz).
+constexpr double kKickWindow_s = 1.0 / 30.0;
 // Below this vertical speed after a bounce a ball most likely rolls on (the next hop is under 1 cm).
 constexpr double kLandingSpeed_mps = 0.5;
 
@@ -71,6 +74,8 @@ Innovation innovate(const Hypothesis& h, const MeasurementModel& measurement) {
   in.y = measurement.residual(measurement.value(), measurement.predict(p));
   in.H = jacobian(measurement, p);
   in.R = measurement.noise(p);
+  const Eigen::VectorXd rate = in.H.leftCols<3>() * h.x.tail<3>();
+  in.R += measurement.timingSigma_s() * measurement.timingSigma_s() * rate * rate.transpose();
   in.S = in.H * h.P * in.H.transpose() + in.R;
   return in;
 }
@@ -143,16 +148,19 @@ std::vector<Hypothesis> BallFilter::branchesAt(double t_s) const {
       rolling.weight = h.weight * (1.0 - 2.0 * kick);
       branches.push_back(rolling);
       // A kick at some instant within dt: any new velocity, the position moved by up to dt of it.
+      // With two sensors interleaved dt may be a millisecond, but a kick shows in the sensor that
+      // sees it up to a frame later: the position spreads over at least that frame.
+      const double since_kick = std::max(dt, kKickWindow_s);
       Hypothesis along_ground = rolling;
       along_ground.weight = h.weight * kick;
       for (int i = 0; i < 2; ++i) {
         along_ground.P(i + 3, i + 3) += sk2;
-        along_ground.P(i, i) += sk2 * dt * dt / 4.0;
+        along_ground.P(i, i) += sk2 * since_kick * since_kick / 4.0;
       }
       branches.push_back(along_ground);
       Hypothesis into_air = along_ground;
       into_air.mode = fw::BallState::kAir;
-      into_air.P(kZ, kZ) += sk2 * dt * dt / 4.0;
+      into_air.P(kZ, kZ) += sk2 * since_kick * since_kick / 4.0;
       into_air.P(kVz, kVz) += sk2;
       branches.push_back(into_air);
       continue;

@@ -14,17 +14,31 @@ constexpr double kLatencyKinectWithin_s = 0.1;
 constexpr double kLatencyMinSpeed_mps = 0.5;
 constexpr double kLatencyMinGroundProbability = 0.95;
 constexpr double kLatencyMaxResidual_m = 1.0;  // farther off is a misassociation, not a time offset
+// Learnt latency is never trusted to better than this (the omni's exposure and the examples' spread).
+constexpr double kMinTimingSigma_s = 0.005;
+// The world's ball moves to another confirmed track when its own has had no support this long.
+constexpr double kWorldSwitchAfter_s = 0.2;
 // A source counts as supporting the world's ball if it did within this time.
 constexpr double kSourceRecent_s = 1.0;
 // At most this many tracks at once (the ball, shirts, posters); the oldest unconfirmed goes first.
 constexpr std::size_t kMaxTracks = 8;
 }  // namespace
 
-void LatencyEstimator::add(const Eigen::Vector2d& residual_m, const Eigen::Vector2d& velocity_mps, double applied_s) {
+void LatencyEstimator::add(const Eigen::Vector2d& residual_m, const Eigen::Matrix2d& covariance_m2,
+                           const Eigen::Vector2d& velocity_mps, double applied_s) {
   // The omni's ball is where the track was L - applied earlier: residual = -v (L - applied).
   const double speed2 = velocity_mps.squaredNorm();
-  examples_.push_back({applied_s - residual_m.dot(velocity_mps) / speed2, speed2});
+  const Eigen::Vector2d along = velocity_mps / std::sqrt(speed2);
+  const double variance_s2 = along.dot(covariance_m2 * along) / speed2;
+  examples_.push_back({applied_s - residual_m.dot(velocity_mps) / speed2, 1.0 / variance_s2});
   if (examples_.size() > kWindow) examples_.pop_front();
+}
+
+std::optional<double> LatencyEstimator::standardError() const {
+  if (examples_.size() < static_cast<std::size_t>(kMinExamples)) return std::nullopt;
+  double weights = 0.0;
+  for (const Example& e : examples_) weights += e.weight;
+  return 1.0 / std::sqrt(weights);
 }
 
 std::optional<double> LatencyEstimator::estimate() const {
@@ -57,12 +71,19 @@ void BallFusion::addPose(const fw::RobotPose& pose) {
 }
 
 const FusionUpdate& BallFusion::addKinectFrame(double stamp_s, const std::vector<fw::BallObservation>& balls_R) {
-  return insert(Frame{Source::kKinect, stamp_s - config_.kinect.latency_s, 0.0, balls_R, {}});
+  return insert(Frame{Source::kKinect, stamp_s - config_.kinect.latency_s, 0.0, 0.0, balls_R, {}});
 }
 
 const FusionUpdate& BallFusion::addOmniFrame(double stamp_s, const std::vector<fw::OmniBallObservation>& balls) {
-  const double learnt = config_.omni.estimate_latency ? state_.latency.estimate().value_or(0.0) : 0.0;
-  return insert(Frame{Source::kOmni, stamp_s - config_.omni.latency_s - learnt, learnt, {}, balls});
+  const std::optional<double> learnt = config_.omni.estimate_latency ? state_.latency.estimate() : std::nullopt;
+  const double timing_sigma_s =
+      learnt ? std::max(*state_.latency.standardError(), kMinTimingSigma_s) : config_.omni.timing_sigma_s;
+  return insert(Frame{Source::kOmni,
+                      stamp_s - config_.omni.latency_s - learnt.value_or(0.0),
+                      learnt.value_or(0.0),
+                      timing_sigma_s,
+                      {},
+                      balls});
 }
 
 const FusionUpdate& BallFusion::insert(Frame frame) {
@@ -103,7 +124,7 @@ std::vector<BallFusion::Candidate> BallFusion::candidatesOf(const Frame& frame, 
     candidates.push_back(std::move(c));
   }
   for (const fw::OmniBallObservation& ball : frame.omni) {
-    auto omni = std::make_unique<OmniMeasurement>(ball, pose, config_.omni, config_.pose, r);
+    auto omni = std::make_unique<OmniMeasurement>(ball, pose, config_.omni, config_.pose, r, frame.omni_timing_sigma_s);
     Candidate c{Source::kOmni, nullptr, omni->groundBall_F(), Eigen::Matrix3d::Zero()};
     // Bearing and distance noise turned into the floor's x, y (the Jacobian of the ground point).
     const Eigen::MatrixXd R = omni->noise(c.p_F);
@@ -156,7 +177,9 @@ void BallFusion::process(const Frame& frame) {
       const Vector6d x = predicted.best().x;
       const Eigen::Vector2d residual = c.p_F.head<2>() - x.head<2>();
       if (x.segment<2>(3).norm() >= kLatencyMinSpeed_mps && residual.norm() < kLatencyMaxResidual_m) {
-        state.latency.add(residual, x.segment<2>(3), frame.omni_latency_s);
+        const Eigen::Matrix2d covariance =
+            c.covariance_F.topLeftCorner<2, 2>() + predicted.best().P.topLeftCorner<2, 2>();
+        state.latency.add(residual, covariance, x.segment<2>(3), frame.omni_latency_s);
       }
     }
     track.filter.update(branches[pair.track], t, *c.measurement);
@@ -210,6 +233,7 @@ void BallFusion::startTrack(const Candidate& candidate, double t_s) {
   track.born_s = track.last_support_s = t_s;
   (candidate.source == Source::kKinect ? track.last_kinect_s : track.last_omni_s) = t_s;
   track.seen_on_ground = !candidate.in_air;
+  track.omni_born = candidate.source == Source::kOmni;
   state_.tracks.push_back(std::move(track));
 }
 
@@ -222,19 +246,24 @@ void BallFusion::maintainTracks(double t_s) {
                                        (!track.confirmed && t_s - track.born_s > config.confirm_window_s);
                               }),
                tracks.end());
+  // While a confirmed ball flies, new omni tracks are most likely its phantoms: they wait.
+  const bool ball_in_air = std::any_of(tracks.begin(), tracks.end(), [](const Track& track) {
+    return track.confirmed && track.filter.airProbability() > 0.5;
+  });
   for (Track& track : tracks) {
     if (track.confirmed || track.updates < config.confirm_updates) continue;
+    if (track.omni_born && ball_in_air) continue;
     // Born in the air, a track must fly: its speed, less one sigma, above the minimum.
     const Hypothesis& best = track.filter.best();
     const double speed_sigma = std::sqrt(best.P.bottomRightCorner<3, 3>().trace());
     track.confirmed = track.seen_on_ground || best.x.tail<3>().norm() - speed_sigma > config.min_flight_speed_mps;
   }
-  const bool world_alive =
-      std::any_of(tracks.begin(), tracks.end(), [&](const Track& track) { return track.id == state_.world_id; });
-  if (world_alive) return;
-  // The world's ball is kept while it lives; then the most recently supported confirmed track.
-  state_.world_id = 0;
-  const Track* chosen = nullptr;
+  // The world's ball is kept while it is supported; without support for kWorldSwitchAfter_s it
+  // gives way to a confirmed track supported since, and it is dropped when lost.
+  const auto world =
+      std::find_if(tracks.begin(), tracks.end(), [&](const Track& track) { return track.id == state_.world_id; });
+  if (world != tracks.end() && t_s - world->last_support_s <= kWorldSwitchAfter_s) return;
+  const Track* chosen = world != tracks.end() ? &*world : nullptr;
   for (const Track& track : tracks) {
     if (!track.confirmed) continue;
     if (!chosen || track.last_support_s > chosen->last_support_s ||
@@ -242,7 +271,7 @@ void BallFusion::maintainTracks(double t_s) {
       chosen = &track;
     }
   }
-  if (chosen) state_.world_id = chosen->id;
+  state_.world_id = chosen ? chosen->id : 0;
 }
 
 std::optional<fw::FusedBall> BallFusion::worldBall(double t_s) const {

@@ -31,6 +31,7 @@ FusionConfig readFusionConfig(const fw::ConfigView& block) {
   config.omni.distance_sigma_m = omni.getDouble("distance_sigma_m", 0.001, 5.0);
   config.omni.distance_sigma_fraction = omni.getDouble("distance_sigma_fraction", 0.0, 1.0);
   config.omni.estimate_latency = omni.getBool("estimate_latency");
+  config.omni.timing_sigma_s = omni.getDouble("timing_sigma_s", 0.0, 1.0);
   if (config.omni.viewpoint_height_m <= motion.radius_m) {
     throw fw::ConfigError(omni.originOf("viewpoint_height_m") + ": " + omni.path() +
                           ".viewpoint_height_m must be above the ball's centre at rest (" + ball.path() +

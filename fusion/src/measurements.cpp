@@ -9,6 +9,10 @@ namespace {
 // Centres closer than this below the viewpoint are out of the camera's view; the model is held
 // there so that a hypothesis that high predicts a phantom far away instead of dividing by zero.
 constexpr double kMinDepthBelowViewpoint_m = 0.1;
+// Over the first this many metres above rest the omni's distance turns from a measurement into a
+// loose hint of this share of the phantom's distance.
+constexpr double kAirborneRamp_m = 0.1;
+constexpr double kPhantomDistanceFraction = 0.5;
 }  // namespace
 
 double wrapAngle(double a_rad) { return a_rad - 2.0 * M_PI * std::floor((a_rad + M_PI) / (2.0 * M_PI)); }
@@ -29,8 +33,10 @@ PositionMeasurement::PositionMeasurement(const Eigen::Vector3d& p_R, const Eigen
 }
 
 OmniMeasurement::OmniMeasurement(const fw::OmniBallObservation& observation, const fw::RobotPose& pose,
-                                 const OmniConfig& omni, const PoseConfig& pose_config, double ball_radius_m)
-    : pose_(pose),
+                                 const OmniConfig& omni, const PoseConfig& pose_config, double ball_radius_m,
+                                 double timing_sigma_s)
+    : MeasurementModel(timing_sigma_s),
+      pose_(pose),
       omni_(omni),
       pose_config_(pose_config),
       radius_m_(ball_radius_m),
@@ -51,8 +57,13 @@ Eigen::VectorXd OmniMeasurement::predict(const Eigen::Vector3d& p_F) const {
 
 Eigen::MatrixXd OmniMeasurement::noise(const Eigen::Vector3d& p_F) const {
   const double distance = predict(p_F)[1];
-  const double sigma_d =
+  double sigma_d =
       distance_sigma_m_ > 0.0 ? distance_sigma_m_ : omni_.distance_sigma_m + omni_.distance_sigma_fraction * distance;
+  // For a ball in the air the phantom's distance hangs on the height so steeply (46 m per m for a
+  // ball half a metre up, 4.5 m away) that a linearised update would throw the ball about: there
+  // the omni gives its bearing and only a loose hold on the ray.
+  const double airborne = std::clamp((p_F.z() - radius_m_) / kAirborneRamp_m, 0.0, 1.0);
+  sigma_d = std::hypot(sigma_d, airborne * kPhantomDistanceFraction * distance);
   Eigen::MatrixXd R = Eigen::MatrixXd::Zero(2, 2);
   R(0, 0) = bearing_sigma_rad_ * bearing_sigma_rad_ + pose_config_.sigma_theta_rad * pose_config_.sigma_theta_rad;
   R(1, 1) = sigma_d * sigma_d + pose_config_.sigma_xy_m * pose_config_.sigma_xy_m;

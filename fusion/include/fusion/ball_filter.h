@@ -27,16 +27,22 @@ struct Hypothesis {
 };
 
 // A measurement of the ball's centre: its value z, its noise R, and the model h(p_F) that predicts
-// it from a centre in the field frame. Only the position enters; Jacobians are numerical.
+// it from a centre in the field frame. Only the position enters; Jacobians are numerical. A source
+// whose stamps are uncertain by timing_sigma_s adds what that does to a moving ball: H v sigma_t.
 class MeasurementModel {
  public:
+  explicit MeasurementModel(double timing_sigma_s = 0.0) : timing_sigma_s_(timing_sigma_s) {}
   virtual ~MeasurementModel() = default;
+  double timingSigma_s() const { return timing_sigma_s_; }
   virtual Eigen::VectorXd predict(const Eigen::Vector3d& p_F) const = 0;
   virtual const Eigen::VectorXd& value() const = 0;
   // Measurement noise, evaluated at the predicted centre (noise may grow with distance).
   virtual Eigen::MatrixXd noise(const Eigen::Vector3d& p_F) const = 0;
   // z - h; angles wrapped.
   virtual Eigen::VectorXd residual(const Eigen::VectorXd& z, const Eigen::VectorXd& h) const { return z - h; }
+
+ private:
+  double timing_sigma_s_;
 };
 
 class BallFilter {

@@ -45,11 +45,17 @@ class LatencyEstimator {
   static constexpr std::size_t kWindow = 200;
 
   // One example: the omni's ground ball minus the track's prediction at the omni's corrected time,
-  // the track's velocity, and the estimate that corrected that time.
-  void add(const Eigen::Vector2d& residual_m, const Eigen::Vector2d& velocity_mps, double applied_s);
+  // the covariance of that difference, the track's velocity, and the estimate that corrected that
+  // time. Examples count by how precisely they pin the time: speed over position error along the
+  // motion (a ball crossing the omni's view is timed by its precise bearing, one rolling straight
+  // away only by its noisy distance).
+  void add(const Eigen::Vector2d& residual_m, const Eigen::Matrix2d& covariance_m2, const Eigen::Vector2d& velocity_mps,
+           double applied_s);
   // The relative latency (seconds the omni's stamps are late beyond its configured latency), once
   // kMinExamples were seen.
   std::optional<double> estimate() const;
+  // The estimate's standard error (seconds), once there is an estimate.
+  std::optional<double> standardError() const;
   int examples() const { return static_cast<int>(examples_.size()); }
 
  private:
@@ -86,6 +92,7 @@ class BallFusion {
     double last_kinect_s = -1e18;
     double last_omni_s = -1e18;
     bool seen_on_ground = false;  // a lamp is only ever seen in the air
+    bool omni_born = false;       // started by an omni ball: perhaps the phantom of a ball in the air
     bool confirmed = false;
   };
   struct State {
@@ -98,8 +105,9 @@ class BallFusion {
   enum class Source { kKinect, kOmni };
   struct Frame {
     Source source;
-    double time_s;              // corrected onto the reference clock
-    double omni_latency_s = 0;  // the estimated omni latency that correction used
+    double time_s;                   // corrected onto the reference clock
+    double omni_latency_s = 0;       // the estimated omni latency that correction used
+    double omni_timing_sigma_s = 0;  // and how uncertain the corrected time still is
     std::vector<fw::BallObservation> kinect;
     std::vector<fw::OmniBallObservation> omni;
   };

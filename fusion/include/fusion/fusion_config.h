@@ -30,10 +30,11 @@ struct OmniConfig {
   std::string source = "omni";
   double latency_s = 0.0;
   double viewpoint_height_m = 0.75;       // height of the omni mirror's viewpoint above the floor
-  double bearing_sigma_rad = 0.0262;     // when the observation carries none
+  double bearing_sigma_rad = 0.0262;      // when the observation carries none
   double distance_sigma_m = 0.05;         // at the robot ...
   double distance_sigma_fraction = 0.05;  // ... growing with distance
   bool estimate_latency = true;           // learn the omni's latency relative to the Kinect online
+  double timing_sigma_s = 0.03;           // how far its stamps may be off until the latency is learnt
 };
 
 struct PoseConfig {

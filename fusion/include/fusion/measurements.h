@@ -31,7 +31,7 @@ class PositionMeasurement : public MeasurementModel {
 class OmniMeasurement : public MeasurementModel {
  public:
   OmniMeasurement(const fw::OmniBallObservation& observation, const fw::RobotPose& pose, const OmniConfig& omni,
-                  const PoseConfig& pose_config, double ball_radius_m);
+                  const PoseConfig& pose_config, double ball_radius_m, double timing_sigma_s);
 
   Eigen::VectorXd predict(const Eigen::Vector3d& p_F) const override;
   const Eigen::VectorXd& value() const override { return z_; }
