@@ -12,10 +12,12 @@ cmake --install "$build_dir" --prefix "$prefix" > /dev/null
 # Run from an unrelated folder, so nothing is found through the working directory.
 cd /
 output=$("$prefix/bin/vision_host" --robot "$prefix/share/kinect3d/config/robots/demo.yaml" \
-         --set kinect3d.realtime=false --set host.duration_s=20 2>&1)
+         --set host.duration_s=20 2>&1)
 echo "$output" | grep -q "loaded plugin kinect3d .* from $prefix/lib/kinect3d/plugins/kinect3d.so" \
   || { echo "the installed host did not load its own plugin:"; echo "$output"; exit 1; }
 echo "$output" | grep -q "ball kinect3d: air" || { echo "no ball in the air reached the console:"; echo "$output"; exit 1; }
+echo "$output" | grep -q "world: air, .* from kinect3d+omni" \
+  || { echo "no fused ball in the air reached the console:"; echo "$output"; exit 1; }
 
 # A robot file outside the installed tree takes the installed defaults.
 robot=$(mktemp -d)/robot.yaml

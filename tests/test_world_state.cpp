@@ -52,7 +52,7 @@ TEST(WorldState, HoldsRobotPoseOmniBallsAndTrajectories) {
   fw::OmniBallObservation omni;
   omni.distance_m = 3.0;
   omni.source = "omni";
-  world.publishOmniBall(omni);
+  world.publishOmniFrame({omni.stamp, {omni}});
   ASSERT_EQ(world.recentOmniBalls("omni").size(), 1u);
   EXPECT_DOUBLE_EQ(world.recentOmniBalls("omni")[0].distance_m, 3.0);
   fw::BallTrajectory trajectory;

@@ -14,10 +14,24 @@ void WorldState::publishBall(const BallObservation& observation) {
   ++version_;
 }
 
-void WorldState::publishOmniBall(const OmniBallObservation& observation) {
+void WorldState::publishBalls(const std::vector<BallObservation>& observations) {
   std::lock_guard<std::mutex> lock(mutex_);
-  pushCapped(omni_balls_[observation.source], observation);
+  for (const BallObservation& observation : observations) pushCapped(balls_[observation.source], observation);
   ++version_;
+}
+
+void WorldState::publishOmniFrame(const OmniFrame& frame) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  for (const OmniBallObservation& ball : frame.balls) pushCapped(omni_balls_[ball.source], ball);
+  ++version_;
+}
+
+void WorldState::clearFusedBall() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (fused_ball_) {
+    fused_ball_.reset();
+    ++version_;
+  }
 }
 
 void WorldState::publishTrajectory(const BallTrajectory& trajectory) {

@@ -48,7 +48,7 @@ class Kinect3dPlugin : public fw::Plugin {
       fw::logInfo(source_name_, "sensor aligned with the floor; detecting");
       reported_alignment_ = true;
     }
-    for (const fw::BallObservation& ball : detections_.balls) world_.publishBall(ball);
+    if (!detections_.balls.empty()) world_.publishBalls(detections_.balls);
     if (const auto trajectory = trajectory_->update(frame_.source_time_s, detections_.balls)) {
       world_.publishTrajectory(*trajectory);
     } else {

@@ -20,8 +20,11 @@ class WorldState {
   static constexpr std::size_t kHistoryPerSource = 30;
 
   void publishBall(const BallObservation& observation);
-  void publishOmniBall(const OmniBallObservation& observation);
+  // Every ball of one frame at once, so a reader never sees half a frame.
+  void publishBalls(const std::vector<BallObservation>& observations);
+  void publishOmniFrame(const OmniFrame& frame);
   void publishFusedBall(const FusedBall& ball);
+  void clearFusedBall();                                     // the world has no ball
   void publishTrajectory(const BallTrajectory& trajectory);  // replaces that source's last one
   void clearTrajectory(const std::string& source);           // the source lost the ball
   void publishRobotPose(const RobotPose& pose);

@@ -1,0 +1,113 @@
+// The fusion as the robot runs it (the demo robot's plugins in the host, in real time) and as a
+// user runs it offline (`kinect3d simulate` then `kinect3d fuse`), with its files' errors.
+#include <gtest/gtest.h>
+
+#include <nlohmann/json.hpp>
+
+#include <sys/wait.h>
+#include <chrono>
+#include <cstdio>
+#include <fstream>
+#include <thread>
+
+#include "framework_api/host.h"
+#include "kinect3d/sim/ball_motion.h"
+#include "kinect3d/sim/scene.h"
+#include "scoped_temp_dir.h"
+
+namespace {
+
+std::pair<int, std::string> run(const std::string& command) {
+  FILE* pipe = popen(command.c_str(), "r");
+  std::string out;
+  char buffer[4096];
+  for (std::size_t n; (n = fread(buffer, 1, sizeof buffer, pipe)) > 0;) out.append(buffer, n);
+  const int status = pclose(pipe);
+  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out};
+}
+
+TEST(FusionPlugins, TheDemoRobotFusesTheLobFlyingOverItWhileItDrives) {
+  const fw::Config config = fw::Config::load(std::string(PROJECT_CONFIG_DIR) + "/defaults",
+                                             std::string(PROJECT_CONFIG_DIR) + "/robots/demo.yaml",
+                                             {"host.plugins=[localisation, kinect3d, omni, fusion]"});
+  const kinect3d::sim::Scene scene = kinect3d::sim::loadScene("lob_over_robot");
+  const kinect3d::sim::BallMotion truth(*scene.ball, scene.physics, scene.duration_s);
+  fw::Host host(config, PRODUCT_PLUGIN_DIR);
+  host.start();
+  // The scene plays in real time (3.5 s); sample the world's ball as behaviour code would.
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+  int samples = 0, in_air_from_both = 0, far_off_in_air = 0;
+  double last_stamp = 0.0;
+  while (!host.sourcesFinished() && std::chrono::steady_clock::now() < deadline) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    const auto ball = host.world().fusedBall();
+    if (!ball || ball->stamp.source_time_s == last_stamp) continue;
+    last_stamp = ball->stamp.source_time_s;
+    ++samples;
+    const Eigen::Vector3d true_F = truth.positionAt(ball->stamp.source_time_s - scene.start_time_s);
+    const bool both = ball->sources == std::vector<std::string>{"kinect3d", "omni"};
+    if (ball->state == fw::BallState::kAir && both && true_F.z() > 0.3 && true_F.y() > 0.5) {
+      ++in_air_from_both;
+      if ((ball->position_F - true_F).norm() > 0.25) ++far_off_in_air;
+    }
+  }
+  host.stop();
+  ASSERT_TRUE(host.sourcesFinished());
+  EXPECT_GT(samples, 50);
+  EXPECT_GE(in_air_from_both, 10) << "the lob in front of the robot, fused from both sensors";
+  EXPECT_LE(far_off_in_air, 2);
+}
+
+TEST(FuseCommand, FusesFilesDeterministicallyAndFollowsTheChip) {
+  const ScopedTempDir dir;
+  const std::string exe = KINECT3D_EXE, d = dir.path().string();
+  ASSERT_EQ(run(exe + " simulate chip_and_roll --frames 60 --out " + d + " 2>/dev/null").first, 0);
+  const std::string fuse = exe + " fuse --depth tum:" + d + " --omni " + d + "/omni.jsonl --pose " + d + "/pose.jsonl";
+  ASSERT_EQ(run(fuse + " --output " + d + "/a.jsonl 2>/dev/null").first, 0);
+  ASSERT_EQ(run(fuse + " --output " + d + "/b.jsonl 2>/dev/null").first, 0);
+  EXPECT_EQ(run("cmp " + d + "/a.jsonl " + d + "/b.jsonl").first, 0) << "same inputs, same output";
+
+  std::ifstream lines(d + "/a.jsonl");
+  int updates = 0, air = 0, both = 0;
+  double last_t = 0.0;
+  for (std::string line; std::getline(lines, line); ++updates) {
+    const auto json = nlohmann::json::parse(line);
+    EXPECT_GE(json.at("t").get<double>(), last_t) << "in source-time order";
+    last_t = json["t"].get<double>();
+    if (json.at("ball").is_null()) continue;
+    const auto& ball = json["ball"];
+    EXPECT_EQ(ball.at("field").size(), 3u);
+    EXPECT_EQ(ball.at("robot").size(), 3u);
+    EXPECT_EQ(ball.at("v_field").size(), 3u);
+    EXPECT_GT(ball.at("sigma_m").get<double>(), 0.0);
+    air += ball.at("state") == "air";
+    both += ball.at("sources") == nlohmann::json::array({"kinect3d", "omni"});
+  }
+  EXPECT_GT(updates, 100) << "Kinect and omni frames of 2 s";
+  EXPECT_GT(air, 20);
+  EXPECT_GT(both, 80);
+}
+
+TEST(FuseCommand, ABadInputLineIsNamedWithItsFileAndLine) {
+  const ScopedTempDir dir;
+  const std::string omni = (dir.path() / "omni.jsonl").string(), pose = (dir.path() / "pose.jsonl").string();
+  std::ofstream(omni) << "{\"t\": 1700000000.0, \"balls\": []}\n"
+                      << "{\"t\": 1700000000.033, \"balls\": [{\"bearing_rad\": 0.1, \"distance_m\": -3}]}\n";
+  std::ofstream(pose) << "{\"t\": 1700000000.0, \"x_m\": 0, \"y_m\": 0, \"theta_rad\": 0}\n\n"
+                      << "{\"t\": 1700000000.1, \"x_m\": 0, \"y\": 0, \"theta_rad\": 0}\n";
+  const std::string exe = KINECT3D_EXE;
+  const auto [omni_status, omni_out] = run(exe + " fuse --omni " + omni + " --output /dev/null 2>&1");
+  EXPECT_EQ(omni_status, 2);
+  EXPECT_NE(omni_out.find(omni + ":2: balls[0]: \"distance_m\" = -3 is outside"), std::string::npos) << omni_out;
+  const std::string no_balls = (dir.path() / "no_balls.jsonl").string();
+  std::ofstream(no_balls) << "{\"t\": 1700000000.0, \"balls\": []}\n";
+  const auto [pose_status, pose_out] =
+      run(exe + " fuse --omni " + no_balls + " --pose " + pose + " --output /dev/null 2>&1");
+  EXPECT_EQ(pose_status, 2);
+  EXPECT_NE(pose_out.find(pose + ":3: unknown key \"y\""), std::string::npos) << pose_out;
+  const auto [none_status, none_out] = run(exe + " fuse --output /dev/null 2>&1");
+  EXPECT_EQ(none_status, 2);
+  EXPECT_NE(none_out.find("give --depth, --omni or both"), std::string::npos) << none_out;
+}
+
+}  // namespace
