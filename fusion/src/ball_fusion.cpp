@@ -13,7 +13,9 @@ namespace {
 constexpr double kLatencyKinectWithin_s = 0.1;
 constexpr double kLatencyMinSpeed_mps = 0.5;
 constexpr double kLatencyMinGroundProbability = 0.95;
-constexpr double kLatencyMaxResidual_m = 1.0;  // farther off is a misassociation, not a time offset
+constexpr double kLatencyMaxResidual_m = 1.0;
+constexpr double kLatencyMaxRadialCosine =
+    0.7;  // the motion at least 45 degrees off the line of sight  // farther off is a misassociation, not a time offset
 // Learnt latency is never trusted to better than this (the omni's exposure and the examples' spread).
 constexpr double kMinTimingSigma_s = 0.005;
 // The world's ball moves to another confirmed track when its own has had no support this long.
@@ -176,7 +178,11 @@ void BallFusion::process(const Frame& frame) {
       predicted.predict(t);
       const Vector6d x = predicted.best().x;
       const Eigen::Vector2d residual = c.p_F.head<2>() - x.head<2>();
-      if (x.segment<2>(3).norm() >= kLatencyMinSpeed_mps && residual.norm() < kLatencyMaxResidual_m) {
+      // Only balls crossing the camera's view: timed by the precise bearing, not the distance,
+      // whose errors (a hop, the floor's slope) would pass for a time offset.
+      const Eigen::Vector2d outwards = (c.p_F.head<2>() - Eigen::Vector2d(pose.x_m, pose.y_m)).normalized();
+      const bool crossing = std::abs(outwards.dot(x.segment<2>(3).normalized())) < kLatencyMaxRadialCosine;
+      if (crossing && x.segment<2>(3).norm() >= kLatencyMinSpeed_mps && residual.norm() < kLatencyMaxResidual_m) {
         const Eigen::Matrix2d covariance =
             c.covariance_F.topLeftCorner<2, 2>() + predicted.best().P.topLeftCorner<2, 2>();
         state.latency.add(residual, covariance, x.segment<2>(3), frame.omni_latency_s);

@@ -10,9 +10,9 @@ namespace {
 // there so that a hypothesis that high predicts a phantom far away instead of dividing by zero.
 constexpr double kMinDepthBelowViewpoint_m = 0.1;
 // Over the first this many metres above rest the omni's distance turns from a measurement into a
-// loose hint of this share of the phantom's distance.
+// hint with an error of this share of the phantom's distance.
 constexpr double kAirborneRamp_m = 0.1;
-constexpr double kPhantomDistanceFraction = 0.5;
+constexpr double kPhantomDistanceFraction = 0.2;
 }  // namespace
 
 double wrapAngle(double a_rad) { return a_rad - 2.0 * M_PI * std::floor((a_rad + M_PI) / (2.0 * M_PI)); }
@@ -61,7 +61,7 @@ Eigen::MatrixXd OmniMeasurement::noise(const Eigen::Vector3d& p_F) const {
       distance_sigma_m_ > 0.0 ? distance_sigma_m_ : omni_.distance_sigma_m + omni_.distance_sigma_fraction * distance;
   // For a ball in the air the phantom's distance hangs on the height so steeply (46 m per m for a
   // ball half a metre up, 4.5 m away) that a linearised update would throw the ball about: there
-  // the omni gives its bearing and only a loose hold on the ray.
+  // the omni gives its bearing and a looser hold on the ray.
   const double airborne = std::clamp((p_F.z() - radius_m_) / kAirborneRamp_m, 0.0, 1.0);
   sigma_d = std::hypot(sigma_d, airborne * kPhantomDistanceFraction * distance);
   Eigen::MatrixXd R = Eigen::MatrixXd::Zero(2, 2);

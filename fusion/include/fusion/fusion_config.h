@@ -34,7 +34,7 @@ struct OmniConfig {
   double distance_sigma_m = 0.05;         // at the robot ...
   double distance_sigma_fraction = 0.05;  // ... growing with distance
   bool estimate_latency = true;           // learn the omni's latency relative to the Kinect online
-  double timing_sigma_s = 0.03;           // how far its stamps may be off until the latency is learnt
+  double timing_sigma_s = 0.05;           // how far its stamps may be off until the latency is learnt
 };
 
 struct PoseConfig {
