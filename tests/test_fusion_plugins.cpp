@@ -4,7 +4,6 @@
 
 #include <nlohmann/json.hpp>
 
-#include <sys/wait.h>
 #include <chrono>
 #include <cstdio>
 #include <fstream>
@@ -13,18 +12,10 @@
 #include "framework_api/host.h"
 #include "kinect3d/sim/ball_motion.h"
 #include "kinect3d/sim/scene.h"
+#include "run_command.h"
 #include "scoped_temp_dir.h"
 
 namespace {
-
-std::pair<int, std::string> run(const std::string& command) {
-  FILE* pipe = popen(command.c_str(), "r");
-  std::string out;
-  char buffer[4096];
-  for (std::size_t n; (n = fread(buffer, 1, sizeof buffer, pipe)) > 0;) out.append(buffer, n);
-  const int status = pclose(pipe);
-  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out};
-}
 
 TEST(FusionPlugins, TheDemoRobotFusesTheLobFlyingOverItWhileItDrives) {
   const fw::Config config = fw::Config::load(std::string(PROJECT_CONFIG_DIR) + "/defaults",
@@ -61,11 +52,11 @@ TEST(FusionPlugins, TheDemoRobotFusesTheLobFlyingOverItWhileItDrives) {
 TEST(FuseCommand, FusesFilesDeterministicallyAndFollowsTheChip) {
   const ScopedTempDir dir;
   const std::string exe = KINECT3D_EXE, d = dir.path().string();
-  ASSERT_EQ(run(exe + " simulate chip_and_roll --frames 60 --out " + d + " 2>/dev/null").first, 0);
+  ASSERT_EQ(runCommand(exe + " simulate chip_and_roll --frames 60 --out " + d + " 2>/dev/null").first, 0);
   const std::string fuse = exe + " fuse --depth tum:" + d + " --omni " + d + "/omni.jsonl --pose " + d + "/pose.jsonl";
-  ASSERT_EQ(run(fuse + " --output " + d + "/a.jsonl 2>/dev/null").first, 0);
-  ASSERT_EQ(run(fuse + " --output " + d + "/b.jsonl 2>/dev/null").first, 0);
-  EXPECT_EQ(run("cmp " + d + "/a.jsonl " + d + "/b.jsonl").first, 0) << "same inputs, same output";
+  ASSERT_EQ(runCommand(fuse + " --output " + d + "/a.jsonl 2>/dev/null").first, 0);
+  ASSERT_EQ(runCommand(fuse + " --output " + d + "/b.jsonl 2>/dev/null").first, 0);
+  EXPECT_EQ(runCommand("cmp " + d + "/a.jsonl " + d + "/b.jsonl").first, 0) << "same inputs, same output";
 
   std::ifstream lines(d + "/a.jsonl");
   int updates = 0, air = 0, both = 0;
@@ -96,16 +87,16 @@ TEST(FuseCommand, ABadInputLineIsNamedWithItsFileAndLine) {
   std::ofstream(pose) << "{\"t\": 1700000000.0, \"x_m\": 0, \"y_m\": 0, \"theta_rad\": 0}\n\n"
                       << "{\"t\": 1700000000.1, \"x_m\": 0, \"y\": 0, \"theta_rad\": 0}\n";
   const std::string exe = KINECT3D_EXE;
-  const auto [omni_status, omni_out] = run(exe + " fuse --omni " + omni + " --output /dev/null 2>&1");
+  const auto [omni_status, omni_out] = runCommand(exe + " fuse --omni " + omni + " --output /dev/null 2>&1");
   EXPECT_EQ(omni_status, 2);
   EXPECT_NE(omni_out.find(omni + ":2: balls[0]: \"distance_m\" = -3 is outside"), std::string::npos) << omni_out;
   const std::string no_balls = (dir.path() / "no_balls.jsonl").string();
   std::ofstream(no_balls) << "{\"t\": 1700000000.0, \"balls\": []}\n";
   const auto [pose_status, pose_out] =
-      run(exe + " fuse --omni " + no_balls + " --pose " + pose + " --output /dev/null 2>&1");
+      runCommand(exe + " fuse --omni " + no_balls + " --pose " + pose + " --output /dev/null 2>&1");
   EXPECT_EQ(pose_status, 2);
   EXPECT_NE(pose_out.find(pose + ":3: unknown key \"y\""), std::string::npos) << pose_out;
-  const auto [none_status, none_out] = run(exe + " fuse --output /dev/null 2>&1");
+  const auto [none_status, none_out] = runCommand(exe + " fuse --output /dev/null 2>&1");
   EXPECT_EQ(none_status, 2);
   EXPECT_NE(none_out.find("give --depth, --omni or both"), std::string::npos) << none_out;
 }

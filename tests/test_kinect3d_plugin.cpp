@@ -3,12 +3,12 @@
 
 #include <nlohmann/json.hpp>
 
-#include <sys/wait.h>
 #include <chrono>
 #include <cstdio>
 #include <thread>
 
 #include "framework_api/host.h"
+#include "run_command.h"
 
 namespace {
 
@@ -52,18 +52,8 @@ TEST(Kinect3dPlugin, BadSourceIsAStartupErrorNamingTheKey) {
   }
 }
 
-// Runs a command, returning its exit status and standard output.
-std::pair<int, std::string> run(const std::string& command) {
-  FILE* pipe = popen(command.c_str(), "r");
-  std::string out;
-  char buffer[4096];
-  for (std::size_t n; (n = fread(buffer, 1, sizeof buffer, pipe)) > 0;) out.append(buffer, n);
-  const int status = pclose(pipe);
-  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out};
-}
-
 TEST(DetectCommand, WritesOneJsonLinePerFrame) {
-  const auto [status, out] = run(std::string(KINECT3D_EXE) + " detect --source sim:hung_2m 2>/dev/null");
+  const auto [status, out] = runCommand(std::string(KINECT3D_EXE) + " detect --source sim:hung_2m 2>/dev/null");
   ASSERT_EQ(status, 0);
   std::istringstream lines(out);
   int frames = 0;
@@ -83,7 +73,7 @@ TEST(DetectCommand, WritesOneJsonLinePerFrame) {
 }
 
 TEST(DetectCommand, ReportsTheTrajectoryAndTouchdownOfAKick) {
-  const auto [status, out] = run(std::string(KINECT3D_EXE) + " detect --source sim:kick_away 2>/dev/null");
+  const auto [status, out] = runCommand(std::string(KINECT3D_EXE) + " detect --source sim:kick_away 2>/dev/null");
   ASSERT_EQ(status, 0);
   std::istringstream lines(out);
   int with_touchdown = 0, frames = 0;
@@ -108,11 +98,11 @@ TEST(DetectCommand, ReportsTheTrajectoryAndTouchdownOfAKick) {
 }
 
 TEST(DetectCommand, BadSourceOrConfigExitsNonZeroWithAMessage) {
-  const auto [status, out] = run(std::string(KINECT3D_EXE) + " detect --source bogus:thing 2>&1");
+  const auto [status, out] = runCommand(std::string(KINECT3D_EXE) + " detect --source bogus:thing 2>&1");
   EXPECT_EQ(status, 2);
   EXPECT_NE(out.find("unknown depth source scheme 'bogus:'"), std::string::npos) << out;
   const auto [config_status, config_out] =
-      run(std::string(KINECT3D_EXE) + " detect --source sim:hung_2m --set kinect3d.grid.voxl_m=0.2 2>&1");
+      runCommand(std::string(KINECT3D_EXE) + " detect --source sim:hung_2m --set kinect3d.grid.voxl_m=0.2 2>&1");
   EXPECT_EQ(config_status, 2);
   EXPECT_NE(config_out.find("unknown key 'kinect3d.grid.voxl_m'"), std::string::npos) << config_out;
 }
@@ -120,13 +110,14 @@ TEST(DetectCommand, BadSourceOrConfigExitsNonZeroWithAMessage) {
 TEST(DetectCommand, OutputIntoAClosedPipeOrAnUnwritableFileExits2) {
   // `true` reads nothing and exits at once: every later write meets a pipe without a reader. The
   // command's message and exit status go to fd 3, the shell's own output.
-  const auto [closed_status, closed_out] = run("exec 3>&1; { " + std::string(KINECT3D_EXE) +
-                                               " detect --source sim:hung_2m 2>&3; echo \"exit $?\" >&3; } | true");
+  const auto [closed_status, closed_out] =
+      runCommand("exec 3>&1; { " + std::string(KINECT3D_EXE) +
+                 " detect --source sim:hung_2m 2>&3; echo \"exit $?\" >&3; } | true");
   EXPECT_EQ(closed_status, 0);
   EXPECT_NE(closed_out.find("cannot write the detections to standard output"), std::string::npos) << closed_out;
   EXPECT_NE(closed_out.find("exit 2"), std::string::npos) << closed_out;
   const auto [file_status, file_out] =
-      run(std::string(KINECT3D_EXE) + " detect --source sim:hung_2m --output /dev/full 2>&1");
+      runCommand(std::string(KINECT3D_EXE) + " detect --source sim:hung_2m --output /dev/full 2>&1");
   EXPECT_EQ(file_status, 2);
   EXPECT_NE(file_out.find("cannot write the detections to '/dev/full'"), std::string::npos) << file_out;
 }

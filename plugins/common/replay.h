@@ -1,0 +1,54 @@
+// What the omni and localisation plugins share: a source that is "sim:<scene>" or "file:<path>",
+// and a list of stamped items played at their own pace.
+#pragma once
+
+#include <functional>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "framework_api/config.h"
+#include "framework_api/replay_clock.h"
+
+namespace replay {
+
+// Loads the items of `<block>.source` with simulate(scene) or readFile(path); any error, and any
+// other scheme, becomes a ConfigError naming the key and where it was set.
+template <typename Item>
+std::vector<Item> load(const fw::ConfigView& block,
+                       const std::function<std::vector<Item>(const std::string&)>& simulate,
+                       const std::function<std::vector<Item>(const std::string&)>& readFile) {
+  const std::string source = block.getString("source");
+  try {
+    if (source.rfind("sim:", 0) == 0) return simulate(source.substr(4));
+    if (source.rfind("file:", 0) == 0) return readFile(source.substr(5));
+    throw std::runtime_error("expected sim:<scene> or file:<path>");
+  } catch (const std::runtime_error& e) {
+    throw fw::ConfigError(block.originOf("source") + ": " + block.path() + ".source = '" + source + "': " + e.what());
+  }
+}
+
+// Hands out items in order, each once its source time is due on the replay clock.
+template <typename Item>
+class Player {
+ public:
+  Player(std::vector<Item> items, bool realtime, std::function<double(const Item&)> time_of)
+      : items_(std::move(items)), clock_(realtime), time_of_(std::move(time_of)) {}
+
+  bool finished() const { return next_ >= items_.size(); }
+  std::size_t size() const { return items_.size(); }
+  // The next item if it is due (waiting up to 0.1 s for it), else nothing yet.
+  std::optional<Item> next() {
+    if (finished() || !clock_.waitFor(time_of_(items_[next_]))) return std::nullopt;
+    return items_[next_++];
+  }
+
+ private:
+  std::vector<Item> items_;
+  fw::ReplayClock clock_;
+  std::function<double(const Item&)> time_of_;
+  std::size_t next_ = 0;
+};
+
+}  // namespace replay
