@@ -49,6 +49,35 @@ TEST(FusionPlugins, TheDemoRobotFusesTheLobFlyingOverItWhileItDrives) {
   EXPECT_LE(far_off_in_air, 2);
 }
 
+TEST(FusionPlugins, OmniAndPosesReplayedFromFilesReachTheWorldBall) {
+  const ScopedTempDir dir;
+  const std::string d = dir.path().string();
+  ASSERT_EQ(
+      runCommand(std::string(KINECT3D_EXE) + " simulate pass_on_ground --frames 45 --out " + d + " 2>/dev/null").first,
+      0);
+  const fw::Config config = fw::Config::load(
+      std::string(PROJECT_CONFIG_DIR) + "/defaults", std::string(PROJECT_CONFIG_DIR) + "/robots/demo.yaml",
+      {"host.plugins=[localisation, omni, fusion]", "omni.source=file:" + d + "/omni.jsonl",
+       "localisation.source=file:" + d + "/pose.jsonl"});
+  fw::Host host(config, PRODUCT_PLUGIN_DIR);
+  host.start();
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+  int with_omni_ball = 0;
+  double last_stamp = 0.0;
+  while (!host.sourcesFinished() && std::chrono::steady_clock::now() < deadline) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    const auto ball = host.world().fusedBall();
+    if (!ball || ball->stamp.source_time_s == last_stamp) continue;
+    last_stamp = ball->stamp.source_time_s;
+    with_omni_ball += ball->sources == std::vector<std::string>{"omni"};
+  }
+  host.stop();
+  ASSERT_TRUE(host.sourcesFinished());
+  EXPECT_GT(with_omni_ball, 10) << "the omni camera alone carries the world's ball";
+  ASSERT_TRUE(host.world().robotPose());
+  EXPECT_GT(host.world().robotPose()->y_m, 0.3) << "the replayed robot drove forward";
+}
+
 TEST(FuseCommand, FusesFilesDeterministicallyAndFollowsTheChip) {
   const ScopedTempDir dir;
   const std::string exe = KINECT3D_EXE, d = dir.path().string();
