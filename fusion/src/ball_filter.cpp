@@ -20,8 +20,9 @@ constexpr double kNegligibleWeight = 1e-6;
 constexpr double kPruneWeight = 0.01;
 // A kick is seen at most this long after it happened (a sensor frame at 30 Hz).
 constexpr double kKickWindow_s = 1.0 / 30.0;
-// Below this vertical speed after a bounce a ball most likely rolls on (the next hop is under 1 cm).
-constexpr double kLandingSpeed_mps = 0.5;
+// Below this vertical speed after a bounce the ball most likely rolls on: its hops stay under 5 cm,
+// which a robot treats as a ball on the floor.
+constexpr double kLandingSpeed_mps = 1.0;
 
 // Position and velocity of the mean after dt, by the same propagation as fw::BallTrajectory.
 void propagateMean(Vector6d& x, fw::BallState mode, const MotionConfig& config, double dt) {
