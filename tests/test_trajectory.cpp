@@ -25,10 +25,11 @@ Eigen::Vector3d flight(const Eigen::Vector3d& p0, const Eigen::Vector3d& v0, dou
   return p0 + v0 * t + Eigen::Vector3d(0, 0, -0.5 * 9.81 * t * t);
 }
 
-// Drag-free, as the flights built here by flight().
+// Drag-free and not estimated, as the flights built here by flight().
 TrajectoryConfig ballistic() {
   TrajectoryConfig config;
   config.drag_per_m = 0.0;
+  config.drag_sigma_per_m = 0.0;
   return config;
 }
 
@@ -172,6 +173,33 @@ TEST(BallisticTrajectory, DragOptionFitsDraggedFlights) {
   EXPECT_GT(touchdownError(0.0), 2.0 * touchdownError(0.024));
 }
 
+TEST(BallisticTrajectory, EstimatesTheDragOfABallItWasNotToldAbout) {
+  // Balls at both ends of the physical range; the estimator's prior is the shipped 0.02 +- 0.007.
+  // Half a second of flight pins the drag only loosely (the fit allows 2 cm of model error per
+  // detection), so the estimate moves from the prior towards the truth and the touchdown's sigma
+  // says how far it may still be off.
+  for (const double true_drag : {0.010, 0.030}) {
+    SCOPED_TRACE("drag " + std::to_string(true_drag));
+    kinect3d::sim::BallPhysics physics;
+    physics.drag_per_m = true_drag;
+    const kinect3d::sim::BallMotion motion({{0, 1.5, 0.11}, {0.5, 9, 5.0}, 0.0, false}, physics, 2.0);
+    double t_land = 0.5;
+    while (t_land < 2.0 && motion.positionAt(t_land).z() > 0.11 + 1e-6) t_land += 0.0005;
+    ASSERT_LT(t_land, 2.0);
+    const Eigen::Vector2d landing = motion.positionAt(t_land).head<2>();
+    const TrajectoryConfig shipped;
+    auto estimator = kinect3d::makeTrajectoryEstimator(shipped);
+    std::optional<fw::BallTrajectory> trajectory;
+    for (int i = 1; i <= 15; ++i)
+      trajectory = estimator->update(i * kFrame_s, {observe(i * kFrame_s, motion.positionAt(i * kFrame_s), 0.003)});
+    ASSERT_TRUE(trajectory && trajectory->touchdown);
+    EXPECT_LT(std::abs(trajectory->drag_per_m - true_drag), 0.7 * std::abs(shipped.drag_per_m - true_drag));
+    const double error = (trajectory->touchdown->point_m - landing).norm();
+    EXPECT_LT(error, 0.12);
+    EXPECT_LT(error, 2.0 * trajectory->touchdown->sigma_m) << "the sigma owns the drag's uncertainty";
+  }
+}
+
 TEST(PaperTrajectory, FitsANoiseFreeParabola) {
   TrajectoryConfig config;
   config.mode = TrajectoryConfig::Mode::kPaper;
@@ -262,6 +290,7 @@ TEST(TrajectoryConfig, ShippedDefaultsAreTheStructDefaults) {
   EXPECT_EQ(read.mode, code.mode);
   EXPECT_EQ(read.ball_radius_m, code.ball_radius_m);
   EXPECT_EQ(read.drag_per_m, code.drag_per_m);
+  EXPECT_EQ(read.drag_sigma_per_m, code.drag_sigma_per_m);
   EXPECT_EQ(read.rolling_decel_mps2, code.rolling_decel_mps2);
   EXPECT_EQ(read.gate_sigma, code.gate_sigma);
   EXPECT_EQ(read.model_sigma_m, code.model_sigma_m);

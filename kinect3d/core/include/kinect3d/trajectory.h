@@ -3,8 +3,9 @@
 //   - paper:     the CAMBADA baseline: last 10 positions, a parabola over horizontal distance fitted
 //                by SVD without time, support within 0.25 m, restart from the last 3 positions,
 //                reset when the last two do not support.
-//   - ballistic: p(t) = p0 + v0 t + g t^2 / 2 with known gravity (and optional quadratic drag),
-//                fitted by least squares weighted by each detection's covariance; support tested
+//   - ballistic: p(t) = p0 + v0 t + g t^2 / 2 with known gravity and quadratic drag (estimated
+//                with the flight from a prior), fitted by least squares weighted by each
+//                detection's covariance; support tested
 //                on the Mahalanobis residual; bounces start a new segment; a ball on the floor
 //                rolls; a 'flight' that does not fall with g is not a ball.
 #pragma once
@@ -21,11 +22,12 @@ namespace kinect3d {
 struct TrajectoryConfig {
   enum class Mode { kBallistic, kPaper };
   Mode mode = Mode::kBallistic;
-  double ball_radius_m = 0.11;          // kinect3d.ball.radius_m: the detector's radius, read once
-  double drag_per_m = 0.024;            // ballistic: quadratic drag rho Cd A / 2m of a size 5 ball; 0 = none
-  double rolling_decel_mps2 = 0.4;      // a rolling ball slows by this
-  double gate_sigma = 4.0;              // a detection supports the fit within this many sigma
-  double model_sigma_m = 0.02;          // model error added to every prediction
+  double ball_radius_m = 0.11;      // kinect3d.ball.radius_m: the detector's radius, read once
+  double drag_per_m = 0.02;         // ballistic: quadratic drag rho Cd A / 2m, the prior's mean (size 5: 0.011-0.027)
+  double drag_sigma_per_m = 0.007;  // and its 1-sigma spread; 0 = the drag is drag_per_m, not estimated
+  double rolling_decel_mps2 = 0.4;  // a rolling ball slows by this
+  double gate_sigma = 4.0;          // a detection supports the fit within this many sigma
+  double model_sigma_m = 0.02;      // model error added to every prediction
   double max_gravity_error_mps2 = 4.0;  // a flight must fall with g to within this
   double min_flight_speed_mps = 1.0;    // and move at least this fast (first to last detection)
   int min_support = 4;                  // detections before a flight is reported

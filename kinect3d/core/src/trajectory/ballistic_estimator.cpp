@@ -1,4 +1,5 @@
 #include <Eigen/Dense>
+#include <Eigen/Eigenvalues>
 
 #include <algorithm>
 #include <cmath>
@@ -12,6 +13,13 @@ namespace {
 
 using Vector6d = Eigen::Matrix<double, 6, 1>;
 using Matrix6d = Eigen::Matrix<double, 6, 6>;
+using Vector7d = Eigen::Matrix<double, 7, 1>;
+using Matrix7d = Eigen::Matrix<double, 7, 7>;
+
+// Drag per metre is kept inside what a ball can have (a size 5 ball: about 0.011-0.027).
+constexpr double kMaxDrag_per_m = 0.06;
+// Step for the numerical derivative of the flight by the drag.
+constexpr double kDragStep_per_m = 1e-3;
 
 // Faster than any kick in the league (about 10 m/s): a detection that would need more is a new ball.
 constexpr double kMaxSpeed_mps = 20.0;
@@ -116,23 +124,32 @@ class BallisticEstimator : public TrajectoryEstimator {
 
   // The least-squares flight (or roll) through the segment, each detection weighted by its
   // covariance plus the model error. Without drag the model is linear in (p0, v0) and this is
-  // one solve. With drag, the model's departure from the drag-free flight is computed in one pass
-  // along the current fit and the linear solve repeated on the detections minus it: the
-  // departure hardly depends on the fit, so two rounds settle it.
+  // one solve. With drag, the model's departure from the drag-free flight, and how that departure
+  // changes with the drag, are computed in one pass along the current fit; the solve is repeated
+  // on the detections minus the departure, with the drag as a seventh unknown held to its prior
+  // (drag_per_m +- drag_sigma_per_m). The departure hardly depends on the fit, so three rounds
+  // settle it. A drag_sigma_per_m of 0 keeps the drag at drag_per_m.
   void fit() {
     t_ref_ = segment_.front().stamp.source_time_s;
     airborne_ = false;
     for (const fw::BallObservation& ball : segment_) airborne_ = airborne_ || ball.state == fw::BallState::kAir;
+    drag_per_m_ = airborne_ ? config().drag_per_m : 0.0;
+    drag_sigma_per_m_ = 0.0;
     drag_offsets_.assign(segment_.size(), Eigen::Vector3d::Zero());
+    drag_slopes_.assign(segment_.size(), Eigen::Vector3d::Zero());
     solve();
-    if (airborne_ && config().drag_per_m > 0.0) {
-      for (int round = 0; round < 2; ++round) {
-        fw::BallTrajectory along = model(theta_);
+    if (airborne_ && (config().drag_per_m > 0.0 || config().drag_sigma_per_m > 0.0)) {
+      const bool estimate = config().drag_sigma_per_m > 0.0;
+      for (int round = 0; round < 3; ++round) {
+        fw::BallTrajectory along = model(theta_, drag_per_m_), nudged = model(theta_, drag_per_m_ + kDragStep_per_m);
         for (std::size_t i = 0; i < segment_.size(); ++i) {
-          along = along.movedTo(segment_[i].stamp.source_time_s);
-          drag_offsets_[i] = along.position_m - dragFree(theta_, segment_[i].stamp.source_time_s);
+          const double t = segment_[i].stamp.source_time_s;
+          along = along.movedTo(t);
+          nudged = nudged.movedTo(t);
+          drag_offsets_[i] = along.position_m - dragFree(theta_, t);
+          drag_slopes_[i] = (nudged.position_m - along.position_m) / kDragStep_per_m;
         }
-        solve();
+        solve(estimate);
       }
     }
     double squares = 0.0;
@@ -151,24 +168,39 @@ class BallisticEstimator : public TrajectoryEstimator {
     return theta.head<3>() + tau * theta.tail<3>() + Eigen::Vector3d(0.0, 0.0, -0.5 * g * tau * tau);
   }
 
-  // Weighted least squares for (p0, v0) against the detections minus the drag offsets.
-  void solve() {
+  // Weighted least squares for (p0, v0) against the detections minus the drag offsets, and with
+  // estimate_drag for the change of the drag too (linearised by the drag slopes, with its prior).
+  void solve(bool estimate_drag = false) {
     const double g = airborne_ ? fw::kGravity_mps2 : 0.0;
-    Matrix6d normal = Matrix6d::Zero();
-    Vector6d rhs = Vector6d::Zero();
+    Matrix7d normal = Matrix7d::Zero();
+    Vector7d rhs = Vector7d::Zero();
     for (std::size_t i = 0; i < segment_.size(); ++i) {
       const fw::BallObservation& ball = segment_[i];
       const double tau = ball.stamp.source_time_s - t_ref_;
       const Eigen::Matrix3d W = weight(ball);
-      Eigen::Matrix<double, 3, 6> A;
-      A << Eigen::Matrix3d::Identity(), tau * Eigen::Matrix3d::Identity();
+      Eigen::Matrix<double, 3, 7> A;
+      A << Eigen::Matrix3d::Identity(), tau * Eigen::Matrix3d::Identity(), drag_slopes_[i];
       const Eigen::Vector3d target =
           ball.position_m - drag_offsets_[i] + Eigen::Vector3d(0.0, 0.0, 0.5 * g * tau * tau);
       normal += A.transpose() * W * A;
       rhs += A.transpose() * W * target;
     }
-    theta_ = normal.ldlt().solve(rhs);
-    covariance_ = normal.inverse();
+    if (!estimate_drag) {
+      theta_ = normal.topLeftCorner<6, 6>().ldlt().solve(rhs.head<6>());
+      covariance_ = normal.topLeftCorner<6, 6>().inverse();
+      return;
+    }
+    // The prior on the drag, as one more equation on the change d: d = prior - current.
+    const double prior_weight = 1.0 / (config().drag_sigma_per_m * config().drag_sigma_per_m);
+    normal(6, 6) += prior_weight;
+    rhs[6] += prior_weight * (config().drag_per_m - drag_per_m_);
+    const Vector7d solution = normal.ldlt().solve(rhs);
+    const Matrix7d covariance = normal.inverse();
+    theta_ = solution.head<6>();
+    drag_per_m_ = std::clamp(drag_per_m_ + solution[6], 0.0, kMaxDrag_per_m);
+    drag_sigma_per_m_ = std::sqrt(covariance(6, 6));
+    covariance_ = covariance.topLeftCorner<6, 6>();
+    drag_cross_ = covariance.block<6, 1>(0, 6);
   }
 
   Eigen::Matrix3d weight(const fw::BallObservation& ball) const {
@@ -178,14 +210,15 @@ class BallisticEstimator : public TrajectoryEstimator {
 
   // The motion model with parameters theta = (p0, v0) at t_ref_. A roll is fitted as constant
   // velocity over the short history; its slowing only matters for predictions further ahead.
-  fw::BallTrajectory model(const Vector6d& theta) const {
+  fw::BallTrajectory model(const Vector6d& theta) const { return model(theta, drag_per_m_); }
+  fw::BallTrajectory model(const Vector6d& theta, double drag_per_m) const {
     fw::BallTrajectory m;
     m.time_s = t_ref_;
     m.position_m = theta.head<3>();
     m.velocity_mps = theta.tail<3>();
     m.state = airborne_ ? fw::BallState::kAir : fw::BallState::kGround;
     m.gravity_mps2 = fw::kGravity_mps2;
-    m.drag_per_m = airborne_ ? config().drag_per_m : 0.0;
+    m.drag_per_m = airborne_ ? drag_per_m : 0.0;
     return m;
   }
 
@@ -280,25 +313,45 @@ class BallisticEstimator : public TrajectoryEstimator {
       J.col(k) = (moved - point) / 1e-5;
     }
     fw::Touchdown result;
-    result.sigma_m = std::sqrt((J * covariance_ * J.transpose()).eigenvalues().real().maxCoeff());
+    Eigen::Matrix2d spread = J * covariance_ * J.transpose();
     result.point_m = point;
     result.time_s = time;
-    if (config().drag_per_m > 0.0) {
-      // With drag there is no closed form: step the model down to the floor, 10 ms at a time.
-      constexpr double kStep_s = 0.01;
-      fw::BallTrajectory walk = now;
-      for (int i = 0; i < 500; ++i) {
-        const fw::BallTrajectory next = walk.movedTo(walk.time_s + kStep_s);
-        if (next.position_m.z() <= r) {
-          const double w = (walk.position_m.z() - r) / (walk.position_m.z() - next.position_m.z());
-          result.time_s = walk.time_s + w * kStep_s;
-          result.point_m = (walk.position_m + w * (next.position_m - walk.position_m)).head<2>();
-          break;
+    if (drag_per_m_ > 0.0 || drag_sigma_per_m_ > 0.0) {
+      const auto landing = dragLanding(now);
+      if (!landing) return std::nullopt;
+      result.point_m = landing->first;
+      result.time_s = landing->second;
+      if (drag_sigma_per_m_ > 0.0) {
+        // What the drag's own uncertainty, and its correlation with the launch, moves the landing.
+        const auto nudged = dragLanding(model(theta_, drag_per_m_ + kDragStep_per_m).movedTo(now.time_s));
+        if (nudged) {
+          const Eigen::Vector2d slope = (nudged->first - landing->first) / kDragStep_per_m;
+          const Eigen::Vector2d cross = J * drag_cross_;
+          spread += slope * slope.transpose() * drag_sigma_per_m_ * drag_sigma_per_m_ + cross * slope.transpose() +
+                    slope * cross.transpose();
         }
-        walk = next;
       }
     }
+    result.sigma_m =
+        std::sqrt(std::max(0.0, Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(spread).eigenvalues().maxCoeff()));
     return result;
+  }
+
+  // With drag there is no closed form: the model stepped down to the floor, 10 ms at a time.
+  std::optional<std::pair<Eigen::Vector2d, double>> dragLanding(const fw::BallTrajectory& from) const {
+    constexpr double kStep_s = 0.01;
+    const double r = config().ball_radius_m;
+    fw::BallTrajectory walk = from;
+    for (int i = 0; i < 500; ++i) {
+      const fw::BallTrajectory next = walk.movedTo(walk.time_s + kStep_s);
+      if (next.position_m.z() <= r) {
+        const double w = (walk.position_m.z() - r) / (walk.position_m.z() - next.position_m.z());
+        return std::make_pair(Eigen::Vector2d((walk.position_m + w * (next.position_m - walk.position_m)).head<2>()),
+                              walk.time_s + w * kStep_s);
+      }
+      walk = next;
+    }
+    return std::nullopt;
   }
 
   // Where the ball crosses y = 0 of the robot frame, if it is heading there (before touchdown).
@@ -328,6 +381,10 @@ class BallisticEstimator : public TrajectoryEstimator {
   double t_ref_ = 0.0;
   Vector6d theta_ = Vector6d::Zero();
   std::vector<Eigen::Vector3d> drag_offsets_;  // drag model minus drag-free flight, per detection
+  std::vector<Eigen::Vector3d> drag_slopes_;   // how that changes with the drag, per detection
+  double drag_per_m_ = 0.0;                    // the fit's drag: estimated, or the configured one
+  double drag_sigma_per_m_ = 0.0;              // its 1-sigma uncertainty (0 when not estimated)
+  Vector6d drag_cross_ = Vector6d::Zero();     // covariance of (p0, v0) with the drag
   Matrix6d covariance_ = Matrix6d::Identity();
   double rms_ = 0.0;
 };
