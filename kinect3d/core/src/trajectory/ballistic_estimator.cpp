@@ -18,6 +18,10 @@ using Matrix7d = Eigen::Matrix<double, 7, 7>;
 
 // Drag per metre is kept inside what a ball can have (a size 5 ball: about 0.011-0.027).
 constexpr double kMaxDrag_per_m = 0.06;
+// Pseudo-observations that hold the fit's variance factor towards 1 (see solve()).
+constexpr double kVarianceFactorPrior = 10.0;
+// and never below this: the detections are not better than about half the model error stated.
+constexpr double kMinVarianceFactor = 0.3;
 // Step for the numerical derivative of the flight by the drag.
 constexpr double kDragStep_per_m = 1e-3;
 
@@ -195,7 +199,22 @@ class BallisticEstimator : public TrajectoryEstimator {
     normal(6, 6) += prior_weight;
     rhs[6] += prior_weight * (config().drag_per_m - drag_per_m_);
     const Vector7d solution = normal.ldlt().solve(rhs);
-    const Matrix7d covariance = normal.inverse();
+    // The detections' weights assume model_sigma_m of model error each; how well the fit really
+    // meets them rescales its covariance (the least-squares variance factor, held towards 1 by
+    // kVarianceFactorPrior pseudo-observations so that five detections cannot talk it into zero).
+    double chi2 = 0.0;
+    for (std::size_t i = 0; i < segment_.size(); ++i) {
+      const fw::BallObservation& ball = segment_[i];
+      const double tau = ball.stamp.source_time_s - t_ref_;
+      const Eigen::Vector3d predicted = solution.head<3>() + tau * solution.segment<3>(3) + drag_offsets_[i] +
+                                        drag_slopes_[i] * solution[6] - Eigen::Vector3d(0.0, 0.0, 0.5 * g * tau * tau);
+      const Eigen::Vector3d r = ball.position_m - predicted;
+      chi2 += r.dot(weight(ball) * r);
+    }
+    const double dof = 3.0 * segment_.size() - 7.0;
+    const double variance_factor =
+        std::max(kMinVarianceFactor, (chi2 + kVarianceFactorPrior) / (std::max(dof, 0.0) + kVarianceFactorPrior));
+    const Matrix7d covariance = variance_factor * normal.inverse();
     theta_ = solution.head<6>();
     drag_per_m_ = std::clamp(drag_per_m_ + solution[6], 0.0, kMaxDrag_per_m);
     drag_sigma_per_m_ = std::sqrt(covariance(6, 6));
