@@ -20,7 +20,6 @@ class PoseHistory {
   // Interpolated between the poses around t_s; the first before them, extrapolated at constant
   // velocity at most kMaxExtrapolation_s after them. Without any pose: the field origin, facing +y.
   fw::RobotPose at(double t_s) const;
-  bool empty() const { return poses_.empty(); }
 
  private:
   std::deque<fw::RobotPose> poses_;  // by time, oldest first

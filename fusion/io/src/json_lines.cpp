@@ -135,28 +135,25 @@ void writePoseFile(const std::string& path, const std::vector<fw::RobotPose>& po
   writeLines(path, lines);
 }
 
-std::string fusedLine(const FusionUpdate& update) {
-  json line{{"t", update.time_s}, {"ball", nullptr}};
-  if (const auto& ball = update.ball) {
-    line["ball"] = {{"field", vector3(ball->position_F)},   {"robot", vector3(ball->position_R)},
-                    {"v_field", vector3(ball->velocity_F)}, {"state", fw::toString(ball->state)},
-                    {"sigma_m", ball->sigmaHorizontal_m()}, {"sources", ball->sources}};
-  }
-  if (!update.rejected.empty()) {
-    json rejected = json::array();
-    for (const RejectedObservation& r : update.rejected) {
-      rejected.push_back({{"source", r.source}, {"field", vector3(r.position_F)}, {"reason", r.reason}});
-    }
-    line["rejected"] = rejected;
-  }
-  return line.dump();
-}
-
 void writeFusedFile(const std::string& path, const std::vector<FusionUpdate>& updates) {
-  std::ofstream out(path);
-  if (!out) throw std::runtime_error(path + ": cannot open for writing");
-  for (const FusionUpdate& update : updates) out << fusedLine(update) << '\n';
-  if (!out.flush()) throw std::runtime_error(path + ": write failed");
+  std::vector<json> lines;
+  for (const FusionUpdate& update : updates) {
+    json line{{"t", update.time_s}, {"ball", nullptr}};
+    if (const auto& ball = update.ball) {
+      line["ball"] = {{"field", vector3(ball->position_F)},   {"robot", vector3(ball->position_R)},
+                      {"v_field", vector3(ball->velocity_F)}, {"state", fw::toString(ball->state)},
+                      {"sigma_m", ball->sigmaHorizontal_m()}, {"sources", ball->sources}};
+    }
+    if (!update.rejected.empty()) {
+      json rejected = json::array();
+      for (const RejectedObservation& r : update.rejected) {
+        rejected.push_back({{"source", r.source}, {"field", vector3(r.position_F)}, {"reason", r.reason}});
+      }
+      line["rejected"] = rejected;
+    }
+    lines.push_back(std::move(line));
+  }
+  writeLines(path, lines);
 }
 
 }  // namespace fusion

@@ -37,10 +37,6 @@ std::unique_ptr<DepthSource> openSimulation(const std::string& scene, const Sour
 
 }  // namespace
 
-std::unique_ptr<DepthSource> simulationOf(Scene scene, const SourceOptions& options) {
-  return std::make_unique<Simulation>(std::move(scene), options);
-}
-
 void addSimulatorSource(DepthSourceTable& table) { table.add("sim", openSimulation); }
 
 DepthSourceTable sourcesWithSimulator() {

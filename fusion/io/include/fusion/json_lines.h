@@ -21,7 +21,6 @@ void writePoseFile(const std::string& path, const std::vector<fw::RobotPose>& po
 
 // {"t": .., "ball": null | {"field": [x, y, z], "robot": [..], "v_field": [..], "state": "air",
 //  "sigma_m": .., "sources": [..]}, "rejected": [{"source": .., "field": [..], "reason": ..}]}
-std::string fusedLine(const FusionUpdate& update);
 void writeFusedFile(const std::string& path, const std::vector<FusionUpdate>& updates);
 
 }  // namespace fusion

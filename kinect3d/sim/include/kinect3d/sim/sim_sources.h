@@ -5,15 +5,11 @@
 #include <string>
 
 #include "kinect3d/depth_source.h"
-#include "kinect3d/sim/scene.h"
 
 namespace kinect3d::sim {
 
 // Adds sim:<scene> (a built-in scene name or a scene file ending in .yaml) to an application's table.
 void addSimulatorSource(DepthSourceTable& table);
-
-// A scene built or changed in code, as a source (what sim:<scene> opens for a scene on disk).
-std::unique_ptr<DepthSource> simulationOf(Scene scene, const SourceOptions& options = {});
 
 // The core's schemes plus sim:, what the CLI, the demo plugin and the tests open.
 DepthSourceTable sourcesWithSimulator();
