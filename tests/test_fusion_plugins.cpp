@@ -7,6 +7,7 @@
 #include <chrono>
 #include <cstdio>
 #include <fstream>
+#include <functional>
 #include <thread>
 
 #include "framework_api/host.h"
@@ -17,6 +18,22 @@
 
 namespace {
 
+// Runs the host until its sources end (at most a minute) and hands every new world ball to `seen`,
+// sampled every 5 ms as behaviour code would.
+void runAndSampleWorldBall(fw::Host& host, const std::function<void(const fw::FusedBall&)>& seen) {
+  host.start();
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+  double last_stamp = 0.0;
+  while (!host.sourcesFinished() && std::chrono::steady_clock::now() < deadline) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    const auto ball = host.world().fusedBall();
+    if (!ball || ball->stamp.source_time_s == last_stamp) continue;
+    last_stamp = ball->stamp.source_time_s;
+    seen(*ball);
+  }
+  host.stop();
+}
+
 TEST(FusionPlugins, TheDemoRobotFusesTheLobFlyingOverItWhileItDrives) {
   const fw::Config config = fw::Config::load(std::string(PROJECT_CONFIG_DIR) + "/defaults",
                                              std::string(PROJECT_CONFIG_DIR) + "/robots/demo.yaml",
@@ -24,25 +41,17 @@ TEST(FusionPlugins, TheDemoRobotFusesTheLobFlyingOverItWhileItDrives) {
   const kinect3d::sim::Scene scene = kinect3d::sim::loadScene("lob_over_robot");
   const kinect3d::sim::BallMotion truth(*scene.ball, scene.physics, scene.duration_s);
   fw::Host host(config, PRODUCT_PLUGIN_DIR);
-  host.start();
-  // The scene plays in real time (3.5 s); sample the world's ball as behaviour code would.
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+  // The scene plays in real time (3.5 s).
   int samples = 0, in_air_from_both = 0, far_off_in_air = 0;
-  double last_stamp = 0.0;
-  while (!host.sourcesFinished() && std::chrono::steady_clock::now() < deadline) {
-    std::this_thread::sleep_for(std::chrono::milliseconds(5));
-    const auto ball = host.world().fusedBall();
-    if (!ball || ball->stamp.source_time_s == last_stamp) continue;
-    last_stamp = ball->stamp.source_time_s;
+  runAndSampleWorldBall(host, [&](const fw::FusedBall& ball) {
     ++samples;
-    const Eigen::Vector3d true_F = truth.positionAt(ball->stamp.source_time_s - scene.start_time_s);
-    const bool both = ball->sources == std::vector<std::string>{"kinect3d", "omni"};
-    if (ball->state == fw::BallState::kAir && both && true_F.z() > 0.3 && true_F.y() > 0.5) {
+    const Eigen::Vector3d true_F = truth.positionAt(ball.stamp.source_time_s - scene.start_time_s);
+    const bool both = ball.sources == std::vector<std::string>{"kinect3d", "omni"};
+    if (ball.state == fw::BallState::kAir && both && true_F.z() > 0.3 && true_F.y() > 0.5) {
       ++in_air_from_both;
-      if ((ball->position_F - true_F).norm() > 0.25) ++far_off_in_air;
+      if ((ball.position_F - true_F).norm() > 0.25) ++far_off_in_air;
     }
-  }
-  host.stop();
+  });
   ASSERT_TRUE(host.sourcesFinished());
   EXPECT_GT(samples, 50);
   EXPECT_GE(in_air_from_both, 10) << "the lob in front of the robot, fused from both sensors";
@@ -60,18 +69,9 @@ TEST(FusionPlugins, OmniAndPosesReplayedFromFilesReachTheWorldBall) {
       {"host.plugins=[localisation, omni, fusion]", "omni.source=file:" + d + "/omni.jsonl",
        "localisation.source=file:" + d + "/pose.jsonl"});
   fw::Host host(config, PRODUCT_PLUGIN_DIR);
-  host.start();
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
   int with_omni_ball = 0;
-  double last_stamp = 0.0;
-  while (!host.sourcesFinished() && std::chrono::steady_clock::now() < deadline) {
-    std::this_thread::sleep_for(std::chrono::milliseconds(5));
-    const auto ball = host.world().fusedBall();
-    if (!ball || ball->stamp.source_time_s == last_stamp) continue;
-    last_stamp = ball->stamp.source_time_s;
-    with_omni_ball += ball->sources == std::vector<std::string>{"omni"};
-  }
-  host.stop();
+  runAndSampleWorldBall(
+      host, [&](const fw::FusedBall& ball) { with_omni_ball += ball.sources == std::vector<std::string>{"omni"}; });
   ASSERT_TRUE(host.sourcesFinished());
   EXPECT_GT(with_omni_ball, 10) << "the omni camera alone carries the world's ball";
   ASSERT_TRUE(host.world().robotPose());
