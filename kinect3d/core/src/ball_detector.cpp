@@ -1,5 +1,6 @@
 #include "kinect3d/ball_detector.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <utility>
@@ -55,6 +56,8 @@ void BallDetector::detect(const DepthFrame& frame, Detections& out, const std::o
     grid_ = std::make_unique<OccupancyGrid>(config_.grid, frame.intrinsics.fx, config_.points.pixel_stride,
                                             config_.points.max_range_m);
     finder_ = std::make_unique<BallCandidateFinder>(config_.mask, minGroupPointsAt1m(config_, frame.intrinsics.fx));
+    shell_evidence_ = std::make_unique<ShellEvidence>(
+        frame.intrinsics, (config_.mask.mask_voxels - config_.mask.core_voxels) / 2, config_.points);
     refiner_ =
         std::make_unique<BallRefiner>(config_.ball, DepthNoiseModel{frame.intrinsics.fx, config_.points.baseline_m});
   }
@@ -74,6 +77,12 @@ void BallDetector::detect(const DepthFrame& frame, Detections& out, const std::o
   out.times.seconds[StageTimes::kGrid] = secondsBetween(t2, t3);
 
   finder_->find(*grid_, candidates_);
+  const Eigen::Isometry3f T_S_R = T_R_S_f.inverse();
+  candidates_.erase(std::remove_if(candidates_.begin(), candidates_.end(),
+                                   [&](const BallCandidate& candidate) {
+                                     return !shell_evidence_->shellObserved(candidate, *grid_, frame, T_S_R);
+                                   }),
+                    candidates_.end());
   out.occupied_voxels = static_cast<int>(grid_->occupiedVoxels().size());
   out.candidates = static_cast<int>(candidates_.size());
   Clock::time_point t4 = Clock::now();

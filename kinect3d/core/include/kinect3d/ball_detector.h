@@ -1,5 +1,6 @@
 // The whole per-frame path of the paper, stage by stage:
-//   depth frame -> surface points (robot frame) -> occupancy grid -> mask candidates -> balls,
+//   depth frame -> surface points (robot frame) -> occupancy grid -> mask candidates (with a shell
+//   the sensor saw) -> balls,
 // with the scene map (OctoMap) remembering across frames which space is static.
 #pragma once
 
@@ -16,6 +17,7 @@
 #include "kinect3d/occupancy_grid.h"
 #include "kinect3d/point_projector.h"
 #include "kinect3d/scene_map.h"
+#include "kinect3d/shell_evidence.h"
 
 namespace kinect3d {
 
@@ -40,7 +42,7 @@ struct Detections {
   std::vector<fw::BallObservation> balls;  // robot frame, air first
   bool aligned = false;                    // false while the floor has not been found
   int occupied_voxels = 0;                 // in the grid this frame
-  int candidates = 0;                      // groups that passed the mask, before refinement
+  int candidates = 0;                      // groups that passed the mask with an observed shell, before refinement
   StageTimes times;
 };
 
@@ -70,6 +72,7 @@ class BallDetector {
   std::unique_ptr<PointProjector> projector_;
   std::unique_ptr<OccupancyGrid> grid_;
   std::unique_ptr<BallCandidateFinder> finder_;
+  std::unique_ptr<ShellEvidence> shell_evidence_;
   std::unique_ptr<BallRefiner> refiner_;
   std::unique_ptr<SceneMap> map_;
   bool map_in_field_ = false;  // the map's frame: field (a pose was given) or robot
