@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
 
 namespace kinect3d {
 
@@ -56,6 +57,7 @@ bool BallRefiner::gatherPoints(const BallCandidate& candidate, const OccupancyGr
   }
   // Every surface pixel in the rectangle whose point lies in the box.
   points_.clear();
+  pixels_.clear();
   const int ua = std::max(1, int(u0)), ub = std::min(in.width - 1, int(u1) + 1);
   const int va = std::max(1, int(v0)), vb = std::min(in.height - 1, int(v1) + 1);
   for (int v = va; v < vb; ++v) {
@@ -66,6 +68,7 @@ bool BallRefiner::gatherPoints(const BallCandidate& candidate, const OccupancyGr
       if ((p.array() < lo.array()).any() || (p.array() > hi.array()).any()) continue;
       if (p_R.z() < surface.config().floor_margin_m) continue;
       points_.push_back(p_R);
+      pixels_.emplace_back(u, v);
     }
   }
   return points_.size() >= kMinPoints;
@@ -107,6 +110,81 @@ Eigen::Vector3d BallRefiner::centreFromDisc(const Eigen::Vector3d& centroid, con
   const double a = std::clamp(radial_[rank] / std::sqrt(kSpreadQuantile) / r, kMinDisc, 1.0);
   const double cap_depth = (2.0 / 3.0) * (1.0 - std::pow(1.0 - a * a, 1.5)) / (a * a);
   return centroid + cap_depth * r * ray;
+}
+
+Eigen::Vector3d BallRefiner::centreFromLimb(const Eigen::Vector3d& center_R, const DepthFrame& frame,
+                                            const Eigen::Isometry3d& T_R_S) const {
+  constexpr int kLook_px = 4;              // past an end of the ball's pixels, looking for what bounds it
+  constexpr double kMinHiddenShare = 0.2;  // of the outline's ends: below this the ball is whole
+  constexpr int kMinLimbEnds = 6;
+  const Intrinsics& in = frame.intrinsics;
+  const Eigen::Isometry3d T_S_R = T_R_S.inverse();
+  double front_m = 1e9;  // the ball's nearest depth along the optical axis
+  for (const Eigen::Vector3d& p : points_) front_m = std::min(front_m, (T_S_R * p).z());
+  const double ball_far_m = (T_S_R * center_R).z() + config_.radius_m;
+  const double occluder_below_m = front_m - std::max(0.03, 3.0 * noise_.axialSigma_m(front_m));
+
+  // The ends of the ball's pixels along each row and column. An end is the ball's limb when beyond
+  // it the view passes the ball (no depth, or depth behind the ball); it is hidden when something
+  // nearer or the image border bounds it.
+  std::map<int, std::pair<int, int>> rows, columns;  // v -> (min u, max u), u -> (min v, max v)
+  for (const Eigen::Vector2i& px : pixels_) {
+    auto [row, new_row] = rows.try_emplace(px.y(), px.x(), px.x());
+    row->second = {std::min(row->second.first, px.x()), std::max(row->second.second, px.x())};
+    auto [column, new_column] = columns.try_emplace(px.x(), px.y(), px.y());
+    column->second = {std::min(column->second.first, px.y()), std::max(column->second.second, px.y())};
+  }
+  std::vector<Eigen::Vector3d> limb_rays_S;  // unit rays through the outer edge of limb pixels
+  int hidden = 0;
+  auto visit = [&](int u, int v, int du, int dv) {
+    for (int k = 1; k <= kLook_px; ++k) {
+      const int x = u + k * du, y = v + k * dv;
+      if (x < 1 || y < 1 || x >= in.width - 1 || y >= in.height - 1) {
+        ++hidden;  // cut by the image border
+        return;
+      }
+      const double d_m = frame.at(x, y) * 0.001;
+      if (d_m > 0.0 && d_m < occluder_below_m) {
+        ++hidden;  // something nearer
+        return;
+      }
+      if (d_m > 0.0 && d_m <= ball_far_m) continue;  // the ball's own edge pixels, dropped by the edge filter
+    }
+    limb_rays_S.push_back(
+        Eigen::Vector3d((u + 0.5 * du - in.cx) / in.fx, (v + 0.5 * dv - in.cy) / in.fy, 1.0).normalized());
+  };
+  for (const auto& [v, ends] : rows) visit(ends.first, v, -1, 0), visit(ends.second, v, 1, 0);
+  for (const auto& [u, ends] : columns) visit(u, ends.first, 0, -1), visit(u, ends.second, 0, 1);
+  const int ends = hidden + static_cast<int>(limb_rays_S.size());
+  if (hidden < kMinHiddenShare * ends || static_cast<int>(limb_rays_S.size()) < kMinLimbEnds) return center_R;
+
+  // Gauss-Newton across the view (the depth stays the cap's): every limb ray passes one radius from
+  // the centre, less the pixel the edge filter trims off the limb.
+  const Eigen::Vector3d c0_S = T_S_R * center_R;
+  const double range = c0_S.norm();
+  const double r_eff = config_.radius_m - range / in.fx;
+  const Eigen::Vector3d ray = c0_S / range;
+  const Eigen::Vector3d e1 = ray.cross(Eigen::Vector3d::UnitY()).normalized(), e2 = ray.cross(e1);
+  Eigen::Vector2d ab = Eigen::Vector2d::Zero();
+  for (int iteration = 0; iteration < 10; ++iteration) {
+    const Eigen::Vector3d c = c0_S + ab.x() * e1 + ab.y() * e2;
+    Eigen::Matrix2d JtJ = Eigen::Matrix2d::Zero();
+    Eigen::Vector2d Jtr = Eigen::Vector2d::Zero();
+    for (const Eigen::Vector3d& d : limb_rays_S) {
+      const Eigen::Vector3d w = c - c.dot(d) * d;  // from the ray to the centre, across the ray
+      const double distance = w.norm();
+      if (distance < 1e-9) continue;
+      const Eigen::Vector2d J(w.dot(e1) / distance, w.dot(e2) / distance);
+      JtJ += J * J.transpose();
+      Jtr += J * (distance - r_eff);
+    }
+    const Eigen::Vector2d step = JtJ.ldlt().solve(-Jtr);
+    ab += step;
+    if (step.norm() < 1e-5) break;
+  }
+  // The centroid of a half disc lies 0.42 radii from the centre: a larger move is not a ball's.
+  if (ab.norm() > 0.6 * config_.radius_m) return center_R;
+  return T_R_S * (c0_S + ab.x() * e1 + ab.y() * e2);
 }
 
 Eigen::Matrix3d BallRefiner::covariance(const Eigen::Vector3d& ray, double range, int points) const {
@@ -154,6 +232,7 @@ std::optional<BallFit> BallRefiner::refine(const BallCandidate& candidate, const
     const Eigen::Vector3d sphere = fitSphere(points_, fit.center_R, std::hypot(r, sigma), gate);
     if ((sphere - fit.center_R).norm() < r / 3) fit.center_R = sphere;
   }
+  fit.center_R = centreFromLimb(fit.center_R, frame, T_R_S);
   // A ball cannot sink into the floor: its centre stays near one radius up.
   if (fit.center_R.z() < 0.5 * r) return std::nullopt;
   fit.points = static_cast<int>(points_.size());

@@ -37,6 +37,38 @@ struct PaperRow {
 };
 const PaperRow kPaperTable1[] = {{2.01, 0.00002}, {2.96, 0.00029}, {4.01, 0.00001}, {5.00, 0.00718}, {5.97, 0.00003}};
 
+// One row for a scene whose ball hangs still: mean position, mean 3D error and spread over the
+// frames that found it, against the paper's targets at that range (3 cm up to 4 m, else 6 cm;
+// spread at most 2 cm).
+void hungBallRow(const fw::Config& config, const std::string& scene_name, const std::string& first_columns,
+                 std::ostream& md) {
+  const sim::Scene scene = sim::loadScene(scene_name);
+  const auto frames = sim::runDetectorOnScene(scene, configFor(config, scene));
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero(), square = Eigen::Vector3d::Zero();
+  double error_sum = 0.0;
+  int found = 0;
+  for (const auto& f : frames) {
+    if (f.balls.empty()) continue;
+    const Eigen::Vector3d p = f.balls.front().position_m;
+    sum += p;
+    square += p.cwiseProduct(p);
+    error_sum += (p - f.truth.ball_center_R).norm();
+    ++found;
+  }
+  const Eigen::Vector3d mean = sum / std::max(found, 1);
+  const Eigen::Vector3d std_dev = (square / std::max(found, 1) - mean.cwiseProduct(mean)).cwiseMax(0.0).cwiseSqrt();
+  const double mean_error = error_sum / std::max(found, 1);
+  const double range =
+      frames.empty() ? 0.0 : (frames.front().truth.ball_center_R - scene.sensor_pose.T_R_S().translation()).norm();
+  const double target = range <= 4.05 ? 0.03 : 0.06;
+  const bool met = found > 0 && mean_error <= target && std_dev.maxCoeff() <= 0.02;
+  md << "| " << first_columns << " | " << format("%.3f, ", mean.x()) << format("%.3f, ", mean.y())
+     << format("%.3f m", mean.z()) << " | " << format("%.1f cm", mean_error * 100) << " | "
+     << format("%.1f / ", std_dev.x() * 100) << format("%.1f / ", std_dev.y() * 100)
+     << format("%.1f cm", std_dev.z() * 100) << " | " << found << "/" << frames.size() << " | "
+     << format("<= %.0f cm, std <= 2 cm: ", target * 100) << (met ? "met" : "**not met**") << " |\n";
+}
+
 void table1(const fw::Config& config, std::ostream& md) {
   md << "## The paper's Table 1: ball hung 1 m above the floor, straight ahead\n\n"
         "Scenes `hung_2m` ... `hung_6m` (90 frames each, every noise effect on, a wall at 7.6 m). "
@@ -46,32 +78,25 @@ void table1(const fw::Config& config, std::ostream& md) {
         "| distance | paper: mean y (std) | ours: mean x, y, z | mean 3D error | std x / y / z | found | target |\n"
         "|---|---|---|---|---|---|---|\n";
   for (int d = 2; d <= 6; ++d) {
-    const sim::Scene scene = sim::loadScene("hung_" + std::to_string(d) + "m");
-    const auto frames = sim::runDetectorOnScene(scene, configFor(config, scene));
-    Eigen::Vector3d sum = Eigen::Vector3d::Zero(), square = Eigen::Vector3d::Zero();
-    double error_sum = 0.0;
-    int found = 0;
-    for (const auto& f : frames) {
-      if (f.balls.empty()) continue;
-      const Eigen::Vector3d p = f.balls.front().position_m;
-      sum += p;
-      square += p.cwiseProduct(p);
-      error_sum += (p - f.truth.ball_center_R).norm();
-      ++found;
-    }
-    const Eigen::Vector3d mean = sum / std::max(found, 1);
-    const Eigen::Vector3d std_dev = (square / std::max(found, 1) - mean.cwiseProduct(mean)).cwiseMax(0.0).cwiseSqrt();
-    const double mean_error = error_sum / std::max(found, 1);
-    const double target = d <= 4 ? 0.03 : 0.06;
-    const bool met = found > 0 && mean_error <= target && std_dev.maxCoeff() <= 0.02;
     const PaperRow& paper = kPaperTable1[d - 2];
-    md << "| " << d << " m | " << format("%.2f m", paper.y_m) << format(" (%.2f cm)", paper.y_std_m * 100) << " | "
-       << format("%.3f, ", mean.x()) << format("%.3f, ", mean.y()) << format("%.3f m", mean.z()) << " | "
-       << format("%.1f cm", mean_error * 100) << " | " << format("%.1f / ", std_dev.x() * 100)
-       << format("%.1f / ", std_dev.y() * 100) << format("%.1f cm", std_dev.z() * 100) << " | " << found << "/"
-       << frames.size() << " | " << format("<= %.0f cm, std <= 2 cm: ", target * 100) << (met ? "met" : "**not met**")
-       << " |\n";
+    hungBallRow(config, "hung_" + std::to_string(d) + "m",
+                std::to_string(d) + " m | " + format("%.2f m", paper.y_m) + format(" (%.2f cm)", paper.y_std_m * 100),
+                md);
   }
+  md << "\n";
+}
+
+void partialOcclusion(const fw::Config& config, std::ostream& md) {
+  md << "## Partly hidden balls\n\n"
+        "A ball hung still with half of it out of sight: behind a robot 1 m in front of it, behind a "
+        "person, and cut by the image border (90 frames each, every noise effect on). The centroid of "
+        "a half-seen ball lies 0.42 radii towards its visible half; the detector centres it on the "
+        "outline that is the ball's own (docs/architecture.md). Targets as Table 1's at that range.\n\n"
+        "| scene | what hides it | mean x, y, z | mean 3D error | std x / y / z | found | target |\n"
+        "|---|---|---|---|---|---|---|\n";
+  hungBallRow(config, "half_hidden_robot", "`half_hidden_robot` (3 m) | its left half, a robot", md);
+  hungBallRow(config, "half_hidden_person", "`half_hidden_person` (5 m) | its left half, a person", md);
+  hungBallRow(config, "cut_by_border", "`cut_by_border` (3.4 m) | its left half, the image border", md);
   md << "\n";
 }
 
@@ -127,16 +152,26 @@ int detectionsOn(DepthSource& source, const DetectorConfig& config, int& frames)
 }
 
 void phantoms(const fw::Config& config, const ReportOptions& options, std::ostream& md) {
+  md << "## Phantom balls\n\n"
+     << "| data | frames | balls reported | per 1,000 frames | target |\n|---|---|---|---|---|\n";
   sim::Scene clutter = sim::loadScene("clutter");
   clutter.duration_s = options.clutter_frames / clutter.fps;
   const sim::DetectionScore score =
       sim::scoreFrames(sim::runDetectorOnScene(clutter, configFor(config, clutter)), clutter, {});
   const double per_1000 = 1000.0 * score.reported / std::max(score.frames, 1);
-  md << "## Phantom balls\n\n"
-     << "| data | frames | balls reported | per 1,000 frames | target |\n|---|---|---|---|---|\n"
-     << "| `clutter` (robots driving, people walking, goal, wall, no ball) | " << score.frames << " | "
+  md << "| `clutter` (robots driving, people walking, goal, wall, no ball) | " << score.frames << " | "
      << score.reported << " | " << format("%.2f", per_1000) << " | <= 1: " << (per_1000 <= 1.0 ? "met" : "**not met**")
      << " |\n";
+  // Scenes where the space around a structure has no depth, or where structures end.
+  const std::pair<const char*, const char*> structures[] = {
+      {"range_edge", "a corner, a wall end and a loudspeaker on a wall at and beyond the 9.5 m range"},
+      {"corners_doors", "room corner, pillar, doorway with an open door, wall end"}};
+  for (const auto& [name, what] : structures) {
+    const sim::Scene scene = sim::loadScene(name);
+    const sim::DetectionScore s = sim::scoreFrames(sim::runDetectorOnScene(scene, configFor(config, scene)), scene, {});
+    md << "| `" << name << "` (" << what << ") | " << s.frames << " | " << s.reported
+       << " | - | 0: " << (s.reported == 0 ? "met" : "**not met**") << " |\n";
+  }
 
   // The real frames: a TUM sequence of one frame, and the NYU raw-disparity frame converted.
   // Neither shows a ball; the floor is searched for as a robot without a configured pose would.
@@ -171,6 +206,7 @@ void writeAccuracyReport(const fw::Config& config, const ReportOptions& options,
         "(docs/simulator.md), the detector with the shipped defaults (config/defaults/kinect3d.yaml) "
         "and the scene's sensor pose, as a robot file would give it.\n\n";
   table1(config, md);
+  partialOcclusion(config, md);
   kicks(config, options, md);
   phantoms(config, options, md);
   std::ofstream out(out_path);

@@ -4,7 +4,9 @@
 // The visible cap's centroid sits in front of the true centre (2/3 of the radius for an evenly
 // seen cap): the centre is the centroid moved back along the viewing ray by the depth of the
 // visible disc, refined by a least-squares fit of a sphere of the known radius where the sensor
-// resolves the cap's shape (see refine()).
+// resolves the cap's shape (see refine()). When part of the ball's outline is hidden (by something
+// nearer, or cut by the image border) the centroid sits towards the visible part; the outline that
+// is the ball's own then fixes the centre across the view (see centreFromLimb()).
 #pragma once
 
 #include <optional>
@@ -46,13 +48,18 @@ class BallRefiner {
   static constexpr std::size_t kMinPoints = 5;       // fewer full-resolution points: nothing to refine
   static constexpr double kMinDepthInFront_m = 0.1;  // a box reaching nearer is partly behind the sensor
 
-  // Fills points_ with the candidate's surface points (robot frame); false if too few or not in view.
+  // Fills points_ with the candidate's surface points (robot frame) and pixels_ with their pixels;
+  // false if too few or not in view.
   bool gatherPoints(const BallCandidate& candidate, const OccupancyGrid& grid, const DepthFrame& frame,
                     const Eigen::Isometry3d& T_R_S, const PointProjector& surface) const;
   // Enough pixels for a ball at this range, and no wider than one.
   bool isBallSized(const Eigen::Vector3d& centroid, const Eigen::Vector3d& ray, double range, double focal_px) const;
   // The centre: the centroid moved back along the ray by the visible cap's depth.
   Eigen::Vector3d centreFromDisc(const Eigen::Vector3d& centroid, const Eigen::Vector3d& ray) const;
+  // The centre moved across the view so that the rays through the visible limb graze a sphere of
+  // the ball's radius; unchanged when the whole outline is visible or too little of it is.
+  Eigen::Vector3d centreFromLimb(const Eigen::Vector3d& center_R, const DepthFrame& frame,
+                                 const Eigen::Isometry3d& T_R_S) const;
   // The centre's covariance, mostly along the viewing ray.
   Eigen::Matrix3d covariance(const Eigen::Vector3d& ray, double range, int points) const;
 
@@ -60,6 +67,7 @@ class BallRefiner {
   DepthNoiseModel noise_;
   // Scratch, reused between candidates.
   mutable std::vector<Eigen::Vector3d> points_;
+  mutable std::vector<Eigen::Vector2i> pixels_;  // where each point was seen
   mutable std::vector<double> radial_;
 };
 
