@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <map>
 
 namespace kinect3d {
 
@@ -55,20 +54,41 @@ bool BallRefiner::gatherPoints(const BallCandidate& candidate, const OccupancyGr
     const Eigen::Vector2d px = in.project(c_S);
     u0 = std::min(u0, px.x()), u1 = std::max(u1, px.x()), v0 = std::min(v0, px.y()), v1 = std::max(v1, px.y());
   }
-  // Every surface pixel in the rectangle whose point lies in the box.
-  points_.clear();
-  pixels_.clear();
+  // A pixel's point, if it lies on a surface, in the box and above the floor.
+  auto pointAt = [&](int u, int v) -> std::optional<Eigen::Vector3d> {
+    if (!surface.isSurface(frame, u, v)) return std::nullopt;
+    const Eigen::Vector3d p_R = T_R_S * in.backProject(u, v, frame.at(u, v) * 0.001);
+    const Eigen::Vector3f p = p_R.cast<float>();
+    if ((p.array() < lo.array()).any() || (p.array() > hi.array()).any()) return std::nullopt;
+    if (p_R.z() < surface.config().floor_margin_m) return std::nullopt;
+    return p_R;
+  };
+  // The rectangle holds the ball's pixels and, for a 0.81 m core near the sensor, a hundred times
+  // more. A coarse pass finds where the points are, and refuses what is already wider than a ball.
+  constexpr int kCoarse_px = 4;
   const int ua = std::max(1, int(u0)), ub = std::min(in.width - 1, int(u1) + 1);
   const int va = std::max(1, int(v0)), vb = std::min(in.height - 1, int(v1) + 1);
-  for (int v = va; v < vb; ++v) {
-    for (int u = ua; u < ub; ++u) {
-      if (!surface.isSurface(frame, u, v)) continue;
-      const Eigen::Vector3d p_R = T_R_S * in.backProject(u, v, frame.at(u, v) * 0.001);
-      const Eigen::Vector3f p = p_R.cast<float>();
-      if ((p.array() < lo.array()).any() || (p.array() > hi.array()).any()) continue;
-      if (p_R.z() < surface.config().floor_margin_m) continue;
-      points_.push_back(p_R);
-      pixels_.emplace_back(u, v);
+  int cu0 = ub, cu1 = ua - 1, cv0 = vb, cv1 = va - 1;
+  double nearest_m = 1e9;
+  for (int v = va; v < vb; v += kCoarse_px) {
+    for (int u = ua; u < ub; u += kCoarse_px) {
+      if (!pointAt(u, v)) continue;
+      cu0 = std::min(cu0, u), cu1 = std::max(cu1, u), cv0 = std::min(cv0, v), cv1 = std::max(cv1, v);
+      nearest_m = std::min(nearest_m, frame.at(u, v) * 0.001);
+    }
+  }
+  if (cu1 < cu0) return false;
+  const double widest_px = config_.max_size_ratio * 2.0 * config_.radius_m * in.fx / nearest_m;
+  if (std::max(cu1 - cu0, cv1 - cv0) > widest_px + 2 * kCoarse_px) return false;
+  // Every surface pixel around the coarse points whose point lies in the box.
+  points_.clear();
+  pixels_.clear();
+  for (int v = std::max(va, cv0 - kCoarse_px); v < std::min(vb, cv1 + kCoarse_px + 1); ++v) {
+    for (int u = std::max(ua, cu0 - kCoarse_px); u < std::min(ub, cu1 + kCoarse_px + 1); ++u) {
+      if (const std::optional<Eigen::Vector3d> p_R = pointAt(u, v)) {
+        points_.push_back(*p_R);
+        pixels_.emplace_back(u, v);
+      }
     }
   }
   return points_.size() >= kMinPoints;
@@ -127,14 +147,19 @@ Eigen::Vector3d BallRefiner::centreFromLimb(const Eigen::Vector3d& center_R, con
   // The ends of the ball's pixels along each row and column. An end is the ball's limb when beyond
   // it the view passes the ball (no depth, or depth behind the ball); it is hidden when something
   // nearer or the image border bounds it.
-  std::map<int, std::pair<int, int>> rows, columns;  // v -> (min u, max u), u -> (min v, max v)
+  Eigen::Vector2i lo = pixels_.front(), hi = pixels_.front();
+  for (const Eigen::Vector2i& px : pixels_) lo = lo.cwiseMin(px), hi = hi.cwiseMax(px);
+  constexpr int kNone = -1;
+  row_ends_.assign(hi.y() - lo.y() + 1, {kNone, kNone});     // per row from lo.y(): (min u, max u)
+  column_ends_.assign(hi.x() - lo.x() + 1, {kNone, kNone});  // per column from lo.x(): (min v, max v)
+  auto extend = [](std::pair<int, int>& ends, int at) {
+    ends = ends.first == kNone ? std::pair{at, at} : std::pair{std::min(ends.first, at), std::max(ends.second, at)};
+  };
   for (const Eigen::Vector2i& px : pixels_) {
-    auto [row, new_row] = rows.try_emplace(px.y(), px.x(), px.x());
-    row->second = {std::min(row->second.first, px.x()), std::max(row->second.second, px.x())};
-    auto [column, new_column] = columns.try_emplace(px.x(), px.y(), px.y());
-    column->second = {std::min(column->second.first, px.y()), std::max(column->second.second, px.y())};
+    extend(row_ends_[px.y() - lo.y()], px.x());
+    extend(column_ends_[px.x() - lo.x()], px.y());
   }
-  std::vector<Eigen::Vector3d> limb_rays_S;  // unit rays through the outer edge of limb pixels
+  limb_rays_S_.clear();  // unit rays through the outer edge of limb pixels
   int hidden = 0;
   auto visit = [&](int u, int v, int du, int dv) {
     for (int k = 1; k <= kLook_px; ++k) {
@@ -150,13 +175,21 @@ Eigen::Vector3d BallRefiner::centreFromLimb(const Eigen::Vector3d& center_R, con
       }
       if (d_m > 0.0 && d_m <= ball_far_m) continue;  // the ball's own edge pixels, dropped by the edge filter
     }
-    limb_rays_S.push_back(
+    limb_rays_S_.push_back(
         Eigen::Vector3d((u + 0.5 * du - in.cx) / in.fx, (v + 0.5 * dv - in.cy) / in.fy, 1.0).normalized());
   };
-  for (const auto& [v, ends] : rows) visit(ends.first, v, -1, 0), visit(ends.second, v, 1, 0);
-  for (const auto& [u, ends] : columns) visit(u, ends.first, 0, -1), visit(u, ends.second, 0, 1);
-  const int ends = hidden + static_cast<int>(limb_rays_S.size());
-  if (hidden < kMinHiddenShare * ends || static_cast<int>(limb_rays_S.size()) < kMinLimbEnds) return center_R;
+  for (int row = 0; row < static_cast<int>(row_ends_.size()); ++row) {
+    if (row_ends_[row].first == kNone) continue;
+    visit(row_ends_[row].first, lo.y() + row, -1, 0);
+    visit(row_ends_[row].second, lo.y() + row, 1, 0);
+  }
+  for (int column = 0; column < static_cast<int>(column_ends_.size()); ++column) {
+    if (column_ends_[column].first == kNone) continue;
+    visit(lo.x() + column, column_ends_[column].first, 0, -1);
+    visit(lo.x() + column, column_ends_[column].second, 0, 1);
+  }
+  const int ends = hidden + static_cast<int>(limb_rays_S_.size());
+  if (hidden < kMinHiddenShare * ends || static_cast<int>(limb_rays_S_.size()) < kMinLimbEnds) return center_R;
 
   // Gauss-Newton across the view (the depth stays the cap's): every limb ray passes one radius from
   // the centre, less the pixel the edge filter trims off the limb.
@@ -170,7 +203,7 @@ Eigen::Vector3d BallRefiner::centreFromLimb(const Eigen::Vector3d& center_R, con
     const Eigen::Vector3d c = c0_S + ab.x() * e1 + ab.y() * e2;
     Eigen::Matrix2d JtJ = Eigen::Matrix2d::Zero();
     Eigen::Vector2d Jtr = Eigen::Vector2d::Zero();
-    for (const Eigen::Vector3d& d : limb_rays_S) {
+    for (const Eigen::Vector3d& d : limb_rays_S_) {
       const Eigen::Vector3d w = c - c.dot(d) * d;  // from the ray to the centre, across the ray
       const double distance = w.norm();
       if (distance < 1e-9) continue;

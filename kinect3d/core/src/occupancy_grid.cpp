@@ -35,9 +35,17 @@ void OccupancyGrid::recentre(const Eigen::Vector3f& sensor_R) {
   occupied_list_.clear();
 }
 
+namespace {
+// floor() as an int without a library call (x86-64's baseline has no rounding instruction).
+int floorToInt(float x) {
+  const int truncated = static_cast<int>(x);
+  return truncated - (x < static_cast<float>(truncated));
+}
+}  // namespace
+
 VoxelIndex OccupancyGrid::cellOf(const Eigen::Vector3f& p) const {
   const float scale = static_cast<float>(1.0 / config_.voxel_m);
-  return {int(std::floor(p.x() * scale)), int(std::floor(p.y() * scale)), int(std::floor(p.z() * scale))};
+  return {floorToInt(p.x() * scale), floorToInt(p.y() * scale), floorToInt(p.z() * scale)};
 }
 
 VoxelIndex OccupancyGrid::indexOf(const Eigen::Vector3f& p_R) const {

@@ -10,6 +10,7 @@
 #pragma once
 
 #include <optional>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Geometry>
@@ -68,6 +69,8 @@ class BallRefiner {
   // Scratch, reused between candidates.
   mutable std::vector<Eigen::Vector3d> points_;
   mutable std::vector<Eigen::Vector2i> pixels_;  // where each point was seen
+  mutable std::vector<std::pair<int, int>> row_ends_, column_ends_;
+  mutable std::vector<Eigen::Vector3d> limb_rays_S_;
   mutable std::vector<double> radial_;
 };
 

@@ -62,7 +62,8 @@ class PointProjector {
   float min_mm_ = 0, max_mm_ = 0;
   float tolerance_per_m2_ = 0;  // edge_tolerance_steps / (8 f b)
   Intrinsics intrinsics_;
-  std::vector<Eigen::Vector2f> rays_;  // ((u - cx) / fx, (v - cy) / fy) per pixel
+  std::vector<float> column_x_;  // (u - cx) / fx per column
+  std::vector<float> row_y_;     // (v - cy) / fy per row
 };
 
 }  // namespace kinect3d
