@@ -174,6 +174,14 @@ TEST(Simulator, BallPhysicsFallsBouncesAndRolls) {
   physics.drag_per_m = 0.024;
   kinect3d::sim::BallMotion dragged({{0, 0, 0.11}, {0, 5, 5}, 0.0, false}, physics, 3.0);
   EXPECT_LT(dragged.positionAt(10.0 / 9.81 - 0.05).y(), motion.positionAt(10.0 / 9.81 - 0.05).y() - 0.1);
+
+  // Sidespin, counter-clockwise seen from above, bends a ball flying along +y to the left (-x):
+  // 10 rev/s at 8 m/s is about 1.5 m/s^2, so about 0.5 * 1.5 * 0.5^2 = 0.18 m after half a second.
+  physics.drag_per_m = 0.0;
+  physics.spin_rps = 10.0;
+  kinect3d::sim::BallMotion curving({{0, 0, 0.11}, {0, 8, 4}, 0.0, false}, physics, 1.0);
+  EXPECT_NEAR(curving.positionAt(0.5).x(), -0.5 * physics.magnus_m * 2 * M_PI * 10.0 * 8.0 * 0.25, 0.02);
+  EXPECT_NEAR(curving.velocityAt(0.5).head<2>().norm(), 8.0, 0.01) << "the Magnus force turns, it does not slow";
 }
 
 TEST(Simulator, TruthAndRepeatability) {

@@ -79,16 +79,19 @@ void BallTrajectory::propagate(double t_s, Eigen::Vector3d& p, Eigen::Vector3d& 
     return;
   }
   const Eigen::Vector3d g(0.0, 0.0, -gravity_mps2);
-  if (drag_per_m <= 0.0) {
+  if (drag_per_m <= 0.0 && curve_radps == 0.0) {
     p += v * dt + 0.5 * g * dt * dt;
     v += g * dt;
     return;
   }
-  // Quadratic drag has no closed form: midpoint steps of at most 20 ms (0.1 mm off after a second
+  // Quadratic drag and the Magnus curve have no closed form: midpoint steps of at most 20 ms (0.1 mm off after a second
   // of flight at 10 m/s with k = 0.024 /m, against steps a thousand times finer).
   const int steps = std::max(1, static_cast<int>(std::ceil(std::abs(dt) / 0.02)));
   const double h = dt / steps;
-  auto acceleration = [&](const Eigen::Vector3d& velocity) { return g - drag_per_m * velocity.norm() * velocity; };
+  auto acceleration = [&](const Eigen::Vector3d& velocity) -> Eigen::Vector3d {
+    return g - drag_per_m * velocity.norm() * velocity +
+           curve_radps * Eigen::Vector3d(-velocity.y(), velocity.x(), 0.0);
+  };
   for (int i = 0; i < steps; ++i) {
     const Eigen::Vector3d v_mid = v + 0.5 * h * acceleration(v);
     p += h * v_mid;

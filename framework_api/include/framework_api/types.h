@@ -118,6 +118,7 @@ struct BallTrajectory {
   BallState state = BallState::kAir;
   double gravity_mps2 = kGravity_mps2;
   double drag_per_m = 0.0;
+  double curve_radps = 0.0;  // sidespin's Magnus acceleration curve (z x v): + turns the flight left
   double rolling_decel_mps2 = 0.0;
   int support = 0;     // detections the current fit rests on
   double rms_m = 0.0;  // their residual to it

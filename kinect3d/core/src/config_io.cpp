@@ -100,6 +100,7 @@ TrajectoryConfig readTrajectoryConfig(const fw::ConfigView& kinect3d) {
   config.mode = trajectoryModeFromString(trajectory.getChoice("mode", {"ballistic", "paper"}));
   config.drag_per_m = trajectory.getDouble("drag_per_m", 0.0, 1.0);
   config.drag_sigma_per_m = trajectory.getDouble("drag_sigma_per_m", 0.0, 1.0);
+  config.curve_sigma_radps = trajectory.getDouble("curve_sigma_radps", 0.0, 1.0);
   config.rolling_decel_mps2 = trajectory.getDouble("rolling_decel_mps2", 0.0, 10.0);
   config.gate_sigma = trajectory.getDouble("gate_sigma", 1.0, 20.0);
   config.model_sigma_m = trajectory.getDouble("model_sigma_m", 0.0, 1.0);

@@ -15,6 +15,7 @@ BallMotion::BallMotion(const BallLaunch& launch, const BallPhysics& physics, dou
   State s{launch.position_m, launch.hanging ? Eigen::Vector3d::Zero() : launch.velocity_mps};
   const double r = physics.radius_m;
   const Eigen::Vector3d gravity(0.0, 0.0, -physics.gravity_mps2);
+  const Eigen::Vector3d spin(0.0, 0.0, 2.0 * M_PI * physics.spin_rps);  // rad/s
   const int steps = static_cast<int>(std::ceil(std::max(0.0, duration_s - launch_time_s_) / kStep_s)) + 2;
   states_.reserve(steps);
   for (int i = 0; i < steps; ++i) {
@@ -32,7 +33,7 @@ BallMotion::BallMotion(const BallLaunch& launch, const BallPhysics& physics, dou
       continue;
     }
     // Semi-implicit Euler; the step is small against the flight (0.5 ms vs ~1 s).
-    const Eigen::Vector3d a = gravity - physics.drag_per_m * s.v.norm() * s.v;
+    const Eigen::Vector3d a = gravity - physics.drag_per_m * s.v.norm() * s.v + physics.magnus_m * spin.cross(s.v);
     s.v += a * kStep_s;
     s.p += s.v * kStep_s;
     if (s.p.z() < r && s.v.z() < 0.0) {

@@ -172,8 +172,8 @@ Scene readScene(const fw::ConfigView& root) {
   }
   if (root.has("physics")) {
     const fw::ConfigView physics = root.child("physics");
-    physics.requireOnlyKeys(
-        {"radius_m", "gravity_mps2", "drag_per_m", "restitution", "bounce_friction", "rolling_decel_mps2"});
+    physics.requireOnlyKeys({"radius_m", "gravity_mps2", "drag_per_m", "restitution", "bounce_friction",
+                             "rolling_decel_mps2", "spin_rps", "magnus_m"});
     BallPhysics& p = scene.physics;
     readOptional(physics, "radius_m", p.radius_m, 0.01, 1.0);
     readOptional(physics, "gravity_mps2", p.gravity_mps2, 0.0, 20.0);
@@ -181,6 +181,8 @@ Scene readScene(const fw::ConfigView& root) {
     readOptional(physics, "restitution", p.restitution, 0.0, 1.0);
     readOptional(physics, "bounce_friction", p.bounce_friction, 0.0, 1.0);
     readOptional(physics, "rolling_decel_mps2", p.rolling_decel_mps2, 0.0, 10.0);
+    readOptional(physics, "spin_rps", p.spin_rps, -30.0, 30.0);
+    readOptional(physics, "magnus_m", p.magnus_m, 0.0, 0.02);
   }
   return scene;
 }

@@ -25,6 +25,7 @@ struct TrajectoryConfig {
   double ball_radius_m = 0.11;      // kinect3d.ball.radius_m: the detector's radius, read once
   double drag_per_m = 0.02;         // ballistic: quadratic drag rho Cd A / 2m, the prior's mean (size 5: 0.011-0.027)
   double drag_sigma_per_m = 0.007;  // and its 1-sigma spread; 0 = the drag is drag_per_m, not estimated
+  double curve_sigma_radps = 0.15;  // ballistic: a sidespin's Magnus curve, prior 0 +- this; 0 = no curve
   double rolling_decel_mps2 = 0.4;  // a rolling ball slows by this
   double gate_sigma = 4.0;          // a detection supports the fit within this many sigma
   double model_sigma_m = 0.02;      // model error added to every prediction

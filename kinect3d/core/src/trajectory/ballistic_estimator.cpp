@@ -2,6 +2,7 @@
 #include <Eigen/Eigenvalues>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <deque>
 
@@ -13,8 +14,12 @@ namespace {
 
 using Vector6d = Eigen::Matrix<double, 6, 1>;
 using Matrix6d = Eigen::Matrix<double, 6, 6>;
-using Vector7d = Eigen::Matrix<double, 7, 1>;
-using Matrix7d = Eigen::Matrix<double, 7, 7>;
+using Vector8d = Eigen::Matrix<double, 8, 1>;
+using Matrix8d = Eigen::Matrix<double, 8, 8>;
+using Vector2d = Eigen::Vector2d;
+using Matrix22d = Eigen::Matrix2d;
+using Matrix32d = Eigen::Matrix<double, 3, 2>;
+using Matrix62d = Eigen::Matrix<double, 6, 2>;
 
 // Drag per metre is kept inside what a ball can have (a size 5 ball: about 0.011-0.027).
 constexpr double kMaxDrag_per_m = 0.06;
@@ -22,8 +27,12 @@ constexpr double kMaxDrag_per_m = 0.06;
 constexpr double kVarianceFactorPrior = 10.0;
 // and never below this: the detections are not better than about half the model error stated.
 constexpr double kMinVarianceFactor = 0.3;
-// Step for the numerical derivative of the flight by the drag.
-constexpr double kDragStep_per_m = 1e-3;
+// A sidespin's curve is kept inside what a kick can give (10 rev/s bends a shot by about 0.18 rad/s).
+constexpr double kMaxCurve_radps = 0.5;
+// Steps for the numerical derivatives of the flight by the drag (/m) and the curve (rad/s).
+const Vector2d kPhysicsStep(1e-3, 1e-2);
+// The prior weight that holds a parameter not estimated where it is.
+constexpr double kPinned = 1e12;
 
 // Faster than any kick in the league (about 10 m/s): a detection that would need more is a new ball.
 constexpr double kMaxSpeed_mps = 20.0;
@@ -127,31 +136,39 @@ class BallisticEstimator : public TrajectoryEstimator {
   }
 
   // The least-squares flight (or roll) through the segment, each detection weighted by its
-  // covariance plus the model error. Without drag the model is linear in (p0, v0) and this is
-  // one solve. With drag, the model's departure from the drag-free flight, and how that departure
-  // changes with the drag, are computed in one pass along the current fit; the solve is repeated
-  // on the detections minus the departure, with the drag as a seventh unknown held to its prior
-  // (drag_per_m +- drag_sigma_per_m). The departure hardly depends on the fit, so three rounds
-  // settle it. A drag_sigma_per_m of 0 keeps the drag at drag_per_m.
+  // covariance plus the model error. Without drag and spin the model is linear in (p0, v0) and
+  // this is one solve. In the air, the model's departure from the drag-free flight, and how that
+  // departure changes with the drag and with the spin's curve, are computed in one pass along the
+  // current fit; the solve is repeated on the detections minus the departure, with the drag and
+  // the curve as two more unknowns held to their priors (drag_per_m +- drag_sigma_per_m,
+  // 0 +- curve_sigma_radps). The departure hardly depends on the fit, so three rounds settle it.
+  // A sigma of 0 keeps that parameter at its prior's mean.
   void fit() {
     t_ref_ = segment_.front().stamp.source_time_s;
     airborne_ = false;
     for (const fw::BallObservation& ball : segment_) airborne_ = airborne_ || ball.state == fw::BallState::kAir;
-    drag_per_m_ = airborne_ ? config().drag_per_m : 0.0;
-    drag_sigma_per_m_ = 0.0;
-    drag_offsets_.assign(segment_.size(), Eigen::Vector3d::Zero());
-    drag_slopes_.assign(segment_.size(), Eigen::Vector3d::Zero());
+    physics_ = airborne_ ? priorMean() : Vector2d::Zero();
+    physics_covariance_ = Eigen::Matrix2d::Zero();
+    physics_cross_ = Matrix62d::Zero();
+    offsets_.assign(segment_.size(), Eigen::Vector3d::Zero());
+    slopes_.assign(segment_.size(), Matrix32d::Zero());
     solve();
-    if (airborne_ && (config().drag_per_m > 0.0 || config().drag_sigma_per_m > 0.0)) {
-      const bool estimate = config().drag_sigma_per_m > 0.0;
+    const Vector2d sigma = priorSigma();
+    const bool estimate = airborne_ && (sigma.array() > 0.0).any();
+    if (airborne_ && (physics_[0] > 0.0 || estimate)) {
       for (int round = 0; round < 3; ++round) {
-        fw::BallTrajectory along = model(theta_, drag_per_m_), nudged = model(theta_, drag_per_m_ + kDragStep_per_m);
+        fw::BallTrajectory along = model(theta_, physics_);
+        std::array<fw::BallTrajectory, 2> nudged{model(theta_, physics_ + kPhysicsStep.cwiseProduct(Vector2d(1, 0))),
+                                                 model(theta_, physics_ + kPhysicsStep.cwiseProduct(Vector2d(0, 1)))};
         for (std::size_t i = 0; i < segment_.size(); ++i) {
           const double t = segment_[i].stamp.source_time_s;
           along = along.movedTo(t);
-          nudged = nudged.movedTo(t);
-          drag_offsets_[i] = along.position_m - dragFree(theta_, t);
-          drag_slopes_[i] = (nudged.position_m - along.position_m) / kDragStep_per_m;
+          offsets_[i] = along.position_m - dragFree(theta_, t);
+          for (int k = 0; k < 2; ++k) {
+            if (sigma[k] <= 0.0) continue;
+            nudged[k] = nudged[k].movedTo(t);
+            slopes_[i].col(k) = (nudged[k].position_m - along.position_m) / kPhysicsStep[k];
+          }
         }
         solve(estimate);
       }
@@ -159,11 +176,15 @@ class BallisticEstimator : public TrajectoryEstimator {
     double squares = 0.0;
     for (std::size_t i = 0; i < segment_.size(); ++i) {
       const double t = segment_[i].stamp.source_time_s;
-      squares += (segment_[i].position_m - dragFree(theta_, t) - drag_offsets_[i]).squaredNorm();
+      squares += (segment_[i].position_m - dragFree(theta_, t) - offsets_[i]).squaredNorm();
     }
     rms_ = std::sqrt(squares / segment_.size());
     fitted_ = true;
   }
+
+  // The priors of (drag, curve): the configured drag and no spin.
+  Vector2d priorMean() const { return {config().drag_per_m, 0.0}; }
+  Vector2d priorSigma() const { return {config().drag_sigma_per_m, config().curve_sigma_radps}; }
 
   // p0 + v0 tau + g tau^2 / 2 (g only in the air).
   Eigen::Vector3d dragFree(const Vector6d& theta, double t_s) const {
@@ -172,33 +193,38 @@ class BallisticEstimator : public TrajectoryEstimator {
     return theta.head<3>() + tau * theta.tail<3>() + Eigen::Vector3d(0.0, 0.0, -0.5 * g * tau * tau);
   }
 
-  // Weighted least squares for (p0, v0) against the detections minus the drag offsets, and with
-  // estimate_drag for the change of the drag too (linearised by the drag slopes, with its prior).
-  void solve(bool estimate_drag = false) {
+  // Weighted least squares for (p0, v0) against the detections minus the model's offsets, and with
+  // estimate for the changes of the drag and the curve too (linearised by the slopes, with their
+  // priors; a parameter with a prior sigma of 0 stays where it is).
+  void solve(bool estimate = false) {
     const double g = airborne_ ? fw::kGravity_mps2 : 0.0;
-    Matrix7d normal = Matrix7d::Zero();
-    Vector7d rhs = Vector7d::Zero();
+    Matrix8d normal = Matrix8d::Zero();
+    Vector8d rhs = Vector8d::Zero();
     for (std::size_t i = 0; i < segment_.size(); ++i) {
       const fw::BallObservation& ball = segment_[i];
       const double tau = ball.stamp.source_time_s - t_ref_;
       const Eigen::Matrix3d W = weight(ball);
-      Eigen::Matrix<double, 3, 7> A;
-      A << Eigen::Matrix3d::Identity(), tau * Eigen::Matrix3d::Identity(), drag_slopes_[i];
-      const Eigen::Vector3d target =
-          ball.position_m - drag_offsets_[i] + Eigen::Vector3d(0.0, 0.0, 0.5 * g * tau * tau);
+      Eigen::Matrix<double, 3, 8> A;
+      A << Eigen::Matrix3d::Identity(), tau * Eigen::Matrix3d::Identity(), slopes_[i];
+      const Eigen::Vector3d target = ball.position_m - offsets_[i] + Eigen::Vector3d(0.0, 0.0, 0.5 * g * tau * tau);
       normal += A.transpose() * W * A;
       rhs += A.transpose() * W * target;
     }
-    if (!estimate_drag) {
+    if (!estimate) {
       theta_ = normal.topLeftCorner<6, 6>().ldlt().solve(rhs.head<6>());
       covariance_ = normal.topLeftCorner<6, 6>().inverse();
       return;
     }
-    // The prior on the drag, as one more equation on the change d: d = prior - current.
-    const double prior_weight = 1.0 / (config().drag_sigma_per_m * config().drag_sigma_per_m);
-    normal(6, 6) += prior_weight;
-    rhs[6] += prior_weight * (config().drag_per_m - drag_per_m_);
-    const Vector7d solution = normal.ldlt().solve(rhs);
+    // Each prior as one more equation on the change d: d = prior - current.
+    const Vector2d sigma = priorSigma(), mean = priorMean();
+    int estimated = 0;
+    for (int k = 0; k < 2; ++k) {
+      const double prior_weight = sigma[k] > 0.0 ? 1.0 / (sigma[k] * sigma[k]) : kPinned;
+      normal(6 + k, 6 + k) += prior_weight;
+      rhs[6 + k] += sigma[k] > 0.0 ? prior_weight * (mean[k] - physics_[k]) : 0.0;
+      estimated += sigma[k] > 0.0;
+    }
+    const Vector8d solution = normal.ldlt().solve(rhs);
     // The detections' weights assume model_sigma_m of model error each; how well the fit really
     // meets them rescales its covariance (the least-squares variance factor, held towards 1 by
     // kVarianceFactorPrior pseudo-observations so that five detections cannot talk it into zero).
@@ -206,20 +232,22 @@ class BallisticEstimator : public TrajectoryEstimator {
     for (std::size_t i = 0; i < segment_.size(); ++i) {
       const fw::BallObservation& ball = segment_[i];
       const double tau = ball.stamp.source_time_s - t_ref_;
-      const Eigen::Vector3d predicted = solution.head<3>() + tau * solution.segment<3>(3) + drag_offsets_[i] +
-                                        drag_slopes_[i] * solution[6] - Eigen::Vector3d(0.0, 0.0, 0.5 * g * tau * tau);
+      const Eigen::Vector3d predicted = solution.head<3>() + tau * solution.segment<3>(3) + offsets_[i] +
+                                        slopes_[i] * solution.tail<2>() -
+                                        Eigen::Vector3d(0.0, 0.0, 0.5 * g * tau * tau);
       const Eigen::Vector3d r = ball.position_m - predicted;
       chi2 += r.dot(weight(ball) * r);
     }
-    const double dof = 3.0 * segment_.size() - 7.0;
+    const double dof = 3.0 * segment_.size() - 6.0 - estimated;
     const double variance_factor =
         std::max(kMinVarianceFactor, (chi2 + kVarianceFactorPrior) / (std::max(dof, 0.0) + kVarianceFactorPrior));
-    const Matrix7d covariance = variance_factor * normal.inverse();
+    const Matrix8d covariance = variance_factor * normal.inverse();
     theta_ = solution.head<6>();
-    drag_per_m_ = std::clamp(drag_per_m_ + solution[6], 0.0, kMaxDrag_per_m);
-    drag_sigma_per_m_ = std::sqrt(covariance(6, 6));
+    physics_[0] = std::clamp(physics_[0] + solution[6], 0.0, kMaxDrag_per_m);
+    physics_[1] = std::clamp(physics_[1] + solution[7], -kMaxCurve_radps, kMaxCurve_radps);
+    physics_covariance_ = covariance.bottomRightCorner<2, 2>();
     covariance_ = covariance.topLeftCorner<6, 6>();
-    drag_cross_ = covariance.block<6, 1>(0, 6);
+    physics_cross_ = covariance.topRightCorner<6, 2>();
   }
 
   Eigen::Matrix3d weight(const fw::BallObservation& ball) const {
@@ -227,17 +255,19 @@ class BallisticEstimator : public TrajectoryEstimator {
     return (ball.covariance_m2 + model_variance * Eigen::Matrix3d::Identity()).inverse();
   }
 
-  // The motion model with parameters theta = (p0, v0) at t_ref_. A roll is fitted as constant
-  // velocity over the short history; its slowing only matters for predictions further ahead.
-  fw::BallTrajectory model(const Vector6d& theta) const { return model(theta, drag_per_m_); }
-  fw::BallTrajectory model(const Vector6d& theta, double drag_per_m) const {
+  // The motion model with parameters theta = (p0, v0) at t_ref_ and physics (drag, curve). A roll
+  // is fitted as constant velocity over the short history; its slowing only matters for
+  // predictions further ahead.
+  fw::BallTrajectory model(const Vector6d& theta) const { return model(theta, physics_); }
+  fw::BallTrajectory model(const Vector6d& theta, const Vector2d& physics) const {
     fw::BallTrajectory m;
     m.time_s = t_ref_;
     m.position_m = theta.head<3>();
     m.velocity_mps = theta.tail<3>();
     m.state = airborne_ ? fw::BallState::kAir : fw::BallState::kGround;
     m.gravity_mps2 = fw::kGravity_mps2;
-    m.drag_per_m = airborne_ ? drag_per_m : 0.0;
+    m.drag_per_m = airborne_ ? physics[0] : 0.0;
+    m.curve_radps = airborne_ ? physics[1] : 0.0;
     return m;
   }
 
@@ -335,21 +365,23 @@ class BallisticEstimator : public TrajectoryEstimator {
     Eigen::Matrix2d spread = J * covariance_ * J.transpose();
     result.point_m = point;
     result.time_s = time;
-    if (drag_per_m_ > 0.0 || drag_sigma_per_m_ > 0.0) {
+    if (physics_[0] > 0.0 || physics_[1] != 0.0 || physics_covariance_.trace() > 0.0) {
       const auto landing = dragLanding(now);
       if (!landing) return std::nullopt;
       result.point_m = landing->first;
       result.time_s = landing->second;
-      if (drag_sigma_per_m_ > 0.0) {
-        // What the drag's own uncertainty, and its correlation with the launch, moves the landing.
-        const auto nudged = dragLanding(model(theta_, drag_per_m_ + kDragStep_per_m).movedTo(now.time_s));
-        if (nudged) {
-          const Eigen::Vector2d slope = (nudged->first - landing->first) / kDragStep_per_m;
-          const Eigen::Vector2d cross = J * drag_cross_;
-          spread += slope * slope.transpose() * drag_sigma_per_m_ * drag_sigma_per_m_ + cross * slope.transpose() +
-                    slope * cross.transpose();
-        }
+      // What the uncertainty of the drag and the curve, and their correlation with the launch,
+      // move the landing.
+      Matrix22d slope = Matrix22d::Zero();
+      for (int k = 0; k < 2; ++k) {
+        if (physics_covariance_(k, k) <= 0.0) continue;
+        Vector2d nudge = Vector2d::Zero();
+        nudge[k] = kPhysicsStep[k];
+        const auto nudged = dragLanding(model(theta_, physics_ + nudge).movedTo(now.time_s));
+        if (nudged) slope.col(k) = (nudged->first - landing->first) / kPhysicsStep[k];
       }
+      const Matrix22d cross = J * physics_cross_;
+      spread += slope * physics_covariance_ * slope.transpose() + cross * slope.transpose() + slope * cross.transpose();
     }
     result.sigma_m =
         std::sqrt(std::max(0.0, Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(spread).eigenvalues().maxCoeff()));
@@ -399,11 +431,11 @@ class BallisticEstimator : public TrajectoryEstimator {
   bool airborne_ = false;
   double t_ref_ = 0.0;
   Vector6d theta_ = Vector6d::Zero();
-  std::vector<Eigen::Vector3d> drag_offsets_;  // drag model minus drag-free flight, per detection
-  std::vector<Eigen::Vector3d> drag_slopes_;   // how that changes with the drag, per detection
-  double drag_per_m_ = 0.0;                    // the fit's drag: estimated, or the configured one
-  double drag_sigma_per_m_ = 0.0;              // its 1-sigma uncertainty (0 when not estimated)
-  Vector6d drag_cross_ = Vector6d::Zero();     // covariance of (p0, v0) with the drag
+  std::vector<Eigen::Vector3d> offsets_;              // the model minus the drag-free flight, per detection
+  std::vector<Matrix32d> slopes_;                     // how that changes with the drag and the curve, per detection
+  Vector2d physics_ = Vector2d::Zero();               // the fit's (drag /m, curve rad/s): estimated or configured
+  Matrix22d physics_covariance_ = Matrix22d::Zero();  // their covariance (0 where not estimated)
+  Matrix62d physics_cross_ = Matrix62d::Zero();       // covariance of (p0, v0) with them
   Matrix6d covariance_ = Matrix6d::Identity();
   double rms_ = 0.0;
 };

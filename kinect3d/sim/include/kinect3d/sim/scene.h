@@ -62,6 +62,11 @@ struct BallPhysics {
   double restitution = 0.6;         // vertical speed kept at a bounce
   double bounce_friction = 0.2;     // fraction of horizontal speed lost at a bounce
   double rolling_decel_mps2 = 0.4;  // rolling resistance on carpet
+  double spin_rps = 0.0;            // sidespin about the vertical, counter-clockwise seen from above
+  // The Magnus acceleration is magnus_m (omega x v): rho A r (C_L / S) / 2m for a size 5 ball, whose
+  // lift coefficient C_L is about half its spin ratio S = r omega / v (0.5 * 1.2 * 0.038 * 0.11 / 2 /
+  // 0.43): 10 rev/s at 8 m/s bends a shot by 1.5 m/s^2.
+  double magnus_m = 0.0029;
 };
 
 struct BallLaunch {
