@@ -22,6 +22,7 @@
 #include "fusion/json_lines.h"
 #include "fusion_report.h"
 #include "kinect3d/ball_detector.h"
+#include "kinect3d/ball_physics_fit.h"
 #include "kinect3d/config_io.h"
 #include "kinect3d/depth_source.h"
 #include "kinect3d/sim/accuracy_report.h"
@@ -356,6 +357,57 @@ void addDetect(CLI::App& app) {
       [options] { runDetect(options->source, options->config.load(), options->output, options->realtime); });
 }
 
+// `calibrate drag`: the ball's drag and restitution from the flights in detect output files.
+void runCalibrateDrag(const std::vector<std::string>& files, const fw::Config& config) {
+  std::vector<fw::BallFrame> frames;
+  for (const std::string& file : files) {
+    const std::vector<fw::BallFrame> read = fusion::readDetectionsFile(file, "kinect3d");
+    frames.insert(frames.end(), read.begin(), read.end());
+  }
+  const double radius_m = config.block("kinect3d").child("ball").getDouble("radius_m", 0.01, 1.0);
+  const kinect3d::BallPhysicsCalibration fit = kinect3d::calibrateBallPhysics(frames, radius_m);
+  std::printf("%zu flights fitted (%d runs in the air too short or slow to fit), %zu bounces\n\n", fit.flights.size(),
+              fit.runs_skipped, fit.bounces.size());
+  std::printf("  start (s)  detections  speed (m/s)  drag (/m)          rms (m)\n");
+  for (const kinect3d::FlightFit& flight : fit.flights) {
+    std::printf("  %9.3f  %10d  %11.1f  %.4f +- %.4f  %.4f\n", flight.start_s - frames.front().stamp.source_time_s,
+                flight.detections, flight.trajectory.velocity_mps.norm(), flight.trajectory.drag_per_m,
+                flight.drag_sigma_per_m, flight.rms_m);
+  }
+  for (const kinect3d::BounceFit& bounce : fit.bounces) {
+    std::printf("  bounce at %.3f s: restitution %.2f\n", bounce.t_s - frames.front().stamp.source_time_s,
+                bounce.restitution);
+  }
+  std::printf(
+      "\nFor the robot file (the trajectory's drag prior%s):\n\nkinect3d:\n  trajectory:\n"
+      "    drag_per_m: %.4f\n    drag_sigma_per_m: %.4f\n",
+      fit.restitution ? " and the fusion's bounce" : "", fit.drag_per_m, fit.drag_sigma_per_m);
+  if (fit.restitution) {
+    std::printf("fusion:\n  ball:\n    drag_per_m: %.4f\n    restitution: %.2f%s\n", fit.drag_per_m, *fit.restitution,
+                fit.restitution_sigma ? ("    # +- " + std::to_string(*fit.restitution_sigma).substr(0, 4)).c_str()
+                                      : "    # from one bounce");
+  } else {
+    std::printf("fusion:\n  ball:\n    drag_per_m: %.4f\n# no bounce seen: restitution not measured\n", fit.drag_per_m);
+  }
+}
+
+void addCalibrate(CLI::App& app) {
+  struct Options {
+    std::vector<std::string> files;
+    ConfigOptions config;
+  };
+  auto options = std::make_shared<Options>();
+  CLI::App* command = app.add_subcommand("calibrate", "Calibrate from recordings");
+  command->require_subcommand(1);
+  CLI::App* drag = command->add_subcommand(
+      "drag", "Fit the ball's air drag and bounce restitution from recorded flights (kinect3d detect output)");
+  drag->add_option("files", options->files, "kinect3d detect output files (JSON lines)")
+      ->required()
+      ->check(CLI::ExistingFile);
+  options->config.addTo(drag);
+  drag->callback([options] { runCalibrateDrag(options->files, options->config.load()); });
+}
+
 void addReport(CLI::App& app) {
   struct Options {
     std::string kind, out, keep;
@@ -404,6 +456,7 @@ int main(int argc, char** argv) {
   addSnapshot(app);
   addDetect(app);
   addFuse(app);
+  addCalibrate(app);
   addReport(app);
   try {
     app.parse(argc, argv);

@@ -86,6 +86,12 @@ struct OmniBallObservation {
   Eigen::Vector3d groundPoint_R() const;
 };
 
+// One depth frame's balls as the detector reported them (robot frame), one stamp.
+struct BallFrame {
+  Stamp stamp;
+  std::vector<BallObservation> balls;
+};
+
 // One image of the omni camera: every ball it saw (none, the ball, orange shirts), one stamp.
 struct OmniFrame {
   Stamp stamp;

@@ -97,6 +97,34 @@ std::vector<fw::OmniFrame> readOmniFile(const std::string& path, const std::stri
   return frames;
 }
 
+std::vector<fw::BallFrame> readDetectionsFile(const std::string& path, const std::string& source) {
+  std::vector<fw::BallFrame> frames;
+  forEachLine(path, [&](const json& object, const std::string& where) {
+    requireOnlyKeys(object, {"frame", "t", "balls", "process_ms", "trajectory"}, where);
+    fw::BallFrame frame;
+    frame.stamp.source_time_s = frame.stamp.receive_time_s = number(object, "t", where, 0.0, kMaxTime_s);
+    const auto balls = object.find("balls");
+    if (balls == object.end() || !balls->is_array()) throw std::runtime_error(where + ": \"balls\" must be a list");
+    for (std::size_t i = 0; i < balls->size(); ++i) {
+      const json& item = (*balls)[i];
+      const std::string at = where + ": balls[" + std::to_string(i) + "]";
+      if (!item.is_object()) throw std::runtime_error(at + ": expected an object");
+      requireOnlyKeys(item, {"x", "y", "z", "state", "points", "static"}, at);
+      const Eigen::Vector3d p(number(item, "x", at, -100.0, 100.0), number(item, "y", at, -100.0, 100.0),
+                              number(item, "z", at, -100.0, 100.0));
+      const auto state = item.find("state");
+      if (state == item.end() || !state->is_string() || (*state != "air" && *state != "ground")) {
+        throw std::runtime_error(at + ": \"state\" must be \"air\" or \"ground\"");
+      }
+      frame.balls.push_back(fw::BallObservation::inRobotFrame(
+          p, Eigen::Matrix3d::Identity() * 1e-4, *state == "air" ? fw::BallState::kAir : fw::BallState::kGround, source,
+          frame.stamp));
+    }
+    frames.push_back(std::move(frame));
+  });
+  return frames;
+}
+
 void writeOmniFile(const std::string& path, const std::vector<fw::OmniFrame>& frames) {
   std::vector<json> lines;
   for (const fw::OmniFrame& frame : frames) {
