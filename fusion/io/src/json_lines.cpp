@@ -56,6 +56,18 @@ void requireOnlyKeys(const json& object, const std::vector<std::string>& allowed
   }
 }
 
+// Calls parse(item, where) for every object in the line's "balls" list; where names the item.
+void forEachBall(const json& line, const std::string& where,
+                 const std::function<void(const json&, const std::string&)>& parse) {
+  const auto balls = line.find("balls");
+  if (balls == line.end() || !balls->is_array()) throw std::runtime_error(where + ": \"balls\" must be a list");
+  for (std::size_t i = 0; i < balls->size(); ++i) {
+    const std::string at = where + ": balls[" + std::to_string(i) + "]";
+    if (!(*balls)[i].is_object()) throw std::runtime_error(at + ": expected an object");
+    parse((*balls)[i], at);
+  }
+}
+
 // Times are seconds on the source's clock; anything before 0 or past the year 2100 is a unit slip.
 constexpr double kMaxTime_s = 4.1e9;
 
@@ -76,12 +88,7 @@ std::vector<fw::OmniFrame> readOmniFile(const std::string& path, const std::stri
     requireOnlyKeys(object, {"t", "balls"}, where);
     fw::OmniFrame frame;
     frame.stamp.source_time_s = frame.stamp.receive_time_s = number(object, "t", where, 0.0, kMaxTime_s);
-    const auto balls = object.find("balls");
-    if (balls == object.end() || !balls->is_array()) throw std::runtime_error(where + ": \"balls\" must be a list");
-    for (std::size_t i = 0; i < balls->size(); ++i) {
-      const json& item = (*balls)[i];
-      const std::string at = where + ": balls[" + std::to_string(i) + "]";
-      if (!item.is_object()) throw std::runtime_error(at + ": expected an object");
+    forEachBall(object, where, [&](const json& item, const std::string& at) {
       requireOnlyKeys(item, {"bearing_rad", "distance_m", "sigma_bearing_rad", "sigma_distance_m"}, at);
       fw::OmniBallObservation ball;
       ball.bearing_rad = number(item, "bearing_rad", at, -2.0 * M_PI, 2.0 * M_PI);
@@ -91,7 +98,7 @@ std::vector<fw::OmniFrame> readOmniFile(const std::string& path, const std::stri
       ball.source = source;
       ball.stamp = frame.stamp;
       frame.balls.push_back(ball);
-    }
+    });
     frames.push_back(std::move(frame));
   });
   return frames;
@@ -103,12 +110,7 @@ std::vector<fw::BallFrame> readDetectionsFile(const std::string& path, const std
     requireOnlyKeys(object, {"frame", "t", "balls", "process_ms", "trajectory"}, where);
     fw::BallFrame frame;
     frame.stamp.source_time_s = frame.stamp.receive_time_s = number(object, "t", where, 0.0, kMaxTime_s);
-    const auto balls = object.find("balls");
-    if (balls == object.end() || !balls->is_array()) throw std::runtime_error(where + ": \"balls\" must be a list");
-    for (std::size_t i = 0; i < balls->size(); ++i) {
-      const json& item = (*balls)[i];
-      const std::string at = where + ": balls[" + std::to_string(i) + "]";
-      if (!item.is_object()) throw std::runtime_error(at + ": expected an object");
+    forEachBall(object, where, [&](const json& item, const std::string& at) {
       requireOnlyKeys(item, {"x", "y", "z", "state", "points", "static"}, at);
       const Eigen::Vector3d p(number(item, "x", at, -100.0, 100.0), number(item, "y", at, -100.0, 100.0),
                               number(item, "z", at, -100.0, 100.0));
@@ -119,7 +121,7 @@ std::vector<fw::BallFrame> readDetectionsFile(const std::string& path, const std
       frame.balls.push_back(fw::BallObservation::inRobotFrame(
           p, Eigen::Matrix3d::Identity() * 1e-4, *state == "air" ? fw::BallState::kAir : fw::BallState::kGround, source,
           frame.stamp));
-    }
+    });
     frames.push_back(std::move(frame));
   });
   return frames;
