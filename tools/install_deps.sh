@@ -6,6 +6,7 @@ set -euo pipefail
 PACKAGES=(
   build-essential cmake
   clang-format                  # the style test
+  clang libclang-rt-14-dev      # the fuzzers (tools/fuzz.sh): clang with libFuzzer
   libeigen3-dev
   libpcl-dev
   liboctomap-dev
