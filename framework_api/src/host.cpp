@@ -31,6 +31,7 @@ struct Host::Running {
   std::atomic<bool> finished{false};        // the thread has left run()
   std::atomic<Clock::rep> step_started{0};  // steady clock ticks; 0 = not in a step
   bool reported_stuck = false;              // this step was reported (watch() only)
+  bool abandoned = false;                   // left behind by stop(): its thread may still be inside it
   mutable std::mutex mutex;                 // guards summary
   PluginSummary summary;
 };
@@ -63,7 +64,13 @@ Host::Host(const Config& config, const std::string& plugin_dir) {
   }
 }
 
-Host::~Host() { stop(); }
+Host::~Host() {
+  stop();
+  // A plugin left behind is still running its step: never destroy it (or its library) under it.
+  for (auto& plugin : plugins_) {
+    if (plugin->abandoned) (void)plugin.release();
+  }
+}
 
 void Host::start() {
   for (auto& plugin : plugins_) {
@@ -96,7 +103,7 @@ std::vector<std::string> Host::stop(std::chrono::duration<double> grace) {
     logError(plugin->summary.name,
              "did not stop within " + std::to_string(grace.count()) + " s: stuck inside a step; leaving it behind");
     plugin->thread.detach();
-    (void)plugin->instance.release();  // its code is still running: never destroy it under it
+    plugin->abandoned = true;
   }
   return stuck;
 }
