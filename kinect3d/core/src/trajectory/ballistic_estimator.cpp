@@ -31,6 +31,8 @@ constexpr double kMinVarianceFactor = 0.3;
 constexpr double kMaxCurve_radps = 0.5;
 // Steps for the numerical derivatives of the flight by the drag (/m) and the curve (rad/s).
 const Vector2d kPhysicsStep(1e-3, 1e-2);
+// The step for physics parameter k alone.
+Vector2d physicsNudge(int k) { return k == 0 ? Vector2d(kPhysicsStep[0], 0.0) : Vector2d(0.0, kPhysicsStep[1]); }
 // The prior weight that holds a parameter not estimated where it is.
 constexpr double kPinned = 1e12;
 
@@ -158,8 +160,8 @@ class BallisticEstimator : public TrajectoryEstimator {
     if (airborne_ && (physics_[0] > 0.0 || estimate)) {
       for (int round = 0; round < 3; ++round) {
         fw::BallTrajectory along = model(theta_, physics_);
-        std::array<fw::BallTrajectory, 2> nudged{model(theta_, physics_ + kPhysicsStep.cwiseProduct(Vector2d(1, 0))),
-                                                 model(theta_, physics_ + kPhysicsStep.cwiseProduct(Vector2d(0, 1)))};
+        std::array<fw::BallTrajectory, 2> nudged{model(theta_, physics_ + physicsNudge(0)),
+                                                 model(theta_, physics_ + physicsNudge(1))};
         for (std::size_t i = 0; i < segment_.size(); ++i) {
           const double t = segment_[i].stamp.source_time_s;
           along = along.movedTo(t);
@@ -375,9 +377,7 @@ class BallisticEstimator : public TrajectoryEstimator {
       Matrix22d slope = Matrix22d::Zero();
       for (int k = 0; k < 2; ++k) {
         if (physics_covariance_(k, k) <= 0.0) continue;
-        Vector2d nudge = Vector2d::Zero();
-        nudge[k] = kPhysicsStep[k];
-        const auto nudged = dragLanding(model(theta_, physics_ + nudge).movedTo(now.time_s));
+        const auto nudged = dragLanding(model(theta_, physics_ + physicsNudge(k)).movedTo(now.time_s));
         if (nudged) slope.col(k) = (nudged->first - landing->first) / kPhysicsStep[k];
       }
       const Matrix22d cross = J * physics_cross_;
