@@ -7,6 +7,7 @@ namespace {
 std::string pluginPath(const std::string& name) { return std::string(TEST_PLUGIN_DIR) + "/" + name + ".so"; }
 
 fw::Config emptyConfig() { return fw::Config::load(std::string(TEST_CONFIG_DIR) + "/defaults", "", {}); }
+const fw::Config kEmptyConfig = emptyConfig();
 
 // The message of the PluginLoadError that f throws; fails the test if it throws nothing.
 template <typename F>
@@ -25,7 +26,7 @@ TEST(PluginLoader, LoadsValidPluginAndRunsIt) {
   EXPECT_EQ(library->name(), "tp_valid");
   EXPECT_EQ(library->version(), "0.1.0");
   fw::WorldState world;
-  auto instance = library->create({emptyConfig().block("tp_valid"), &world});
+  auto instance = library->create({kEmptyConfig.block("tp_valid"), &world, &kEmptyConfig});
   EXPECT_EQ(instance->step(), fw::StepResult::kProcessed);
   EXPECT_EQ(instance->name(), "tp_valid");
 }
@@ -35,7 +36,7 @@ TEST(PluginLoader, InstanceKeepsLibraryLoaded) {
   std::unique_ptr<fw::PluginInstance> instance;
   {
     auto library = fw::PluginLibrary::open(pluginPath("tp_valid"));
-    instance = library->create({emptyConfig().block("tp_valid"), &world});
+    instance = library->create({kEmptyConfig.block("tp_valid"), &world, &kEmptyConfig});
   }
   // The library handle is gone; the instance's code must still be mapped.
   EXPECT_EQ(instance->step(), fw::StepResult::kProcessed);
@@ -73,8 +74,7 @@ TEST(PluginLoader, ReportsMissingFile) {
 TEST(PluginLoader, ThrowingFactoryBecomesReadableError) {
   const auto library = fw::PluginLibrary::open(pluginPath("tp_throwing"));
   fw::WorldState world;
-  const fw::Config config = emptyConfig();
-  const std::string error = loadError([&] { library->create({config.block("host"), &world}); });
+  const std::string error = loadError([&] { library->create({kEmptyConfig.block("host"), &world, &kEmptyConfig}); });
   EXPECT_NE(error.find("plugin 'tp_throwing'"), std::string::npos) << error;
   EXPECT_NE(error.find("failed to start: depth sensor /dev/tp0 not found"), std::string::npos) << error;
 }
@@ -82,7 +82,7 @@ TEST(PluginLoader, ThrowingFactoryBecomesReadableError) {
 TEST(PluginLoader, ThrowingStepBecomesPluginError) {
   const auto library = fw::PluginLibrary::open(pluginPath("tp_faulty"));
   fw::WorldState world;
-  auto instance = library->create({emptyConfig().block("tp_faulty"), &world});
+  auto instance = library->create({kEmptyConfig.block("tp_faulty"), &world, &kEmptyConfig});
   try {
     instance->step();
     FAIL() << "expected a PluginError";

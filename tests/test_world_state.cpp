@@ -103,4 +103,43 @@ TEST(Types, ObservationIsApprox) {
   EXPECT_FALSE(a.isApprox(b, 0.01));
 }
 
+TEST(WorldState, JournalHoldsEveryPublicationInOrderOnlyOnceOpened) {
+  fw::WorldState world;
+  world.publishBall(ballAt(1.0, "kinect3d"));  // before anyone reads the journal: not kept
+  EXPECT_FALSE(world.journalOpen());
+  world.openJournal();
+  world.publishBalls({ballAt(2.0, "kinect3d"), ballAt(2.5, "kinect3d")});
+  world.publishRobotPose({1.0, -2.0, 0.5, {}});
+  world.publishEvent({"kinect3d", "floor_found", "aligned", {}});
+  world.clearTrajectory("kinect3d");  // it had none: nothing happened, nothing journalled
+  std::uint64_t refused = 0;
+  const std::vector<fw::JournalEntry> entries = world.takeJournal(&refused);
+  ASSERT_EQ(entries.size(), 3u);
+  const auto& frame = std::get<fw::BallFrame>(entries[0].item);
+  ASSERT_EQ(frame.balls.size(), 2u);
+  EXPECT_DOUBLE_EQ(frame.balls[1].position_m.y(), 2.5);
+  EXPECT_DOUBLE_EQ(std::get<fw::RobotPose>(entries[1].item).y_m, -2.0);
+  EXPECT_EQ(std::get<fw::Event>(entries[2].item).kind, "floor_found");
+  EXPECT_LE(entries[0].wall_time_s, entries[2].wall_time_s);
+  EXPECT_EQ(refused, 0u);
+  EXPECT_TRUE(world.takeJournal(&refused).empty());  // taken once
+}
+
+TEST(WorldState, JournalRefusesAndCountsWhatItsReaderCannotKeepUpWith) {
+  fw::WorldState world;
+  world.openJournal();
+  const auto image = std::make_shared<fw::DepthImage>();
+  for (std::size_t i = 0; i < fw::WorldState::kJournalDepthImages + 5; ++i) world.publishDepthImage(image);
+  std::uint64_t refused = 0;
+  EXPECT_EQ(world.takeJournal(&refused).size(), fw::WorldState::kJournalDepthImages);
+  EXPECT_EQ(refused, 5u);
+  for (std::size_t i = 0; i < fw::WorldState::kJournalCapacity + 3; ++i) world.publishRobotPose({});
+  refused = 0;
+  EXPECT_EQ(world.takeJournal(&refused).size(), fw::WorldState::kJournalCapacity);
+  EXPECT_EQ(refused, 3u);
+  world.closeJournal();
+  world.publishRobotPose({});
+  EXPECT_TRUE(world.takeJournal(&refused).empty());
+}
+
 }  // namespace

@@ -32,11 +32,12 @@ struct Host::Running {
   std::atomic<Clock::rep> step_started{0};  // steady clock ticks; 0 = not in a step
   bool reported_stuck = false;              // this step was reported (watch() only)
   bool abandoned = false;                   // left behind by stop(): its thread may still be inside it
-  mutable std::mutex mutex;                 // guards summary
+  mutable std::mutex mutex;                 // guards summary and the second's step times
   PluginSummary summary;
+  std::vector<double> step_times_s;  // of the processed steps since the last health
 };
 
-Host::Host(const Config& config, const std::string& plugin_dir) {
+Host::Host(const Config& config, const std::string& plugin_dir) : config_(config) {
   const ConfigView host = config.block("host");
   max_consecutive_errors_ = host.getInt("max_consecutive_errors", 1, 1000000);
   stuck_after_s_ = host.getDouble("stuck_after_s", 0.05, 3600.0);
@@ -55,7 +56,7 @@ Host::Host(const Config& config, const std::string& plugin_dir) {
       throw PluginLoadError("'" + library->path() + "' declares the plugin name '" + library->name() + "', expected '" +
                             name + "'");
     }
-    running->instance = library->create(PluginContext{block, &world_});
+    running->instance = library->create(PluginContext{block, &world_, &config_});
     running->summary.name = name;
     running->summary.version = library->version();
     running->summary.rate_hz_setting = running->rate_hz;
@@ -123,6 +124,35 @@ void Host::watch() {
     ++plugin->summary.stuck;
     logError(plugin->summary.name, "stuck: inside one step for more than " + std::to_string(stuck_after_s_) + " s");
   }
+  if (secondsSince(last_health_) >= 1.0) publishHealth();
+}
+
+void Host::publishHealth() {
+  const double second_s = secondsSince(last_health_);
+  last_health_ = Clock::now();
+  std::vector<PluginHealth> health;
+  for (auto& plugin : plugins_) {
+    PluginHealth h;
+    std::vector<double> times;
+    {
+      std::lock_guard<std::mutex> lock(plugin->mutex);
+      times.swap(plugin->step_times_s);
+      h.plugin = plugin->summary.name;
+      h.errors = plugin->summary.errors;
+      h.stuck = plugin->summary.stuck;
+    }
+    h.wall_time_s = wallClockNow_s();
+    h.frames = times.size();
+    h.rate_hz = times.size() / second_s;
+    if (!times.empty()) {
+      std::sort(times.begin(), times.end());
+      h.step_p50_s = times[times.size() / 2];
+      h.step_p99_s = times[std::min(times.size() - 1, static_cast<std::size_t>(0.99 * times.size()))];
+    }
+    h.dropped_frames = world_.droppedFrames(h.plugin);
+    health.push_back(h);
+  }
+  world_.publishHealth(health);
 }
 
 bool Host::sourcesFinished() const {
@@ -163,13 +193,15 @@ void Host::run(Running& plugin) {
     }
     StepResult result = StepResult::kIdle;
     std::string error;
-    plugin.step_started = Clock::now().time_since_epoch().count();
+    const Clock::time_point step_start = Clock::now();
+    plugin.step_started = step_start.time_since_epoch().count();
     try {
       result = plugin.instance->step();
     } catch (const PluginError& e) {
       error = e.what();
     }
     plugin.step_started = 0;
+    const double step_s = secondsSince(step_start);
     Clock::duration backoff = Clock::duration::zero();
     {
       std::lock_guard<std::mutex> lock(plugin.mutex);
@@ -178,7 +210,10 @@ void Host::run(Running& plugin) {
       summary.elapsed_s = secondsSince(start);
       if (error.empty()) {
         consecutive_errors = 0;
-        if (result == StepResult::kProcessed) ++summary.frames;
+        if (result == StepResult::kProcessed) {
+          ++summary.frames;
+          plugin.step_times_s.push_back(step_s);
+        }
         if (result == StepResult::kEndOfStream) {
           summary.end_of_stream = true;
           logInfo(summary.name, "end of stream");

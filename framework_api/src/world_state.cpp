@@ -8,21 +8,36 @@ void WorldState::pushCapped(std::deque<T>& history, const T& value) {
   if (history.size() > kHistoryPerSource) history.pop_back();
 }
 
+void WorldState::journal(WorldItem item) {
+  if (!journal_open_) return;
+  const bool is_depth = std::holds_alternative<std::shared_ptr<const DepthImage>>(item);
+  if (journal_.size() >= kJournalCapacity || (is_depth && journal_depth_images_ >= kJournalDepthImages)) {
+    ++journal_refused_;
+    return;
+  }
+  if (is_depth) ++journal_depth_images_;
+  journal_.push_back({wallClockNow_s(), std::move(item)});
+}
+
 void WorldState::publishBall(const BallObservation& observation) {
   std::lock_guard<std::mutex> lock(mutex_);
   pushCapped(balls_[observation.source], observation);
+  journal(BallFrame{observation.stamp, {observation}});
   ++version_;
 }
 
 void WorldState::publishBalls(const std::vector<BallObservation>& observations) {
+  if (observations.empty()) return;
   std::lock_guard<std::mutex> lock(mutex_);
   for (const BallObservation& observation : observations) pushCapped(balls_[observation.source], observation);
+  journal(BallFrame{observations.front().stamp, observations});
   ++version_;
 }
 
 void WorldState::publishOmniFrame(const OmniFrame& frame) {
   std::lock_guard<std::mutex> lock(mutex_);
   for (const OmniBallObservation& ball : frame.balls) pushCapped(omni_balls_[ball.source], ball);
+  journal(frame);
   ++version_;
 }
 
@@ -30,6 +45,7 @@ void WorldState::clearFusedBall() {
   std::lock_guard<std::mutex> lock(mutex_);
   if (fused_ball_) {
     fused_ball_.reset();
+    journal(FusedBallCleared{});
     ++version_;
   }
 }
@@ -37,12 +53,16 @@ void WorldState::clearFusedBall() {
 void WorldState::publishTrajectory(const BallTrajectory& trajectory) {
   std::lock_guard<std::mutex> lock(mutex_);
   trajectories_[trajectory.source] = trajectory;
+  journal(trajectory);
   ++version_;
 }
 
 void WorldState::clearTrajectory(const std::string& source) {
   std::lock_guard<std::mutex> lock(mutex_);
-  if (trajectories_.erase(source) > 0) ++version_;
+  if (trajectories_.erase(source) > 0) {
+    journal(TrajectoryCleared{source});
+    ++version_;
+  }
 }
 
 std::optional<BallTrajectory> WorldState::trajectory(const std::string& source) const {
@@ -55,13 +75,41 @@ std::optional<BallTrajectory> WorldState::trajectory(const std::string& source) 
 void WorldState::publishFusedBall(const FusedBall& ball) {
   std::lock_guard<std::mutex> lock(mutex_);
   fused_ball_ = ball;
+  journal(ball);
   ++version_;
 }
 
 void WorldState::publishRobotPose(const RobotPose& pose) {
   std::lock_guard<std::mutex> lock(mutex_);
   pushCapped(robot_poses_, pose);
+  journal(pose);
   ++version_;
+}
+
+void WorldState::publishDepthImage(std::shared_ptr<const DepthImage> image) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  journal(std::move(image));
+}
+
+void WorldState::publishEvent(const Event& event) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  journal(event);
+}
+
+void WorldState::publishHealth(const std::vector<PluginHealth>& health) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  for (const PluginHealth& plugin : health) journal(plugin);
+}
+
+void WorldState::reportDroppedFrames(const std::string& source, std::uint64_t total) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  dropped_frames_[source] = total;
+}
+
+std::uint64_t WorldState::droppedFrames(const std::string& source) const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  const auto found = dropped_frames_.find(source);
+  return found == dropped_frames_.end() ? 0 : found->second;
 }
 
 std::vector<BallObservation> WorldState::recentBalls(const std::string& source) const {
@@ -104,6 +152,33 @@ std::vector<RobotPose> WorldState::recentRobotPoses() const {
 std::uint64_t WorldState::version() const {
   std::lock_guard<std::mutex> lock(mutex_);
   return version_;
+}
+
+void WorldState::openJournal() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  journal_open_ = true;
+}
+
+void WorldState::closeJournal() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  journal_open_ = false;
+  journal_.clear();
+  journal_depth_images_ = 0;
+}
+
+bool WorldState::journalOpen() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return journal_open_;
+}
+
+std::vector<JournalEntry> WorldState::takeJournal(std::uint64_t* refused) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (refused != nullptr) *refused += journal_refused_;
+  journal_refused_ = 0;
+  journal_depth_images_ = 0;
+  std::vector<JournalEntry> items;
+  items.swap(journal_);
+  return items;
 }
 
 }  // namespace fw

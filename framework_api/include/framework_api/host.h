@@ -49,8 +49,9 @@ class Host {
   // detached and their instances deliberately never destroyed, since their code is still running;
   // the caller should end the process. Idempotent.
   std::vector<std::string> stop(std::chrono::duration<double> grace = std::chrono::seconds(1));
-  // Reports (once per step) every plugin that has been inside one step for longer than
-  // host.stuck_after_s, and counts it in its summary. Call it now and then while running.
+  // Call it now and then (every 100 ms) while running. Reports (once per step) every plugin that
+  // has been inside one step for longer than host.stuck_after_s, and counts it in its summary; once
+  // a second, publishes every plugin's health over that second to the world state.
   void watch();
   // True once every source-driven plugin (one without rate_hz) has reported end of stream or given
   // up, and there is at least one: then nothing new can reach the world state.
@@ -62,8 +63,12 @@ class Host {
  private:
   struct Running;
   void run(Running& plugin);
+  void publishHealth();
 
-  WorldState world_;  // declared first: plugins hold a pointer to it and are destroyed before it
+  std::chrono::steady_clock::time_point last_health_ = std::chrono::steady_clock::now();
+  // Declared first: plugins hold pointers to them and are destroyed before them.
+  const Config config_;
+  WorldState world_;
   std::vector<std::unique_ptr<Running>> plugins_;
   std::atomic<bool> stop_requested_{false};
   int max_consecutive_errors_ = 0;

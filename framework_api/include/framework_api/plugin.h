@@ -22,11 +22,13 @@
 
 namespace fw {
 
-// What a plugin gets from the host: its own configuration block and the shared world state.
-// Both outlive the plugin.
+// What a plugin gets from the host: its own configuration block, the shared world state and the
+// robot's whole merged configuration (for a plugin that records it, like the match log). All
+// outlive the plugin.
 struct PluginContext {
   ConfigView config;
   WorldState* world;
+  const Config* robot_config;  // since API 1.1
 };
 
 enum class StepResult {

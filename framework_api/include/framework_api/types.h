@@ -4,6 +4,7 @@
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
+#include <cstdint>
 #include <optional>
 #include <string>
 #include <vector>
@@ -158,6 +159,40 @@ struct FusedBall {
 
   // 1-sigma radius of the horizontal position (the larger axis of its error ellipse).
   double sigmaHorizontal_m() const;
+};
+
+// One depth image as a depth plugin received it, for the match log and the viewer: uint16 millimetres
+// along the optical axis (0 = no data), row-major, with the pinhole intrinsics that back-project it.
+struct DepthImage {
+  int width = 0;
+  int height = 0;
+  double fx = 0.0, fy = 0.0, cx = 0.0, cy = 0.0;
+  std::vector<std::uint16_t> depth_mm;
+  std::uint64_t index = 0;  // the source's frame counter
+  std::string source;       // the plugin that read it
+  Stamp stamp;
+};
+
+// Something a person reading the log after the match wants to find on the timeline: a sensor lost
+// or reopened, the floor found, a calibration alarm. kind is a short fixed word, message the detail.
+struct Event {
+  std::string source;
+  std::string kind;
+  std::string message;
+  Stamp stamp;
+};
+
+// One plugin's health over the last second, published by the host once a second.
+struct PluginHealth {
+  std::string plugin;
+  double wall_time_s = 0.0;  // when the second ended
+  std::uint64_t frames = 0;  // processed steps in the second
+  double rate_hz = 0.0;      // frames / the second's length
+  double step_p50_s = 0.0;   // processing time of those steps
+  double step_p99_s = 0.0;
+  std::uint64_t dropped_frames = 0;  // total since start, as the plugin reported them
+  std::uint64_t errors = 0;          // total since start
+  std::uint64_t stuck = 0;           // total since start
 };
 
 }  // namespace fw

@@ -5,14 +5,30 @@
 #include <cstdint>
 #include <deque>
 #include <map>
+#include <memory>
 #include <mutex>
 #include <optional>
 #include <string>
+#include <variant>
 #include <vector>
 
 #include "framework_api/types.h"
 
 namespace fw {
+
+// A source that lost the ball (its trajectory withdrawn), and a world that has no ball any more.
+struct TrajectoryCleared {
+  std::string source;
+};
+struct FusedBallCleared {};
+
+// One publication as the journal keeps it, with the host's wall clock when it was published.
+using WorldItem = std::variant<BallFrame, OmniFrame, BallTrajectory, TrajectoryCleared, FusedBall, FusedBallCleared,
+                               RobotPose, std::shared_ptr<const DepthImage>, Event, PluginHealth>;
+struct JournalEntry {
+  double wall_time_s = 0.0;
+  WorldItem item;
+};
 
 class WorldState {
  public:
@@ -28,6 +44,13 @@ class WorldState {
   void publishTrajectory(const BallTrajectory& trajectory);  // replaces that source's last one
   void clearTrajectory(const std::string& source);           // the source lost the ball
   void publishRobotPose(const RobotPose& pose);
+  // Only into the journal (nobody acts on them; the match log and the viewer show them).
+  void publishDepthImage(std::shared_ptr<const DepthImage> image);
+  void publishEvent(const Event& event);
+  void publishHealth(const std::vector<PluginHealth>& health);
+  // A depth plugin's dropped frames so far (gaps in its source's counter): the host's health reads it.
+  void reportDroppedFrames(const std::string& source, std::uint64_t total);
+  std::uint64_t droppedFrames(const std::string& source) const;
 
   // Newest first.
   std::vector<BallObservation> recentBalls(const std::string& source) const;
@@ -41,9 +64,22 @@ class WorldState {
   // Increases with every publish; a reader that saw version v has nothing new while it is still v.
   std::uint64_t version() const;
 
+  // The journal: every publication in order, for the one reader that must see each of them (the
+  // match log). Off until that reader opens it, so a robot without a log pays nothing. Bounded: when
+  // its reader falls behind, new items are refused and counted rather than the robot running out of
+  // memory (depth images, large, have their own smaller bound).
+  static constexpr std::size_t kJournalCapacity = 8192;
+  static constexpr std::size_t kJournalDepthImages = 60;  // two seconds at 30 Hz
+  void openJournal();
+  void closeJournal();  // and drops what it held: its reader has stopped for good
+  bool journalOpen() const;
+  // Everything journalled since the last call, oldest first; adds to *refused what did not fit.
+  std::vector<JournalEntry> takeJournal(std::uint64_t* refused);
+
  private:
   template <typename T>
   static void pushCapped(std::deque<T>& history, const T& value);
+  void journal(WorldItem item);  // under mutex_
 
   mutable std::mutex mutex_;
   std::map<std::string, std::deque<BallObservation>> balls_;
@@ -51,7 +87,12 @@ class WorldState {
   std::map<std::string, BallTrajectory> trajectories_;
   std::optional<FusedBall> fused_ball_;
   std::deque<RobotPose> robot_poses_;
+  std::map<std::string, std::uint64_t> dropped_frames_;
   std::uint64_t version_ = 0;
+  bool journal_open_ = false;
+  std::vector<JournalEntry> journal_;
+  std::size_t journal_depth_images_ = 0;
+  std::uint64_t journal_refused_ = 0;
 };
 
 }  // namespace fw
