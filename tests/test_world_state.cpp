@@ -107,7 +107,8 @@ TEST(WorldState, JournalHoldsEveryPublicationInOrderOnlyOnceOpened) {
   fw::WorldState world;
   world.publishBall(ballAt(1.0, "kinect3d"));  // before anyone reads the journal: not kept
   EXPECT_FALSE(world.journalOpen());
-  world.openJournal();
+  world.openJournal(false);
+  world.publishDepthImage(fw::DepthImage{});  // not wanted: not kept
   world.publishBalls({ballAt(2.0, "kinect3d"), ballAt(2.5, "kinect3d")});
   world.publishRobotPose({1.0, -2.0, 0.5, {}});
   world.publishEvent({"kinect3d", "floor_found", "aligned", {}});
@@ -127,9 +128,8 @@ TEST(WorldState, JournalHoldsEveryPublicationInOrderOnlyOnceOpened) {
 
 TEST(WorldState, JournalRefusesAndCountsWhatItsReaderCannotKeepUpWith) {
   fw::WorldState world;
-  world.openJournal();
-  const auto image = std::make_shared<fw::DepthImage>();
-  for (std::size_t i = 0; i < fw::WorldState::kJournalDepthImages + 5; ++i) world.publishDepthImage(image);
+  world.openJournal(true);
+  for (std::size_t i = 0; i < fw::WorldState::kJournalDepthImages + 5; ++i) world.publishDepthImage({});
   std::uint64_t refused = 0;
   EXPECT_EQ(world.takeJournal(&refused).size(), fw::WorldState::kJournalDepthImages);
   EXPECT_EQ(refused, 5u);

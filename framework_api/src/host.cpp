@@ -144,10 +144,12 @@ void Host::publishHealth() {
     h.wall_time_s = wallClockNow_s();
     h.frames = times.size();
     h.rate_hz = times.size() / second_s;
+    // A source-driven plugin's step includes its wait for the frame: its own times, when it reports them.
+    if (std::vector<double> own = world_.takeProcessingTimes(h.plugin); !own.empty()) times.swap(own);
     if (!times.empty()) {
       std::sort(times.begin(), times.end());
-      h.step_p50_s = times[times.size() / 2];
-      h.step_p99_s = times[std::min(times.size() - 1, static_cast<std::size_t>(0.99 * times.size()))];
+      h.processing_p50_s = times[times.size() / 2];
+      h.processing_p99_s = times[std::min(times.size() - 1, static_cast<std::size_t>(0.99 * times.size()))];
     }
     h.dropped_frames = world_.droppedFrames(h.plugin);
     health.push_back(h);
@@ -212,7 +214,7 @@ void Host::run(Running& plugin) {
         consecutive_errors = 0;
         if (result == StepResult::kProcessed) {
           ++summary.frames;
-          plugin.step_times_s.push_back(step_s);
+          if (plugin.step_times_s.size() < WorldState::kJournalCapacity) plugin.step_times_s.push_back(step_s);
         }
         if (result == StepResult::kEndOfStream) {
           summary.end_of_stream = true;

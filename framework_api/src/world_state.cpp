@@ -10,7 +10,7 @@ void WorldState::pushCapped(std::deque<T>& history, const T& value) {
 
 void WorldState::journal(WorldItem item) {
   if (!journal_open_) return;
-  const bool is_depth = std::holds_alternative<std::shared_ptr<const DepthImage>>(item);
+  const bool is_depth = std::holds_alternative<DepthImage>(item);
   if (journal_.size() >= kJournalCapacity || (is_depth && journal_depth_images_ >= kJournalDepthImages)) {
     ++journal_refused_;
     return;
@@ -86,9 +86,9 @@ void WorldState::publishRobotPose(const RobotPose& pose) {
   ++version_;
 }
 
-void WorldState::publishDepthImage(std::shared_ptr<const DepthImage> image) {
+void WorldState::publishDepthImage(DepthImage image) {
   std::lock_guard<std::mutex> lock(mutex_);
-  journal(std::move(image));
+  if (journal_depth_) journal(std::move(image));
 }
 
 void WorldState::publishEvent(const Event& event) {
@@ -101,15 +101,29 @@ void WorldState::publishHealth(const std::vector<PluginHealth>& health) {
   for (const PluginHealth& plugin : health) journal(plugin);
 }
 
-void WorldState::reportDroppedFrames(const std::string& source, std::uint64_t total) {
+void WorldState::reportDroppedFrames(const std::string& plugin, std::uint64_t total) {
   std::lock_guard<std::mutex> lock(mutex_);
-  dropped_frames_[source] = total;
+  dropped_frames_[plugin] = total;
 }
 
-std::uint64_t WorldState::droppedFrames(const std::string& source) const {
+void WorldState::reportProcessingTime(const std::string& plugin, double seconds) {
   std::lock_guard<std::mutex> lock(mutex_);
-  const auto found = dropped_frames_.find(source);
+  std::vector<double>& times = processing_times_s_[plugin];
+  if (times.size() < kJournalCapacity) times.push_back(seconds);  // bounded when nobody takes them
+}
+
+std::uint64_t WorldState::droppedFrames(const std::string& plugin) const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  const auto found = dropped_frames_.find(plugin);
   return found == dropped_frames_.end() ? 0 : found->second;
+}
+
+std::vector<double> WorldState::takeProcessingTimes(const std::string& plugin) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  std::vector<double> times;
+  const auto found = processing_times_s_.find(plugin);
+  if (found != processing_times_s_.end()) times.swap(found->second);
+  return times;
 }
 
 std::vector<BallObservation> WorldState::recentBalls(const std::string& source) const {
@@ -154,14 +168,16 @@ std::uint64_t WorldState::version() const {
   return version_;
 }
 
-void WorldState::openJournal() {
+void WorldState::openJournal(bool with_depth) {
   std::lock_guard<std::mutex> lock(mutex_);
   journal_open_ = true;
+  journal_depth_ = with_depth;
 }
 
 void WorldState::closeJournal() {
   std::lock_guard<std::mutex> lock(mutex_);
   journal_open_ = false;
+  journal_depth_ = false;
   journal_.clear();
   journal_depth_images_ = 0;
 }
@@ -169,6 +185,11 @@ void WorldState::closeJournal() {
 bool WorldState::journalOpen() const {
   std::lock_guard<std::mutex> lock(mutex_);
   return journal_open_;
+}
+
+bool WorldState::journalWantsDepth() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return journal_depth_;
 }
 
 std::vector<JournalEntry> WorldState::takeJournal(std::uint64_t* refused) {

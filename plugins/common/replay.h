@@ -1,5 +1,5 @@
-// What the omni and localisation plugins share: a source that is "sim:<scene>" or "file:<path>",
-// and a list of stamped items played at their own pace.
+// What the omni and localisation plugins share: a source that is "sim:<scene>", "file:<path>" or
+// "log:<folder>" (a match log), and a list of stamped items played at their own pace.
 #pragma once
 
 #include <functional>
@@ -10,11 +10,13 @@
 
 #include "framework_api/config.h"
 #include "framework_api/replay_clock.h"
+#include "kinect3d/match_log.h"
 
 namespace replay {
 
-// Loads the items of `<block>.source` with simulate(scene) or readFile(path); any error, and any
-// other scheme, becomes a ConfigError naming the key and where it was set.
+// Loads the items of `<block>.source` with simulate(scene), readFile(path) or, from a match log,
+// every item of type Item it recorded; any error, and any other scheme, becomes a ConfigError naming
+// the key and where it was set.
 template <typename Item>
 std::vector<Item> load(const fw::ConfigView& block,
                        const std::function<std::vector<Item>(const std::string&)>& simulate,
@@ -23,7 +25,14 @@ std::vector<Item> load(const fw::ConfigView& block,
   try {
     if (source.rfind("sim:", 0) == 0) return simulate(source.substr(4));
     if (source.rfind("file:", 0) == 0) return readFile(source.substr(5));
-    throw std::runtime_error("expected sim:<scene> or file:<path>");
+    if (source.rfind("log:", 0) == 0) {
+      std::vector<Item> items;
+      for (const fw::JournalEntry& entry : kinect3d::MatchLogReader(source.substr(4)).entries()) {
+        if (const Item* item = std::get_if<Item>(&entry.item)) items.push_back(*item);
+      }
+      return items;
+    }
+    throw std::runtime_error("expected sim:<scene>, file:<path> or log:<folder>");
   } catch (const std::runtime_error& e) {
     throw fw::ConfigError(block.originOf("source") + ": " + block.path() + ".source = '" + source + "': " + e.what());
   }

@@ -1,6 +1,9 @@
 // kinect3d: reads depth frames from the configured source, detects balls and publishes them to
 // the world state as observations in the robot frame with covariances from the depth noise model,
-// and the ball's trajectory (touchdown, crossing of the robot's line) while it has one.
+// and the ball's trajectory (touchdown, crossing of the robot's line) while it has one. For the
+// match log it also publishes each depth frame (when the log wants them), its dropped frames and
+// the events a person looks for afterwards (the floor found, the sensor reopened).
+#include <chrono>
 #include <memory>
 
 #include "framework_api/log.h"
@@ -8,6 +11,7 @@
 #include "kinect3d/ball_detector.h"
 #include "kinect3d/config_io.h"
 #include "kinect3d/depth_source.h"
+#include "kinect3d/log_source.h"
 #include "kinect3d/sim/sim_sources.h"
 #include "kinect3d/trajectory.h"
 
@@ -25,7 +29,9 @@ class Kinect3dPlugin : public fw::Plugin {
     options.wait_for_device = true;  // a Kinect still enumerating at boot is waited for, not fatal
     const std::string uri = context.config.getString("source");
     try {
-      source_ = kinect3d::sim::sourcesWithSimulator().open(uri, options);
+      kinect3d::DepthSourceTable sources = kinect3d::sim::sourcesWithSimulator();
+      kinect3d::addLogSource(sources);
+      source_ = sources.open(uri, options);
     } catch (const kinect3d::DepthSourceError& e) {
       throw fw::ConfigError(context.config.originOf("source") + ": kinect3d.source: " + e.what());
     }
@@ -41,23 +47,60 @@ class Kinect3dPlugin : public fw::Plugin {
       case kinect3d::ReadResult::kFrame:
         break;
     }
+    const auto started = std::chrono::steady_clock::now();
+    if (world_.journalWantsDepth()) world_.publishDepthImage(depthImage());
     // With a pose from localisation the scene map is kept in the field frame.
     const std::optional<fw::RobotPose> pose = world_.robotPose();
     detector_.detect(frame_, detections_, pose ? std::optional<Eigen::Isometry3d>(pose->T_F_R()) : std::nullopt);
     if (detections_.aligned && !reported_alignment_) {
       fw::logInfo(source_name_, "sensor aligned with the floor; detecting");
+      publishEvent("floor_found", "sensor aligned with the floor; detecting");
       reported_alignment_ = true;
     }
+    reportSourceCounters();
     if (!detections_.balls.empty()) world_.publishBalls(detections_.balls);
     if (const auto trajectory = trajectory_->update(frame_.source_time_s, detections_.balls)) {
       world_.publishTrajectory(*trajectory);
     } else {
       world_.clearTrajectory(source_name_);
     }
+    world_.reportProcessingTime(source_name_,
+                                std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count());
     return fw::StepResult::kProcessed;
   }
 
  private:
+  fw::DepthImage depthImage() const {
+    fw::DepthImage image;
+    const kinect3d::Intrinsics& k = frame_.intrinsics;
+    image.width = k.width;
+    image.height = k.height;
+    image.fx = k.fx;
+    image.fy = k.fy;
+    image.cx = k.cx;
+    image.cy = k.cy;
+    image.depth_mm = frame_.depth_mm;
+    image.index = frame_.index;
+    image.source = source_name_;
+    image.stamp = {frame_.source_time_s, frame_.receive_time_s};
+    return image;
+  }
+
+  void publishEvent(const std::string& kind, const std::string& message) {
+    world_.publishEvent({source_name_, kind, message, {frame_.source_time_s, frame_.receive_time_s}});
+  }
+
+  // Dropped frames for the host's health; a reopened device as an event.
+  void reportSourceCounters() {
+    const kinect3d::SourceCounters& counters = source_->counters();
+    world_.reportDroppedFrames(source_name_, counters.dropped);
+    if (counters.reconnects > reported_reconnects_) {
+      reported_reconnects_ = counters.reconnects;
+      publishEvent("sensor_reopened", "the depth sensor was lost and opened again (" +
+                                          std::to_string(counters.reconnects) + " times so far)");
+    }
+  }
+
   fw::WorldState& world_;
   const std::string source_name_;  // this plugin's block name: what its observations carry
   kinect3d::BallDetector detector_;
@@ -66,6 +109,7 @@ class Kinect3dPlugin : public fw::Plugin {
   kinect3d::DepthFrame frame_;
   kinect3d::Detections detections_;
   bool reported_alignment_ = false;
+  std::uint64_t reported_reconnects_ = 0;
 };
 
 }  // namespace

@@ -185,11 +185,11 @@ struct Event {
 // One plugin's health over the last second, published by the host once a second.
 struct PluginHealth {
   std::string plugin;
-  double wall_time_s = 0.0;  // when the second ended
-  std::uint64_t frames = 0;  // processed steps in the second
-  double rate_hz = 0.0;      // frames / the second's length
-  double step_p50_s = 0.0;   // processing time of those steps
-  double step_p99_s = 0.0;
+  double wall_time_s = 0.0;       // when the second ended
+  std::uint64_t frames = 0;       // processed steps in the second
+  double rate_hz = 0.0;           // frames / the second's length
+  double processing_p50_s = 0.0;  // of those frames (the plugin's own, else its step time)
+  double processing_p99_s = 0.0;
   std::uint64_t dropped_frames = 0;  // total since start, as the plugin reported them
   std::uint64_t errors = 0;          // total since start
   std::uint64_t stuck = 0;           // total since start

@@ -24,7 +24,7 @@ struct FusedBallCleared {};
 
 // One publication as the journal keeps it, with the host's wall clock when it was published.
 using WorldItem = std::variant<BallFrame, OmniFrame, BallTrajectory, TrajectoryCleared, FusedBall, FusedBallCleared,
-                               RobotPose, std::shared_ptr<const DepthImage>, Event, PluginHealth>;
+                               RobotPose, DepthImage, Event, PluginHealth>;
 struct JournalEntry {
   double wall_time_s = 0.0;
   WorldItem item;
@@ -44,13 +44,20 @@ class WorldState {
   void publishTrajectory(const BallTrajectory& trajectory);  // replaces that source's last one
   void clearTrajectory(const std::string& source);           // the source lost the ball
   void publishRobotPose(const RobotPose& pose);
-  // Only into the journal (nobody acts on them; the match log and the viewer show them).
-  void publishDepthImage(std::shared_ptr<const DepthImage> image);
+  // Only into the journal (nobody acts on them; the match log and the viewer show them). Every item is
+  // a plain value: nothing in the journal may point into a plugin's library, which is unloaded with
+  // the plugin while the journal's reader may still hold the item.
+  void publishDepthImage(DepthImage image);
   void publishEvent(const Event& event);
   void publishHealth(const std::vector<PluginHealth>& health);
-  // A depth plugin's dropped frames so far (gaps in its source's counter): the host's health reads it.
-  void reportDroppedFrames(const std::string& source, std::uint64_t total);
-  std::uint64_t droppedFrames(const std::string& source) const;
+  // What a source-driven plugin knows better than the host, for the host's health: its dropped
+  // frames so far (gaps in its source's counter), and the time it spent on a frame, without the
+  // wait for it (the host's step time includes that wait).
+  void reportDroppedFrames(const std::string& plugin, std::uint64_t total);
+  void reportProcessingTime(const std::string& plugin, double seconds);
+  std::uint64_t droppedFrames(const std::string& plugin) const;
+  // The processing times reported since the last call (none: the plugin reports none).
+  std::vector<double> takeProcessingTimes(const std::string& plugin);
 
   // Newest first.
   std::vector<BallObservation> recentBalls(const std::string& source) const;
@@ -70,9 +77,11 @@ class WorldState {
   // memory (depth images, large, have their own smaller bound).
   static constexpr std::size_t kJournalCapacity = 8192;
   static constexpr std::size_t kJournalDepthImages = 60;  // two seconds at 30 Hz
-  void openJournal();
+  // with_depth: depth images are journalled too (the depth plugins copy each frame only then).
+  void openJournal(bool with_depth);
   void closeJournal();  // and drops what it held: its reader has stopped for good
   bool journalOpen() const;
+  bool journalWantsDepth() const;
   // Everything journalled since the last call, oldest first; adds to *refused what did not fit.
   std::vector<JournalEntry> takeJournal(std::uint64_t* refused);
 
@@ -88,8 +97,10 @@ class WorldState {
   std::optional<FusedBall> fused_ball_;
   std::deque<RobotPose> robot_poses_;
   std::map<std::string, std::uint64_t> dropped_frames_;
+  std::map<std::string, std::vector<double>> processing_times_s_;
   std::uint64_t version_ = 0;
   bool journal_open_ = false;
+  bool journal_depth_ = false;
   std::vector<JournalEntry> journal_;
   std::size_t journal_depth_images_ = 0;
   std::uint64_t journal_refused_ = 0;

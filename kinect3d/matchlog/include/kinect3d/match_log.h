@@ -1,0 +1,118 @@
+// The match log: one folder per run holding match.sqlite, an SQLite database of everything the
+// plugins published (balls per source with both stamps and covariance, omni images, trajectories,
+// fused balls, robot poses, events, per-plugin health once a second) and the raw depth of the
+// depth plugins, each frame a lossless 16-bit PNG. The schema is in docs/match-log.md; its version
+// is the database's user_version.
+//
+// Written in batches (one transaction per commit(), the logger commits every 200 ms) in WAL mode,
+// so a process killed at any moment leaves a database that opens with every committed batch.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "framework_api/world_state.h"
+
+struct sqlite3;
+struct sqlite3_stmt;
+
+namespace kinect3d {
+
+constexpr int kMatchLogSchemaVersion = 1;
+constexpr const char* kMatchLogFile = "match.sqlite";
+
+// A log that cannot be written or read: names the file and the reason.
+class MatchLogError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+// What a run was: stored once, at the start.
+struct RunInfo {
+  std::string robot;
+  std::string software_version;
+  std::string config_yaml;  // the merged configuration the run used
+  double start_wall_time_s = 0.0;
+  std::string replayed_from;  // a replay: the log it re-ran; empty for a live run
+};
+
+// "<base>/2026-11-22_14-03-07_demo": where a run of robot started at wall_time_s logs (local time).
+std::string runFolderName(const std::string& base, const std::string& robot, double wall_time_s);
+
+// A prepared statement, finalised with its owner.
+struct Statement;
+
+class MatchLogWriter {
+ public:
+  // Creates folder (and its parents) and folder/match.sqlite, which must not exist yet.
+  MatchLogWriter(const std::string& folder, const RunInfo& run);
+  ~MatchLogWriter();  // commits what is pending
+  MatchLogWriter(const MatchLogWriter&) = delete;
+  MatchLogWriter& operator=(const MatchLogWriter&) = delete;
+
+  // Adds one publication to the current batch. Throws MatchLogError when the disk refuses it.
+  void write(const fw::JournalEntry& entry);
+  // Ends the batch: from here on, a crash keeps it.
+  void commit();
+
+  const std::string& folder() const { return folder_; }
+  // The database and its write-ahead log, in bytes.
+  std::uint64_t bytesOnDisk() const;
+
+ private:
+  void exec(const std::string& sql);
+  void begin();
+  Statement& statement(const char* sql);
+
+  std::string folder_;
+  std::string path_;
+  sqlite3* db_ = nullptr;
+  std::vector<std::unique_ptr<Statement>> statements_;
+  bool in_batch_ = false;
+  std::int64_t next_seq_ = 1;
+};
+
+class MatchLogReader {
+ public:
+  // Opens folder/match.sqlite read-only. Throws MatchLogError naming the file and what is wrong
+  // (missing, not a database, not a match log, another schema version, damaged).
+  explicit MatchLogReader(const std::string& folder);
+  ~MatchLogReader();
+  MatchLogReader(const MatchLogReader&) = delete;
+  MatchLogReader& operator=(const MatchLogReader&) = delete;
+
+  const std::string& folder() const { return folder_; }
+  const RunInfo& run() const { return run_; }
+  // Everything but the depth, in the order it was logged.
+  std::vector<fw::JournalEntry> entries() const;
+  // The depth plugins that recorded depth, and how many frames each.
+  std::vector<std::pair<std::string, std::uint64_t>> depthSources() const;
+
+  // The depth frames of one source in order, one at a time (a match's depth does not fit in memory).
+  class DepthFrames {
+   public:
+    DepthFrames(const MatchLogReader& log, const std::string& source);
+    ~DepthFrames();
+    DepthFrames(const DepthFrames&) = delete;
+    DepthFrames& operator=(const DepthFrames&) = delete;
+    // The next frame and when it was logged; false at the end. Throws MatchLogError naming the
+    // frame when its image cannot be decoded.
+    bool next(fw::DepthImage& image, double& wall_time_s);
+
+   private:
+    const MatchLogReader& log_;
+    std::unique_ptr<Statement> query_;
+  };
+
+ private:
+  [[noreturn]] void fail(const std::string& reason) const;
+  std::string path_;
+  std::string folder_;
+  sqlite3* db_ = nullptr;
+  RunInfo run_;
+};
+
+}  // namespace kinect3d

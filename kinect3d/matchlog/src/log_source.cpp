@@ -1,0 +1,59 @@
+#include "kinect3d/log_source.h"
+
+#include "kinect3d/match_log.h"
+
+namespace kinect3d {
+
+namespace {
+
+class LogDepthSource : public DepthSource {
+ public:
+  LogDepthSource(const std::string& folder, const SourceOptions& options) : DepthSource(options), log_(folder) {
+    const auto sources = log_.depthSources();
+    if (sources.empty()) throw DepthSourceError(folder + ": the match log holds no depth frames");
+    source_ = sources.front().first;
+    count_ = sources.front().second;
+    frames_ = std::make_unique<MatchLogReader::DepthFrames>(log_, source_);
+  }
+
+  std::uint64_t frameCount() const override { return count_; }
+  std::string describe() const override {
+    return "match log " + log_.folder() + " (" + std::to_string(count_) + " depth frames of '" + source_ + "')";
+  }
+
+ private:
+  ReadResult readFrame(DepthFrame& frame) override {
+    double wall_time_s = 0.0;
+    try {
+      if (!frames_->next(image_, wall_time_s)) return ReadResult::kEnd;
+    } catch (const MatchLogError& e) {
+      throw DepthSourceError(e.what());
+    }
+    frame.resize({image_.width, image_.height, image_.fx, image_.fy, image_.cx, image_.cy});
+    frame.depth_mm.swap(image_.depth_mm);
+    frame.source_time_s = image_.stamp.source_time_s;
+    frame.index = image_.index;
+    frame.sensor_id = "log:" + log_.folder();
+    return ReadResult::kFrame;
+  }
+
+  MatchLogReader log_;
+  std::string source_;
+  std::uint64_t count_ = 0;
+  std::unique_ptr<MatchLogReader::DepthFrames> frames_;
+  fw::DepthImage image_;
+};
+
+}  // namespace
+
+void addLogSource(DepthSourceTable& table) {
+  table.add("log", [](const std::string& folder, const SourceOptions& options) -> std::unique_ptr<DepthSource> {
+    try {
+      return std::make_unique<LogDepthSource>(folder, options);
+    } catch (const MatchLogError& e) {
+      throw DepthSourceError(e.what());
+    }
+  });
+}
+
+}  // namespace kinect3d

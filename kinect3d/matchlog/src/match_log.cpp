@@ -1,0 +1,582 @@
+#include "kinect3d/match_log.h"
+
+#include <sqlite3.h>
+
+#include <algorithm>
+#include <cmath>
+#include <ctime>
+#include <filesystem>
+#include <map>
+#include <opencv2/imgcodecs.hpp>
+#include <optional>
+#include <variant>
+
+namespace kinect3d {
+
+namespace fs = std::filesystem;
+
+// Every table but run has seq, the writer's count of publications: their order across tables.
+// Frames (sensor, robot, field) are in the column names where a position has one.
+constexpr const char* kSchema = R"sql(
+CREATE TABLE run (key TEXT PRIMARY KEY, value TEXT NOT NULL);
+CREATE TABLE ball (seq INTEGER NOT NULL, ball_index INTEGER NOT NULL, wall_time_s REAL NOT NULL,
+  source TEXT NOT NULL, source_time_s REAL NOT NULL, receive_time_s REAL NOT NULL, frame TEXT NOT NULL,
+  state TEXT NOT NULL, x_m REAL, y_m REAL, z_m REAL, cov_xx_m2 REAL, cov_xy_m2 REAL, cov_xz_m2 REAL,
+  cov_yy_m2 REAL, cov_yz_m2 REAL, cov_zz_m2 REAL, support_points INTEGER, is_static INTEGER,
+  PRIMARY KEY (seq, ball_index));
+CREATE TABLE omni_frame (seq INTEGER PRIMARY KEY, wall_time_s REAL NOT NULL, source_time_s REAL NOT NULL,
+  receive_time_s REAL NOT NULL);
+CREATE TABLE omni_ball (seq INTEGER NOT NULL, ball_index INTEGER NOT NULL, source TEXT NOT NULL,
+  bearing_rad REAL, distance_m REAL, bearing_sigma_rad REAL, distance_sigma_m REAL,
+  PRIMARY KEY (seq, ball_index));
+CREATE TABLE trajectory (seq INTEGER PRIMARY KEY, wall_time_s REAL NOT NULL, source TEXT NOT NULL,
+  lost INTEGER NOT NULL, time_s REAL, state TEXT, x_m REAL, y_m REAL, z_m REAL, vx_mps REAL, vy_mps REAL,
+  vz_mps REAL, gravity_mps2 REAL, drag_per_m REAL, curve_radps REAL, rolling_decel_mps2 REAL,
+  support INTEGER, rms_m REAL, touchdown_x_m REAL, touchdown_y_m REAL, touchdown_time_s REAL,
+  touchdown_sigma_m REAL, crossing_x_m REAL, crossing_z_m REAL, crossing_time_s REAL);
+CREATE TABLE fused_ball (seq INTEGER PRIMARY KEY, wall_time_s REAL NOT NULL, none INTEGER NOT NULL,
+  source_time_s REAL, receive_time_s REAL, state TEXT, air_probability REAL,
+  x_field_m REAL, y_field_m REAL, z_field_m REAL, vx_field_mps REAL, vy_field_mps REAL, vz_field_mps REAL,
+  x_robot_m REAL, y_robot_m REAL, z_robot_m REAL, cov_xx_m2 REAL, cov_xy_m2 REAL, cov_xz_m2 REAL,
+  cov_yy_m2 REAL, cov_yz_m2 REAL, cov_zz_m2 REAL, sources TEXT, age_s REAL);
+CREATE TABLE robot_pose (seq INTEGER PRIMARY KEY, wall_time_s REAL NOT NULL, source_time_s REAL NOT NULL,
+  receive_time_s REAL NOT NULL, x_m REAL, y_m REAL, theta_rad REAL);
+CREATE TABLE event (seq INTEGER PRIMARY KEY, wall_time_s REAL NOT NULL, source TEXT NOT NULL,
+  kind TEXT NOT NULL, message TEXT NOT NULL, source_time_s REAL, receive_time_s REAL);
+CREATE TABLE health (seq INTEGER PRIMARY KEY, wall_time_s REAL NOT NULL, plugin TEXT NOT NULL,
+  frames INTEGER, rate_hz REAL, processing_p50_s REAL, processing_p99_s REAL, dropped_frames INTEGER,
+  errors INTEGER, stuck INTEGER, second_end_wall_time_s REAL);
+CREATE TABLE depth_frame (seq INTEGER PRIMARY KEY, wall_time_s REAL NOT NULL, source TEXT NOT NULL,
+  frame_index INTEGER NOT NULL, source_time_s REAL NOT NULL, receive_time_s REAL NOT NULL,
+  width INTEGER NOT NULL, height INTEGER NOT NULL, fx REAL, fy REAL, cx REAL, cy REAL, png BLOB NOT NULL);
+CREATE INDEX depth_frame_by_source ON depth_frame (source, seq);
+)sql";
+
+struct Statement {
+  Statement(sqlite3* db, const char* sql, const std::string& path) : path(path) {
+    if (sqlite3_prepare_v2(db, sql, -1, &stmt, nullptr) != SQLITE_OK) {
+      throw MatchLogError(path + ": " + sqlite3_errmsg(db));
+    }
+  }
+  ~Statement() { sqlite3_finalize(stmt); }
+
+  // Binds the values in order, runs the statement to its end, resets it.
+  template <typename... Values>
+  void run(const Values&... values) {
+    int index = 0;
+    (bindOne(++index, values), ...);
+    const int result = sqlite3_step(stmt);
+    sqlite3_reset(stmt);
+    sqlite3_clear_bindings(stmt);
+    if (result != SQLITE_DONE) throw MatchLogError(path + ": " + sqlite3_errstr(result));
+  }
+  // Steps a query: true while it has a row.
+  bool row() {
+    const int result = sqlite3_step(stmt);
+    if (result == SQLITE_ROW) return true;
+    if (result == SQLITE_DONE) return false;
+    throw MatchLogError(path + ": " + sqlite3_errstr(result));
+  }
+  double real(int column) const {
+    return sqlite3_column_type(stmt, column) == SQLITE_NULL ? NAN : sqlite3_column_double(stmt, column);
+  }
+  std::int64_t integer(int column) const { return sqlite3_column_int64(stmt, column); }
+  bool isNull(int column) const { return sqlite3_column_type(stmt, column) == SQLITE_NULL; }
+  std::string text(int column) const {
+    const auto* text = sqlite3_column_text(stmt, column);
+    return text == nullptr ? std::string() : std::string(reinterpret_cast<const char*>(text));
+  }
+
+  sqlite3_stmt* stmt = nullptr;
+  std::string path;
+
+ private:
+  void bindOne(int index, double value) { sqlite3_bind_double(stmt, index, value); }
+  void bindOne(int index, int value) { sqlite3_bind_int64(stmt, index, value); }
+  void bindOne(int index, bool value) { sqlite3_bind_int64(stmt, index, value ? 1 : 0); }
+  void bindOne(int index, std::int64_t value) { sqlite3_bind_int64(stmt, index, value); }
+  void bindOne(int index, std::uint64_t value) { sqlite3_bind_int64(stmt, index, static_cast<std::int64_t>(value)); }
+  void bindOne(int index, const std::string& value) {
+    sqlite3_bind_text(stmt, index, value.data(), static_cast<int>(value.size()), SQLITE_TRANSIENT);
+  }
+  void bindOne(int index, const char* value) { sqlite3_bind_text(stmt, index, value, -1, SQLITE_TRANSIENT); }
+  void bindOne(int index, const std::vector<unsigned char>& blob) {
+    sqlite3_bind_blob(stmt, index, blob.data(), static_cast<int>(blob.size()), SQLITE_TRANSIENT);
+  }
+  void bindOne(int index, const std::optional<double>& value) {
+    if (value) {
+      sqlite3_bind_double(stmt, index, *value);
+    } else {
+      sqlite3_bind_null(stmt, index);
+    }
+  }
+};
+
+namespace {
+
+template <class... Ts>
+struct Overloaded : Ts... {
+  using Ts::operator()...;
+};
+template <class... Ts>
+Overloaded(Ts...) -> Overloaded<Ts...>;
+
+fw::Frame frameFrom(const std::string& text) {
+  if (text == "sensor") return fw::Frame::kSensor;
+  if (text == "field") return fw::Frame::kField;
+  return fw::Frame::kRobot;
+}
+fw::BallState stateFrom(const std::string& text) {
+  return text == "air" ? fw::BallState::kAir : fw::BallState::kGround;
+}
+
+std::string joined(const std::vector<std::string>& parts) {
+  std::string text;
+  for (const std::string& part : parts) text += (text.empty() ? "" : ",") + part;
+  return text;
+}
+std::vector<std::string> split(const std::string& text) {
+  std::vector<std::string> parts;
+  std::size_t start = 0;
+  while (start < text.size()) {
+    const std::size_t comma = std::min(text.find(',', start), text.size());
+    parts.push_back(text.substr(start, comma - start));
+    start = comma + 1;
+  }
+  return parts;
+}
+
+Eigen::Matrix3d symmetric(const Statement& q, int first) {
+  Eigen::Matrix3d m;
+  m << q.real(first), q.real(first + 1), q.real(first + 2), q.real(first + 1), q.real(first + 3), q.real(first + 4),
+      q.real(first + 2), q.real(first + 4), q.real(first + 5);
+  return m;
+}
+
+}  // namespace
+
+std::string runFolderName(const std::string& base, const std::string& robot, double wall_time_s) {
+  const std::time_t seconds = static_cast<std::time_t>(wall_time_s);
+  std::tm local{};
+  localtime_r(&seconds, &local);
+  char stamp[32];
+  std::strftime(stamp, sizeof stamp, "%Y-%m-%d_%H-%M-%S", &local);
+  return (fs::path(base) / (std::string(stamp) + "_" + robot)).string();
+}
+
+// ---------------------------------------------------------------------------------------------
+
+MatchLogWriter::MatchLogWriter(const std::string& folder, const RunInfo& run)
+    : folder_(folder), path_((fs::path(folder) / kMatchLogFile).string()) {
+  std::error_code error;
+  fs::create_directories(folder, error);
+  if (error) throw MatchLogError(folder + ": cannot create the log folder: " + error.message());
+  if (fs::exists(path_)) throw MatchLogError(path_ + ": a log is already there; a run never writes over another");
+  if (sqlite3_open_v2(path_.c_str(), &db_, SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE, nullptr) != SQLITE_OK) {
+    const std::string reason = db_ != nullptr ? sqlite3_errmsg(db_) : "out of memory";
+    sqlite3_close(db_);
+    throw MatchLogError(path_ + ": " + reason);
+  }
+  try {
+    // WAL: a commit is one append, and a process killed mid-write leaves the last commit intact.
+    // synchronous=NORMAL: the OS, not each commit, flushes to the device (a kill loses nothing
+    // committed; a power cut may lose the last commits, never the database).
+    exec("PRAGMA journal_mode=WAL; PRAGMA synchronous=NORMAL;");
+    exec("BEGIN;");
+    exec(kSchema);
+    exec("PRAGMA user_version=" + std::to_string(kMatchLogSchemaVersion) + ";");
+    Statement insert(db_, "INSERT INTO run (key, value) VALUES (?, ?)", path_);
+    insert.run("robot", run.robot);
+    insert.run("software_version", run.software_version);
+    insert.run("config_yaml", run.config_yaml);
+    insert.run("start_wall_time_s", std::to_string(run.start_wall_time_s));
+    insert.run("replayed_from", run.replayed_from);
+    exec("COMMIT;");
+  } catch (...) {
+    sqlite3_close(db_);
+    throw;
+  }
+}
+
+MatchLogWriter::~MatchLogWriter() {
+  try {
+    commit();
+  } catch (const MatchLogError&) {
+    // The disk refused the last batch; what was committed before stays readable.
+  }
+  statements_.clear();
+  sqlite3_close(db_);
+}
+
+void MatchLogWriter::exec(const std::string& sql) {
+  char* message = nullptr;
+  if (sqlite3_exec(db_, sql.c_str(), nullptr, nullptr, &message) != SQLITE_OK) {
+    const std::string reason = message != nullptr ? message : sqlite3_errmsg(db_);
+    sqlite3_free(message);
+    throw MatchLogError(path_ + ": " + reason);
+  }
+}
+
+void MatchLogWriter::begin() {
+  if (in_batch_) return;
+  exec("BEGIN;");
+  in_batch_ = true;
+}
+
+void MatchLogWriter::commit() {
+  if (!in_batch_) return;
+  in_batch_ = false;  // a failed COMMIT leaves no transaction open either way
+  char* message = nullptr;
+  if (sqlite3_exec(db_, "COMMIT;", nullptr, nullptr, &message) != SQLITE_OK) {
+    const std::string reason = message != nullptr ? message : sqlite3_errmsg(db_);
+    sqlite3_free(message);
+    sqlite3_exec(db_, "ROLLBACK;", nullptr, nullptr, nullptr);
+    throw MatchLogError(path_ + ": " + reason);
+  }
+}
+
+Statement& MatchLogWriter::statement(const char* sql) {
+  for (auto& statement : statements_) {
+    if (sqlite3_sql(statement->stmt) == sql || std::string(sqlite3_sql(statement->stmt)) == sql) return *statement;
+  }
+  statements_.push_back(std::make_unique<Statement>(db_, sql, path_));
+  return *statements_.back();
+}
+
+std::uint64_t MatchLogWriter::bytesOnDisk() const {
+  std::uint64_t bytes = 0;
+  for (const std::string& file : {path_, path_ + "-wal"}) {
+    std::error_code error;
+    const auto size = fs::file_size(file, error);
+    if (!error) bytes += size;
+  }
+  return bytes;
+}
+
+void MatchLogWriter::write(const fw::JournalEntry& entry) {
+  begin();
+  const std::int64_t seq = next_seq_++;
+  const double wall = entry.wall_time_s;
+  std::visit(
+      Overloaded{
+          [&](const fw::BallFrame& frame) {
+            Statement& insert =
+                statement("INSERT INTO ball VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)");
+            for (std::size_t i = 0; i < frame.balls.size(); ++i) {
+              const fw::BallObservation& b = frame.balls[i];
+              const Eigen::Matrix3d& c = b.covariance_m2;
+              insert.run(seq, static_cast<int>(i), wall, b.source, b.stamp.source_time_s, b.stamp.receive_time_s,
+                         fw::toString(b.frame), fw::toString(b.state), b.position_m.x(), b.position_m.y(),
+                         b.position_m.z(), c(0, 0), c(0, 1), c(0, 2), c(1, 1), c(1, 2), c(2, 2), b.support_points,
+                         b.is_static);
+            }
+          },
+          [&](const fw::OmniFrame& frame) {
+            statement("INSERT INTO omni_frame VALUES (?, ?, ?, ?)")
+                .run(seq, wall, frame.stamp.source_time_s, frame.stamp.receive_time_s);
+            Statement& insert = statement("INSERT INTO omni_ball VALUES (?, ?, ?, ?, ?, ?, ?)");
+            for (std::size_t i = 0; i < frame.balls.size(); ++i) {
+              const fw::OmniBallObservation& b = frame.balls[i];
+              insert.run(seq, static_cast<int>(i), b.source, b.bearing_rad, b.distance_m, b.bearing_sigma_rad,
+                         b.distance_sigma_m);
+            }
+          },
+          [&](const fw::BallTrajectory& t) {
+            Statement& insert = statement(
+                "INSERT INTO trajectory VALUES (?, ?, ?, 0, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, "
+                "?, ?)");
+            using Maybe = std::optional<double>;
+            const auto& td = t.touchdown;
+            const auto& cr = t.crossing;
+            insert.run(seq, wall, t.source, t.time_s, fw::toString(t.state), t.position_m.x(), t.position_m.y(),
+                       t.position_m.z(), t.velocity_mps.x(), t.velocity_mps.y(), t.velocity_mps.z(), t.gravity_mps2,
+                       t.drag_per_m, t.curve_radps, t.rolling_decel_mps2, t.support, t.rms_m,
+                       td ? Maybe(td->point_m.x()) : Maybe(), td ? Maybe(td->point_m.y()) : Maybe(),
+                       td ? Maybe(td->time_s) : Maybe(), td ? Maybe(td->sigma_m) : Maybe(),
+                       cr ? Maybe(cr->x_m) : Maybe(), cr ? Maybe(cr->z_m) : Maybe(), cr ? Maybe(cr->time_s) : Maybe());
+          },
+          [&](const fw::TrajectoryCleared& cleared) {
+            statement("INSERT INTO trajectory (seq, wall_time_s, source, lost) VALUES (?, ?, ?, 1)")
+                .run(seq, wall, cleared.source);
+          },
+          [&](const fw::FusedBall& b) {
+            const Eigen::Matrix3d& c = b.covariance_F;
+            statement(
+                "INSERT INTO fused_ball VALUES (?, ?, 0, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, "
+                "?)")
+                .run(seq, wall, b.stamp.source_time_s, b.stamp.receive_time_s, fw::toString(b.state), b.air_probability,
+                     b.position_F.x(), b.position_F.y(), b.position_F.z(), b.velocity_F.x(), b.velocity_F.y(),
+                     b.velocity_F.z(), b.position_R.x(), b.position_R.y(), b.position_R.z(), c(0, 0), c(0, 1), c(0, 2),
+                     c(1, 1), c(1, 2), c(2, 2), joined(b.sources), b.age_s);
+          },
+          [&](const fw::FusedBallCleared&) {
+            statement("INSERT INTO fused_ball (seq, wall_time_s, none) VALUES (?, ?, 1)").run(seq, wall);
+          },
+          [&](const fw::RobotPose& p) {
+            statement("INSERT INTO robot_pose VALUES (?, ?, ?, ?, ?, ?, ?)")
+                .run(seq, wall, p.stamp.source_time_s, p.stamp.receive_time_s, p.x_m, p.y_m, p.theta_rad);
+          },
+          [&](const fw::DepthImage& image) {
+            const cv::Mat depth(image.height, image.width, CV_16UC1, const_cast<std::uint16_t*>(image.depth_mm.data()));
+            std::vector<unsigned char> png;
+            // Level 1: a third of the raw size on Kinect depth at a fraction of the default's time.
+            cv::imencode(".png", depth, png, {cv::IMWRITE_PNG_COMPRESSION, 1});
+            statement("INSERT INTO depth_frame VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)")
+                .run(seq, wall, image.source, image.index, image.stamp.source_time_s, image.stamp.receive_time_s,
+                     image.width, image.height, image.fx, image.fy, image.cx, image.cy, png);
+          },
+          [&](const fw::Event& e) {
+            statement("INSERT INTO event VALUES (?, ?, ?, ?, ?, ?, ?)")
+                .run(seq, wall, e.source, e.kind, e.message, e.stamp.source_time_s, e.stamp.receive_time_s);
+          },
+          [&](const fw::PluginHealth& h) {
+            statement("INSERT INTO health VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)")
+                .run(seq, wall, h.plugin, h.frames, h.rate_hz, h.processing_p50_s, h.processing_p99_s, h.dropped_frames,
+                     h.errors, h.stuck, h.wall_time_s);
+          },
+      },
+      entry.item);
+}
+
+// ---------------------------------------------------------------------------------------------
+
+MatchLogReader::MatchLogReader(const std::string& folder)
+    : path_((fs::path(folder) / kMatchLogFile).string()), folder_(folder) {
+  if (!fs::is_regular_file(path_)) {
+    throw MatchLogError(
+        path_ + ": no match log here (" +
+        (fs::is_directory(folder) ? "the folder has no " + std::string(kMatchLogFile) : std::string("no such folder")) +
+        ")");
+  }
+  // Read-only, but a WAL database left by a killed writer still needs its -shm file: opened read-write
+  // by SQLite itself if need be, never changing the data.
+  if (sqlite3_open_v2(path_.c_str(), &db_, SQLITE_OPEN_READONLY, nullptr) != SQLITE_OK) {
+    const std::string reason = db_ != nullptr ? sqlite3_errmsg(db_) : "out of memory";
+    sqlite3_close(db_);
+    db_ = nullptr;
+    throw MatchLogError(path_ + ": " + reason);
+  }
+  try {
+    Statement version(db_, "PRAGMA user_version", path_);
+    version.row();
+    const std::int64_t schema = version.integer(0);
+    Statement tables(db_, "SELECT count(*) FROM sqlite_master WHERE type = 'table' AND name = 'run'", path_);
+    tables.row();
+    if (tables.integer(0) == 0) fail("not a match log (no 'run' table)");
+    if (schema != kMatchLogSchemaVersion) {
+      fail("schema version " + std::to_string(schema) + ", this program reads version " +
+           std::to_string(kMatchLogSchemaVersion));
+    }
+    Statement integrity(db_, "PRAGMA quick_check", path_);
+    integrity.row();
+    if (integrity.text(0) != "ok") fail("damaged: " + integrity.text(0));
+    Statement run(db_, "SELECT key, value FROM run", path_);
+    while (run.row()) {
+      const std::string key = run.text(0), value = run.text(1);
+      if (key == "robot") run_.robot = value;
+      if (key == "software_version") run_.software_version = value;
+      if (key == "config_yaml") run_.config_yaml = value;
+      if (key == "start_wall_time_s") run_.start_wall_time_s = std::atof(value.c_str());
+      if (key == "replayed_from") run_.replayed_from = value;
+    }
+  } catch (const MatchLogError& e) {
+    sqlite3_close(db_);
+    db_ = nullptr;
+    const std::string what = e.what();
+    // SQLite's own messages ("file is not a database") get the file in front, ours have it already.
+    throw MatchLogError(what.rfind(path_, 0) == 0 ? what : path_ + ": " + what);
+  }
+}
+
+MatchLogReader::~MatchLogReader() { sqlite3_close(db_); }
+
+void MatchLogReader::fail(const std::string& reason) const { throw MatchLogError(path_ + ": " + reason); }
+
+std::vector<fw::JournalEntry> MatchLogReader::entries() const {
+  std::map<std::int64_t, fw::JournalEntry> by_seq;
+  {
+    Statement q(db_,
+                "SELECT seq, wall_time_s, source, source_time_s, receive_time_s, frame, state, x_m, y_m, z_m, "
+                "cov_xx_m2, cov_xy_m2, cov_xz_m2, cov_yy_m2, cov_yz_m2, cov_zz_m2, support_points, is_static "
+                "FROM ball ORDER BY seq, ball_index",
+                path_);
+    while (q.row()) {
+      fw::JournalEntry& entry = by_seq[q.integer(0)];
+      if (!std::holds_alternative<fw::BallFrame>(entry.item)) entry.item = fw::BallFrame{};
+      entry.wall_time_s = q.real(1);
+      auto& frame = std::get<fw::BallFrame>(entry.item);
+      fw::BallObservation b;
+      b.source = q.text(2);
+      b.stamp = {q.real(3), q.real(4)};
+      b.frame = frameFrom(q.text(5));
+      b.state = stateFrom(q.text(6));
+      b.position_m = {q.real(7), q.real(8), q.real(9)};
+      b.covariance_m2 = symmetric(q, 10);
+      b.support_points = static_cast<int>(q.integer(16));
+      b.is_static = q.integer(17) != 0;
+      if (frame.balls.empty()) frame.stamp = b.stamp;
+      frame.balls.push_back(b);
+    }
+  }
+  {
+    Statement q(db_, "SELECT seq, wall_time_s, source_time_s, receive_time_s FROM omni_frame", path_);
+    while (q.row()) by_seq[q.integer(0)] = {q.real(1), fw::OmniFrame{{q.real(2), q.real(3)}, {}}};
+    Statement balls(db_,
+                    "SELECT seq, source, bearing_rad, distance_m, bearing_sigma_rad, distance_sigma_m FROM omni_ball "
+                    "ORDER BY seq, ball_index",
+                    path_);
+    while (balls.row()) {
+      auto found = by_seq.find(balls.integer(0));
+      if (found == by_seq.end() || !std::holds_alternative<fw::OmniFrame>(found->second.item)) {
+        fail("omni_ball row " + std::to_string(balls.integer(0)) + " has no omni_frame");
+      }
+      auto& frame = std::get<fw::OmniFrame>(found->second.item);
+      fw::OmniBallObservation b;
+      b.source = balls.text(1);
+      b.bearing_rad = balls.real(2);
+      b.distance_m = balls.real(3);
+      b.bearing_sigma_rad = balls.real(4);
+      b.distance_sigma_m = balls.real(5);
+      b.stamp = frame.stamp;
+      frame.balls.push_back(b);
+    }
+  }
+  {
+    Statement q(db_,
+                "SELECT seq, wall_time_s, source, lost, time_s, state, x_m, y_m, z_m, vx_mps, vy_mps, vz_mps, "
+                "gravity_mps2, drag_per_m, curve_radps, rolling_decel_mps2, support, rms_m, touchdown_x_m, "
+                "touchdown_y_m, touchdown_time_s, touchdown_sigma_m, crossing_x_m, crossing_z_m, crossing_time_s "
+                "FROM trajectory",
+                path_);
+    while (q.row()) {
+      fw::JournalEntry& entry = by_seq[q.integer(0)];
+      entry.wall_time_s = q.real(1);
+      if (q.integer(3) != 0) {
+        entry.item = fw::TrajectoryCleared{q.text(2)};
+        continue;
+      }
+      fw::BallTrajectory t;
+      t.source = q.text(2);
+      t.time_s = q.real(4);
+      t.state = stateFrom(q.text(5));
+      t.position_m = {q.real(6), q.real(7), q.real(8)};
+      t.velocity_mps = {q.real(9), q.real(10), q.real(11)};
+      t.gravity_mps2 = q.real(12);
+      t.drag_per_m = q.real(13);
+      t.curve_radps = q.real(14);
+      t.rolling_decel_mps2 = q.real(15);
+      t.support = static_cast<int>(q.integer(16));
+      t.rms_m = q.real(17);
+      if (!q.isNull(18)) t.touchdown = fw::Touchdown{{q.real(18), q.real(19)}, q.real(20), q.real(21)};
+      if (!q.isNull(22)) t.crossing = fw::LineCrossing{q.real(22), q.real(23), q.real(24)};
+      entry.item = t;
+    }
+  }
+  {
+    Statement q(db_,
+                "SELECT seq, wall_time_s, none, source_time_s, receive_time_s, state, air_probability, x_field_m, "
+                "y_field_m, z_field_m, vx_field_mps, vy_field_mps, vz_field_mps, x_robot_m, y_robot_m, z_robot_m, "
+                "cov_xx_m2, cov_xy_m2, cov_xz_m2, cov_yy_m2, cov_yz_m2, cov_zz_m2, sources, age_s FROM fused_ball",
+                path_);
+    while (q.row()) {
+      fw::JournalEntry& entry = by_seq[q.integer(0)];
+      entry.wall_time_s = q.real(1);
+      if (q.integer(2) != 0) {
+        entry.item = fw::FusedBallCleared{};
+        continue;
+      }
+      fw::FusedBall b;
+      b.stamp = {q.real(3), q.real(4)};
+      b.state = stateFrom(q.text(5));
+      b.air_probability = q.real(6);
+      b.position_F = {q.real(7), q.real(8), q.real(9)};
+      b.velocity_F = {q.real(10), q.real(11), q.real(12)};
+      b.position_R = {q.real(13), q.real(14), q.real(15)};
+      b.covariance_F = symmetric(q, 16);
+      b.sources = split(q.text(22));
+      b.age_s = q.real(23);
+      entry.item = b;
+    }
+  }
+  {
+    Statement q(db_, "SELECT seq, wall_time_s, source_time_s, receive_time_s, x_m, y_m, theta_rad FROM robot_pose",
+                path_);
+    while (q.row())
+      by_seq[q.integer(0)] = {q.real(1), fw::RobotPose{q.real(4), q.real(5), q.real(6), {q.real(2), q.real(3)}}};
+  }
+  {
+    Statement q(db_, "SELECT seq, wall_time_s, source, kind, message, source_time_s, receive_time_s FROM event", path_);
+    while (q.row()) {
+      by_seq[q.integer(0)] = {q.real(1), fw::Event{q.text(2), q.text(3), q.text(4), {q.real(5), q.real(6)}}};
+    }
+  }
+  {
+    Statement q(
+        db_,
+        "SELECT seq, wall_time_s, plugin, frames, rate_hz, processing_p50_s, processing_p99_s, dropped_frames, errors, "
+        "stuck, second_end_wall_time_s FROM health",
+        path_);
+    while (q.row()) {
+      fw::PluginHealth h;
+      h.plugin = q.text(2);
+      h.frames = static_cast<std::uint64_t>(q.integer(3));
+      h.rate_hz = q.real(4);
+      h.processing_p50_s = q.real(5);
+      h.processing_p99_s = q.real(6);
+      h.dropped_frames = static_cast<std::uint64_t>(q.integer(7));
+      h.errors = static_cast<std::uint64_t>(q.integer(8));
+      h.stuck = static_cast<std::uint64_t>(q.integer(9));
+      h.wall_time_s = q.real(10);
+      by_seq[q.integer(0)] = {q.real(1), h};
+    }
+  }
+  std::vector<fw::JournalEntry> entries;
+  entries.reserve(by_seq.size());
+  for (auto& [seq, entry] : by_seq) entries.push_back(std::move(entry));
+  return entries;
+}
+
+std::vector<std::pair<std::string, std::uint64_t>> MatchLogReader::depthSources() const {
+  Statement q(db_, "SELECT source, count(*) FROM depth_frame GROUP BY source ORDER BY source", path_);
+  std::vector<std::pair<std::string, std::uint64_t>> sources;
+  while (q.row()) sources.emplace_back(q.text(0), static_cast<std::uint64_t>(q.integer(1)));
+  return sources;
+}
+
+MatchLogReader::DepthFrames::DepthFrames(const MatchLogReader& log, const std::string& source)
+    : log_(log),
+      query_(std::make_unique<Statement>(log.db_,
+                                         "SELECT seq, wall_time_s, frame_index, source_time_s, receive_time_s, width, "
+                                         "height, fx, fy, cx, cy, png FROM depth_frame WHERE source = ? ORDER BY seq",
+                                         log.path_)) {
+  sqlite3_bind_text(query_->stmt, 1, source.c_str(), -1, SQLITE_TRANSIENT);
+}
+
+MatchLogReader::DepthFrames::~DepthFrames() = default;
+
+bool MatchLogReader::DepthFrames::next(fw::DepthImage& image, double& wall_time_s) {
+  Statement& q = *query_;
+  if (!q.row()) return false;
+  wall_time_s = q.real(1);
+  image.index = static_cast<std::uint64_t>(q.integer(2));
+  image.stamp = {q.real(3), q.real(4)};
+  image.width = static_cast<int>(q.integer(5));
+  image.height = static_cast<int>(q.integer(6));
+  image.fx = q.real(7);
+  image.fy = q.real(8);
+  image.cx = q.real(9);
+  image.cy = q.real(10);
+  const auto* bytes = static_cast<const unsigned char*>(sqlite3_column_blob(q.stmt, 11));
+  const int size = sqlite3_column_bytes(q.stmt, 11);
+  const cv::Mat png(1, size, CV_8UC1, const_cast<unsigned char*>(bytes));
+  const cv::Mat depth = size > 0 ? cv::imdecode(png, cv::IMREAD_ANYDEPTH) : cv::Mat();
+  if (depth.empty() || depth.type() != CV_16UC1 || depth.cols != image.width || depth.rows != image.height) {
+    log_.fail("depth frame " + std::to_string(image.index) + " (seq " + std::to_string(q.integer(0)) +
+              "): the image is not a " + std::to_string(image.width) + "x" + std::to_string(image.height) +
+              " 16-bit PNG");
+  }
+  image.depth_mm.assign(depth.ptr<std::uint16_t>(), depth.ptr<std::uint16_t>() + depth.total());
+  return true;
+}
+
+}  // namespace kinect3d
