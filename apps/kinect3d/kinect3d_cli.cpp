@@ -16,6 +16,8 @@
 #include <memory>
 #include <optional>
 
+#include "cli_sources.h"
+#include "detect_line.h"
 #include "framework_api/config.h"
 #include "framework_api/install_layout.h"
 #include "framework_api/log.h"
@@ -31,12 +33,13 @@
 #include "kinect3d/sim/sim_sources.h"
 #include "kinect3d/sim/trajectory_report.h"
 #include "kinect3d/trajectory.h"
+#include "match_tools.h"
 #include "offline_fusion.h"
 
 namespace {
 
 void runInfo(const std::string& uri) {
-  auto source = kinect3d::sim::sourcesWithSimulator().open(uri);
+  auto source = kinect3d::cliSources().open(uri);
   kinect3d::DepthFrame frame;
   std::uint64_t frames = 0;
   double invalid_sum = 0.0, min_m = 0.0, max_m = 0.0, first_t = 0.0, last_t = 0.0;
@@ -104,7 +107,7 @@ void writeDepthPanels(const std::vector<std::string>& uris, const std::vector<in
   for (std::size_t i = 0; i < uris.size(); ++i) {
     const std::string& uri = uris[i];
     const int index = frame_numbers.empty() ? 0 : frame_numbers[frame_numbers.size() > 1 ? i : 0];
-    kinect3d::DepthFrame frame = readFrame(*kinect3d::sim::sourcesWithSimulator().open(uri), uri, index);
+    kinect3d::DepthFrame frame = readFrame(*kinect3d::cliSources().open(uri), uri, index);
     cv::Mat depth(frame.height(), frame.width(), CV_16UC1, frame.depth_mm.data());
     cv::Mat scaled, coloured;
     depth.convertTo(scaled, CV_8UC1, 255.0 / kMaxDepth_mm);
@@ -122,7 +125,7 @@ void writeDepthPanels(const std::vector<std::string>& uris, const std::vector<in
 // The scene map the detector builds from the source's frames up to frame `last`, as OctoMap's .bt.
 void writeSceneMap(const std::string& uri, int last, const fw::Config& config, const std::string& out) {
   kinect3d::BallDetector detector(kinect3d::readDetectorConfig(config.block("kinect3d")), "kinect3d");
-  auto source = kinect3d::sim::sourcesWithSimulator().open(uri);
+  auto source = kinect3d::cliSources().open(uri);
   kinect3d::DepthFrame frame;
   kinect3d::Detections detections;
   for (int frames = 0; frames <= last;) {
@@ -139,53 +142,6 @@ void writeSceneMap(const std::string& uri, int last, const fw::Config& config, c
                               " (" + std::to_string(detector.sceneMap()->integrations()) + " ray integrations)");
 }
 
-// One detect line: {"frame", "t", "balls": [{"x", "y", "z", "state", "points", "static"}], "process_ms",
-// "trajectory": null or {"p", "v", "state", "support", "rms_m", "touchdown", "crossing"}};
-// positions to 0.1 mm, times to 1 us (docs/cli.md).
-std::string detectLine(const kinect3d::DepthFrame& frame, const kinect3d::Detections& detections,
-                       const std::optional<fw::BallTrajectory>& trajectory) {
-  char text[512];
-  std::snprintf(text, sizeof text, "{\"frame\": %llu, \"t\": %.6f, \"balls\": [",
-                static_cast<unsigned long long>(frame.index), frame.source_time_s);
-  std::string line = text;
-  for (std::size_t i = 0; i < detections.balls.size(); ++i) {
-    const fw::BallObservation& ball = detections.balls[i];
-    std::snprintf(text, sizeof text,
-                  "%s{\"x\": %.4f, \"y\": %.4f, \"z\": %.4f, \"state\": \"%s\", \"points\": %d, "
-                  "\"static\": %s}",
-                  i ? ", " : "", ball.position_m.x(), ball.position_m.y(), ball.position_m.z(),
-                  fw::toString(ball.state), ball.support_points, ball.is_static ? "true" : "false");
-    line += text;
-  }
-  std::snprintf(text, sizeof text, "], \"process_ms\": %.3f, \"trajectory\": ", detections.times.total() * 1e3);
-  line += text;
-  if (!trajectory) return line + "null}";
-  const Eigen::Vector3d& p = trajectory->position_m;
-  const Eigen::Vector3d& v = trajectory->velocity_mps;
-  std::snprintf(text, sizeof text,
-                "{\"p\": [%.4f, %.4f, %.4f], \"v\": [%.4f, %.4f, %.4f], \"state\": \"%s\", "
-                "\"support\": %d, \"rms_m\": %.4f, \"touchdown\": ",
-                p.x(), p.y(), p.z(), v.x(), v.y(), v.z(), fw::toString(trajectory->state), trajectory->support,
-                trajectory->rms_m);
-  line += text;
-  if (const auto& touchdown = trajectory->touchdown) {
-    std::snprintf(text, sizeof text, "{\"x\": %.4f, \"y\": %.4f, \"t\": %.6f, \"sigma_m\": %.4f}",
-                  touchdown->point_m.x(), touchdown->point_m.y(), touchdown->time_s, touchdown->sigma_m);
-    line += text;
-  } else {
-    line += "null";
-  }
-  line += ", \"crossing\": ";
-  if (const auto& crossing = trajectory->crossing) {
-    std::snprintf(text, sizeof text, "{\"x\": %.4f, \"z\": %.4f, \"t\": %.6f}", crossing->x_m, crossing->z_m,
-                  crossing->time_s);
-    line += text;
-  } else {
-    line += "null";
-  }
-  return line + "}}";
-}
-
 void runDetect(const std::string& source_uri, const fw::Config& config, const std::string& output, bool realtime) {
   const fw::ConfigView block = config.block("kinect3d");
   const std::string uri = source_uri.empty() ? block.getString("source") : source_uri;
@@ -193,7 +149,7 @@ void runDetect(const std::string& source_uri, const fw::Config& config, const st
   const auto trajectory = kinect3d::makeTrajectoryEstimator(kinect3d::readTrajectoryConfig(block));
   kinect3d::SourceOptions options;
   options.realtime = realtime;
-  auto source = kinect3d::sim::sourcesWithSimulator().open(uri, options);
+  auto source = kinect3d::cliSources().open(uri, options);
 
   std::ofstream file;
   if (!output.empty()) {
@@ -209,7 +165,9 @@ void runDetect(const std::string& source_uri, const fw::Config& config, const st
     if (result == kinect3d::ReadResult::kEnd) break;
     if (result == kinect3d::ReadResult::kNoFrameYet) continue;
     detector.detect(frame, detections);
-    out << detectLine(frame, detections, trajectory->update(frame.source_time_s, detections.balls)) << "\n";
+    out << kinect3d::detectLine(frame.index, frame.source_time_s, detections.balls, detections.times.total(),
+                                trajectory->update(frame.source_time_s, detections.balls))
+        << "\n";
     out.flush();
     if (!out) {
       throw std::runtime_error("cannot write the detections to " +
@@ -444,6 +402,48 @@ void addReport(CLI::App& app) {
   });
 }
 
+void addReplay(CLI::App& app) {
+  struct Options {
+    std::string log, output;
+    ConfigOptions config;
+  };
+  auto options = std::make_shared<Options>();
+  CLI::App* command = app.add_subcommand(
+      "replay", "Re-run detection, trajectory and fusion on a match log's inputs into a new log (docs/match-log.md)");
+  command->add_option("log", options->log, "Match log folder")->required()->check(CLI::ExistingDirectory);
+  command->add_option("--output", options->output, "Folder for the new log")->required();
+  command
+      ->add_option("--config", options->config.robot_file,
+                   "Robot configuration to use instead of the one the log recorded")
+      ->check(CLI::ExistingFile);
+  command->add_option("--set", options->config.overrides, "Override a value: --set kinect3d.grid.voxel_m=0.2")
+      ->take_all();
+  command->add_option("--defaults", options->config.defaults_dir, "Folder of per-plugin defaults")
+      ->capture_default_str();
+  command->callback([options] {
+    kinect3d::replayMatch(options->log, options->config.defaults_dir, options->config.robot_file,
+                          options->config.overrides, options->output);
+  });
+}
+
+void addExport(CLI::App& app) {
+  auto files = std::make_shared<kinect3d::ExportFiles>();
+  auto log = std::make_shared<std::string>();
+  CLI::App* command =
+      app.add_subcommand("export", "Write a match log's inputs as the files fuse and detect use (docs/match-log.md)");
+  command->add_option("log", *log, "Match log folder")->required()->check(CLI::ExistingDirectory);
+  command->add_option("--omni", files->omni, "Omni camera balls, JSON lines");
+  command->add_option("--pose", files->pose, "Robot poses, JSON lines");
+  command->add_option("--detections", files->detections, "The depth plugin's balls per frame, as detect writes them");
+  command->add_option("--tum", files->tum, "The depth, as a TUM RGB-D folder");
+  command->callback([files, log] {
+    if (files->omni.empty() && files->pose.empty() && files->detections.empty() && files->tum.empty()) {
+      throw CLI::ValidationError("export", "give at least one of --omni, --pose, --detections, --tum");
+    }
+    kinect3d::exportMatch(*log, *files);
+  });
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -458,6 +458,8 @@ int main(int argc, char** argv) {
   addFuse(app);
   addCalibrate(app);
   addReport(app);
+  addReplay(app);
+  addExport(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -2,10 +2,10 @@
 
 #include <algorithm>
 
+#include "cli_sources.h"
 #include "fusion/json_lines.h"
 #include "kinect3d/ball_detector.h"
 #include "kinect3d/config_io.h"
-#include "kinect3d/sim/sim_sources.h"
 
 namespace kinect3d {
 
@@ -35,7 +35,7 @@ FusionRun fuseFiles(const fw::Config& config, const std::string& depth_uri, cons
   if (!depth_uri.empty()) {
     const fw::ConfigView kinect3d = config.block("kinect3d");
     BallDetector detector(readDetectorConfig(kinect3d), kinect3d.path());
-    const auto source = sim::sourcesWithSimulator().open(depth_uri);
+    const auto source = cliSources().open(depth_uri);
     DepthFrame frame;
     Detections detections;
     for (ReadResult result; (result = source->read(frame)) != ReadResult::kEnd;) {

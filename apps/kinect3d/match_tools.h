@@ -1,0 +1,26 @@
+// What the team does with a match log after the match (docs/match-log.md): re-run it with other
+// settings, and take its inputs out as the files the other commands read.
+#pragma once
+
+#include <string>
+#include <vector>
+
+namespace kinect3d {
+
+// `kinect3d replay`: detection, trajectory and fusion re-run on the recorded depth, omni images and
+// poses, in the order the robot received them, into a new match log at output. The configuration
+// is the recorded one (written to <output>/recorded_config.yaml), or robot_file instead when given,
+// with the overrides on top. The same log and settings always give the same output.
+void replayMatch(const std::string& log_folder, const std::string& defaults_dir, const std::string& robot_file,
+                 const std::vector<std::string>& overrides, const std::string& output);
+
+// `kinect3d export`: the files `kinect3d fuse` and `kinect3d detect` use; empty names are skipped.
+struct ExportFiles {
+  std::string omni;        // omni images, JSON lines
+  std::string pose;        // robot poses, JSON lines
+  std::string detections;  // the depth plugin's balls and trajectory per frame, as `kinect3d detect` writes
+  std::string tum;         // the depth, as a TUM RGB-D folder
+};
+void exportMatch(const std::string& log_folder, const ExportFiles& files);
+
+}  // namespace kinect3d
