@@ -5,12 +5,14 @@
 set -euo pipefail
 build_dir=$1
 prefix=$(mktemp -d)
-trap 'rm -rf "$prefix"' EXIT
+work=$(mktemp -d)
+trap 'rm -rf "$prefix" "$work"' EXIT
 cmake --install "$build_dir" --prefix "$prefix" > /dev/null
 
 # Outputs are captured before they are searched: grep -q would end a pipe early.
-# Run from an unrelated folder, so nothing is found through the working directory.
-cd /
+# Run from an unrelated folder, so nothing is found through the working directory (the demo's
+# match log goes there, into logs/).
+cd "$work"
 output=$("$prefix/bin/vision_host" --robot "$prefix/share/kinect3d/config/robots/demo.yaml" \
          --set host.duration_s=20 2>&1)
 echo "$output" | grep -q "loaded plugin kinect3d .* from $prefix/lib/kinect3d/plugins/kinect3d.so" \
@@ -18,6 +20,7 @@ echo "$output" | grep -q "loaded plugin kinect3d .* from $prefix/lib/kinect3d/pl
 echo "$output" | grep -q "ball kinect3d: air" || { echo "no ball in the air reached the console:"; echo "$output"; exit 1; }
 echo "$output" | grep -q "world: air, .* from kinect3d+omni" \
   || { echo "no fused ball in the air reached the console:"; echo "$output"; exit 1; }
+ls "$work"/logs/*_demo/match.sqlite > /dev/null || { echo "the demo left no match log in logs/:"; echo "$output"; exit 1; }
 
 # A robot file outside the installed tree takes the installed defaults.
 robot=$(mktemp -d)/robot.yaml
