@@ -15,6 +15,9 @@
 #include <map>
 #include <thread>
 
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+
 #include "framework_api/host.h"
 #include "fusion/json_lines.h"
 #include "kinect3d/match_log.h"
@@ -343,6 +346,41 @@ TEST_F(LoggedDemo, TheWholeHostReRunsTheMatchFromItsLog) {
   const auto rerun_balls = itemsOf<fw::BallFrame>(rerun.entries());
   EXPECT_GT(rerun_balls.size(), itemsOf<fw::BallFrame>(entries).size() / 2);
   EXPECT_GT(itemsOf<fw::FusedBall>(rerun.entries()).size(), 50u);
+}
+
+// Opened as a person would: Debian's Chromium renders the page; the DOM and the picture are checked.
+TEST_F(LoggedDemo, MatchReportShowsTheLobToAPersonOpeningIt) {
+  ScopedTempDir out;
+  ASSERT_EQ(
+      runCommand(std::string(KINECT3D_EXE) + " report match " + folder_ + " --out " + out.path().string() + " 2>&1")
+          .first,
+      0);
+  const std::string page = "file://" + (out.path() / "index.html").string();
+  const std::string chromium =
+      "chromium --headless --no-sandbox --disable-gpu --window-size=1200,2600 --virtual-time-budget=5000 ";
+  const auto [status, dom] = runCommand(chromium + "--dump-dom " + page + " 2>/dev/null");
+  ASSERT_EQ(status, 0);
+  EXPECT_NE(dom.find("data-drawn=\"yes\""), std::string::npos);  // every chart drawn without a script error
+  EXPECT_NE(dom.find("Match report: demo"), std::string::npos);
+  // The timeline holds every ball each source saw.
+  const auto entries = kinect3d::MatchLogReader(folder_).entries();
+  std::size_t seen = itemsOf<fw::FusedBall>(entries).size();
+  for (const fw::BallFrame& frame : itemsOf<fw::BallFrame>(entries)) seen += frame.balls.size();
+  for (const fw::OmniFrame& frame : itemsOf<fw::OmniFrame>(entries)) seen += frame.balls.size();
+  EXPECT_NE(dom.find("data-points=\"" + std::to_string(seen) + "\""), std::string::npos);
+  EXPECT_NE(dom.find("data-title=\"air at "), std::string::npos);  // the lob is among the flights
+  EXPECT_NE(dom.find("floor_found"), std::string::npos);
+  for (const char* plugin : {"localisation", "kinect3d", "omni", "fusion", "logger"}) {
+    EXPECT_NE(dom.find("<td class=\"text\">" + std::string(plugin) + "</td>"), std::string::npos) << plugin;
+  }
+  const fs::path shot = out.path() / "shot.png";
+  ASSERT_EQ(runCommand(chromium + "--screenshot=" + shot.string() + " " + page + " 2>/dev/null").first, 0);
+  const cv::Mat picture = cv::imread(shot.string(), cv::IMREAD_COLOR);
+  ASSERT_FALSE(picture.empty());
+  // The depth sensor's balls are drawn in their red (#d62728) in the timeline, the height and the flights.
+  cv::Mat red;
+  cv::inRange(picture, cv::Scalar(30, 30, 200), cv::Scalar(50, 50, 225), red);
+  EXPECT_GT(cv::countNonZero(red), 2000);
 }
 
 TEST(Logger, StopsAtItsBudgetLoudlyAndDetectionGoesOn) {

@@ -16,6 +16,9 @@ PACKAGES=(
   libcli11-dev
   nlohmann-json3-dev
   libgtest-dev
+  libsqlite3-dev                # the match log
+  libjs-chart.js                # the match report's charts
+  chromium                      # the match report's test opens the page as a person would
 )
 
 missing=()

@@ -33,6 +33,7 @@
 #include "kinect3d/sim/sim_sources.h"
 #include "kinect3d/sim/trajectory_report.h"
 #include "kinect3d/trajectory.h"
+#include "match_report.h"
 #include "match_tools.h"
 #include "offline_fusion.h"
 
@@ -368,20 +369,23 @@ void addCalibrate(CLI::App& app) {
 
 void addReport(CLI::App& app) {
   struct Options {
-    std::string kind, out, keep;
+    std::string kind, out, keep, log;
     kinect3d::ReportOptions report;
     ConfigOptions config;
   };
   auto options = std::make_shared<Options>();
   options->report.real_depth_dir = KINECT3D_REAL_DEPTH_DIR;
-  CLI::App* command =
-      app.add_subcommand("report", "Measure detection accuracy or trajectory prediction on simulated scenes");
+  CLI::App* command = app.add_subcommand(
+      "report", "Measure detection, trajectory or fusion on simulated scenes, or show a match log as a page");
   command
       ->add_option("kind", options->kind,
-                   "detection (docs/accuracy.md), trajectory (docs/trajectory.md) or fusion (docs/fusion-report.md)")
+                   "detection (docs/accuracy.md), trajectory (docs/trajectory.md), fusion (docs/fusion-report.md) "
+                   "or match (a match log's page, docs/match-log.md)")
       ->required()
-      ->check(CLI::IsMember({"detection", "trajectory", "fusion"}));
-  command->add_option("--out", options->out, "Markdown file to write, e.g. docs/accuracy.md")->required();
+      ->check(CLI::IsMember({"detection", "trajectory", "fusion", "match"}));
+  command->add_option("log", options->log, "match: the match log folder")->check(CLI::ExistingDirectory);
+  command->add_option("--out", options->out, "Markdown file to write, e.g. docs/accuracy.md; match: a folder")
+      ->required();
   command->add_option("--seeds", options->report.seeds, "detection and fusion: noise seeds per scene")
       ->capture_default_str();
   command->add_option("--clutter-frames", options->report.clutter_frames, "detection: frames of the clutter scene")
@@ -391,6 +395,13 @@ void addReport(CLI::App& app) {
   command->add_option("--keep", options->keep, "fusion: keep every case's input files and fused output here");
   options->config.addTo(command, /*with_robot_file=*/false);
   command->callback([options] {
+    if ((options->kind == "match") != !options->log.empty()) {
+      throw CLI::ValidationError("report", "a match log folder goes with 'match', and only with it");
+    }
+    if (options->kind == "match") {
+      kinect3d::writeMatchReport(options->log, options->out);
+      return;
+    }
     const fw::Config config = options->config.load();
     if (options->kind == "trajectory") {
       kinect3d::writeTrajectoryReport(config, options->out);

@@ -1,6 +1,8 @@
 // localisation: the robot's pose in the field into the world state, from the simulator
 // (sim:<scene>, the scene's robot path with the slow, correlated error of self-localisation) or
 // from a file (file:<path>, JSON lines, docs/fusion.md), played at its own pace when realtime.
+#include <chrono>
+
 #include "framework_api/log.h"
 #include "framework_api/plugin.h"
 #include "fusion/json_lines.h"
@@ -25,6 +27,7 @@ class LocalisationPlugin : public fw::Plugin {
  public:
   explicit LocalisationPlugin(const fw::PluginContext& context)
       : world_(*context.world),
+        name_(context.config.path()),
         player_(
             replay::load<fw::RobotPose>(
                 context.config, [&](const std::string& scene) { return simulate(context.config.child("sim"), scene); },
@@ -38,13 +41,17 @@ class LocalisationPlugin : public fw::Plugin {
     if (player_.finished()) return fw::StepResult::kEndOfStream;
     std::optional<fw::RobotPose> pose = player_.next();
     if (!pose) return fw::StepResult::kIdle;
+    const auto started = std::chrono::steady_clock::now();  // its processing, not its wait for the moment
     pose->stamp.receive_time_s = fw::wallClockNow_s();
     world_.publishRobotPose(*pose);
+    world_.reportProcessingTime(name_,
+                                std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count());
     return fw::StepResult::kProcessed;
   }
 
  private:
   fw::WorldState& world_;
+  const std::string name_;
   replay::Player<fw::RobotPose> player_;
 };
 

@@ -2,6 +2,8 @@
 // simulator (sim:<scene>, the ball's ground projection with the camera's noise, latency, misses,
 // occlusions and orange false balls) or from a file (file:<path>, JSON lines, docs/fusion.md),
 // played at their own pace when realtime.
+#include <chrono>
+
 #include "framework_api/log.h"
 #include "framework_api/plugin.h"
 #include "fusion/json_lines.h"
@@ -42,12 +44,15 @@ class OmniPlugin : public fw::Plugin {
     if (player_.finished()) return fw::StepResult::kEndOfStream;
     std::optional<fw::OmniFrame> frame = player_.next();
     if (!frame) return fw::StepResult::kIdle;
+    const auto started = std::chrono::steady_clock::now();  // its processing, not its wait for the moment
     frame->stamp.receive_time_s = fw::wallClockNow_s();
     for (fw::OmniBallObservation& ball : frame->balls) {
       ball.source = name_;
       ball.stamp = frame->stamp;
     }
     world_.publishOmniFrame(*frame);
+    world_.reportProcessingTime(name_,
+                                std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count());
     return fw::StepResult::kProcessed;
   }
 
