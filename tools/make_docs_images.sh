@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# Regenerates docs/images/: a real Kinect frame next to simulated ones, on one colour map.
+# Regenerates docs/images/: a real Kinect frame next to simulated ones, on one colour map, and the
+# match report of the demo robot's run.
 # Needs a build (tools/build.sh) (the real frame comes from tests/data/real-depth).
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -9,3 +10,10 @@ echo "0 $(cd tests/data/real-depth && pwd)/tum_depth.png" > "$real_dir/depth.txt
 mkdir -p docs/images
 build/bin/kinect3d snapshot "tum:$real_dir" sim:kick_away --frame 0 --frame 16 --out docs/images/sim_vs_real.png
 build/bin/kinect3d snapshot sim:clutter sim:shot_goalkeeper --frame 20 --out docs/images/sim_scenes.png
+# The match report of the demo's run (docs/match-log.md), as Chromium draws it.
+run_dir=$(mktemp -d)
+trap 'rm -rf "$real_dir" "$run_dir"' EXIT
+build/bin/vision_host --robot config/robots/demo.yaml --set "logger.folder=$run_dir/logs" > /dev/null 2>&1
+build/bin/kinect3d report match "$(ls -d "$run_dir"/logs/*/)" --out "$run_dir/report"
+chromium --headless --no-sandbox --disable-gpu --window-size=1200,1560 --virtual-time-budget=5000 \
+  --screenshot="$(pwd)/docs/images/match_report.png" "file://$run_dir/report/index.html" 2> /dev/null

@@ -236,11 +236,9 @@ void MatchLogWriter::commit() {
 }
 
 Statement& MatchLogWriter::statement(const char* sql) {
-  for (auto& statement : statements_) {
-    if (sqlite3_sql(statement->stmt) == sql || std::string(sqlite3_sql(statement->stmt)) == sql) return *statement;
-  }
-  statements_.push_back(std::make_unique<Statement>(db_, sql, path_));
-  return *statements_.back();
+  std::unique_ptr<Statement>& statement = statements_[sql];
+  if (statement == nullptr) statement = std::make_unique<Statement>(db_, sql, path_);
+  return *statement;
 }
 
 std::uint64_t MatchLogWriter::bytesOnDisk() const {

@@ -9,6 +9,7 @@
 #pragma once
 
 #include <cstdint>
+#include <map>
 #include <memory>
 #include <stdexcept>
 #include <string>
@@ -70,7 +71,7 @@ class MatchLogWriter {
   std::string folder_;
   std::string path_;
   sqlite3* db_ = nullptr;
-  std::vector<std::unique_ptr<Statement>> statements_;
+  std::map<std::string, std::unique_ptr<Statement>> statements_;  // prepared once, by their SQL
   bool in_batch_ = false;
   std::int64_t next_seq_ = 1;
 };
