@@ -16,6 +16,8 @@
 #include <memory>
 #include <optional>
 
+#include "calibrate_pose.h"
+#include "calibration_report.h"
 #include "cli_sources.h"
 #include "detect_line.h"
 #include "framework_api/config.h"
@@ -354,16 +356,41 @@ void addCalibrate(CLI::App& app) {
   struct Options {
     std::vector<std::string> files;
     ConfigOptions config;
+    kinect3d::PoseCalibrationOptions pose;
+    bool no_floor = false;
   };
   auto options = std::make_shared<Options>();
-  CLI::App* command = app.add_subcommand("calibrate", "Calibrate from recordings");
-  command->require_subcommand(1);
+  CLI::App* command = app.add_subcommand(
+      "calibrate",
+      "The sensor's pose on the robot from a ball on known marks (docs/calibration.md); 'drag': the ball's drag");
+  command->require_subcommand(0, 1);
+  command->add_option("--source", options->pose.source, "Depth source showing the ball on the marks");
+  command->add_option("--marks", options->pose.marks_file, "The marks: where the ball is, when (marks.yaml)")
+      ->check(CLI::ExistingFile);
+  options->config.addTo(command);
+  command->add_flag("--write", options->pose.write,
+                    "Write the pose into the --config robot file (the old file is kept as a dated copy)");
+  command->add_flag("--no-floor", options->no_floor, "Fit all six degrees of freedom from the marks alone");
+  command->callback([options, command] {
+    if (!command->get_subcommands().empty()) return;  // calibrate drag
+    if (options->pose.source.empty() || options->pose.marks_file.empty()) {
+      throw CLI::ValidationError("calibrate", "give --source and --marks (or the subcommand drag)");
+    }
+    if (options->pose.write && options->config.robot_file.empty()) {
+      throw CLI::ValidationError("calibrate", "--write needs the robot file to write into: --config robot.yaml");
+    }
+    options->pose.robot_file = options->config.robot_file;
+    options->pose.use_floor = !options->no_floor;
+    kinect3d::printPoseCalibration(kinect3d::calibratePose(options->pose, options->config.load()), std::cout);
+  });
   CLI::App* drag = command->add_subcommand(
       "drag", "Fit the ball's air drag and bounce restitution from recorded flights (kinect3d detect output)");
   drag->add_option("files", options->files, "kinect3d detect output files (JSON lines)")
       ->required()
       ->check(CLI::ExistingFile);
-  options->config.addTo(drag);
+  drag->add_option("--config", options->config.robot_file, "Robot configuration file (default: the shipped defaults)")
+      ->check(CLI::ExistingFile);
+  drag->add_option("--set", options->config.overrides, "Override a value: --set kinect3d.grid.voxel_m=0.2")->take_all();
   drag->callback([options] { runCalibrateDrag(options->files, options->config.load()); });
 }
 
@@ -379,10 +406,10 @@ void addReport(CLI::App& app) {
       "report", "Measure detection, trajectory or fusion on simulated scenes, or show a match log as a page");
   command
       ->add_option("kind", options->kind,
-                   "detection (docs/accuracy.md), trajectory (docs/trajectory.md), fusion (docs/fusion-report.md) "
-                   "or match (a match log's page, docs/match-log.md)")
+                   "detection (docs/accuracy.md), trajectory (docs/trajectory.md), fusion (docs/fusion-report.md), "
+                   "calibration (docs/calibration-report.md) or match (a match log's page, docs/match-log.md)")
       ->required()
-      ->check(CLI::IsMember({"detection", "trajectory", "fusion", "match"}));
+      ->check(CLI::IsMember({"detection", "trajectory", "fusion", "calibration", "match"}));
   command->add_option("log", options->log, "match: the match log folder")->check(CLI::ExistingDirectory);
   command->add_option("--out", options->out, "Markdown file to write, e.g. docs/accuracy.md; match: a folder")
       ->required();
@@ -403,7 +430,9 @@ void addReport(CLI::App& app) {
       return;
     }
     const fw::Config config = options->config.load();
-    if (options->kind == "trajectory") {
+    if (options->kind == "calibration") {
+      kinect3d::writeCalibrationReport(config, options->out);
+    } else if (options->kind == "trajectory") {
       kinect3d::writeTrajectoryReport(config, options->out);
     } else if (options->kind == "fusion") {
       kinect3d::writeFusionReport(config, options->report.seeds, options->out, options->keep);

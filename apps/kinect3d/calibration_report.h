@@ -1,0 +1,14 @@
+// `kinect3d report calibration`: the sensor pose that `kinect3d calibrate` recovers on simulated
+// sessions with awkward sensor poses, for 3, 4 and 6 marks, with and without the floor, with one
+// mark mislabelled by 0.5 m and with the ball picked by hand 5 px off (docs/calibration.md).
+#pragma once
+
+#include <string>
+
+#include "framework_api/config.h"
+
+namespace kinect3d {
+
+void writeCalibrationReport(const fw::Config& config, const std::string& out_path);
+
+}  // namespace kinect3d

@@ -1,0 +1,62 @@
+// The depth sensor's pose on the robot from balls on known marks (the paper's Sec. 5): the ball's
+// centre as the sensor saw it on each mark, against where the mark puts it in the robot frame, gives
+// T_R_S by a rigid fit without scale. With the floor in view (its fit fixes height, pitch and roll),
+// the fit is in the floor's plane only and two marks suffice; without it, three marks off one line.
+#pragma once
+
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include <Eigen/Geometry>
+
+#include "kinect3d/depth_frame.h"
+#include "kinect3d/sensor_pose.h"
+
+namespace kinect3d {
+
+// A layout of marks that cannot determine the pose, or a mark without a ball: says what to do.
+class CalibrationError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+struct CalibrationMark {
+  std::string label;         // how the user knows it, e.g. "mark 2 (marks.yaml:5)"
+  Eigen::Vector3d ball_R_m;  // where the ball's centre is on the mark, robot frame
+  Eigen::Vector3d ball_S_m;  // where the sensor saw it, sensor optical frame
+  double scatter_m = 0.0;    // RMS spread of the detections averaged into ball_S_m
+};
+
+struct CalibrationResult {
+  SensorPose pose;
+  bool used_floor = false;
+  std::vector<double> residuals_m;  // per mark, 3D, under the final fit (a dropped mark's too)
+  std::vector<bool> used;           // false: dropped as mislabelled
+  // 1-sigma of x, y, z (m) and yaw, pitch, roll (rad), from leaving each mark out in turn
+  // (jackknife); nothing when there are too few marks to leave one out.
+  std::optional<Eigen::Matrix<double, 6, 1>> sigma;
+};
+
+struct CalibrationOptions {
+  double min_spread_m = 1.0;     // the marks must span at least this much of the floor
+  double min_off_line_m = 0.3;   // without the floor: a mark this far off the line through the others
+  double reject_above_m = 0.10;  // with four or more marks, one whose residual when left out is
+  double reject_factor = 5.0;    // above this and this many times the others' median is dropped
+};
+
+// floor_T_R_S: the floor fit's pose (height, pitch and roll; x = y = yaw = 0), or nothing to fit
+// all six degrees of freedom from the marks. Throws CalibrationError for a layout that cannot
+// determine the pose, saying what to add.
+CalibrationResult calibrateSensorPose(const std::vector<CalibrationMark>& marks,
+                                      const std::optional<Eigen::Isometry3d>& floor_T_R_S,
+                                      const CalibrationOptions& options = {});
+
+// The centre of a ball of radius_m whose surface the user picked at pixel (u, v): the depth within
+// the ball's image around the pixel, fitted with a sphere of that radius. Nothing when the pixel
+// has no depth near it.
+std::optional<Eigen::Vector3d> ballCentreAtPixel(const DepthFrame& frame, const Eigen::Vector2d& pixel,
+                                                 double radius_m);
+
+}  // namespace kinect3d

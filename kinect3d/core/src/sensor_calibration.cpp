@@ -1,0 +1,217 @@
+#include "kinect3d/sensor_calibration.h"
+
+#include <Eigen/Geometry>
+#include <Eigen/SVD>
+#include <algorithm>
+#include <cmath>
+
+namespace kinect3d {
+
+namespace {
+
+constexpr double kDetectionNoise_m = 0.005;  // what marks agree to at best: a ball centre's error
+
+std::string metres(double value) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.2f m", value);
+  return text;
+}
+
+double horizontalSpread(const std::vector<const CalibrationMark*>& marks) {
+  double spread = 0.0;
+  for (const CalibrationMark* a : marks) {
+    for (const CalibrationMark* b : marks) spread = std::max(spread, (a->ball_R_m - b->ball_R_m).head<2>().norm());
+  }
+  return spread;
+}
+
+// The distance of the mark farthest from the best line through all of them.
+double offLine(const std::vector<const CalibrationMark*>& marks) {
+  Eigen::MatrixXd points(3, marks.size());
+  for (std::size_t i = 0; i < marks.size(); ++i) points.col(i) = marks[i]->ball_R_m;
+  const Eigen::Vector3d mean = points.rowwise().mean();
+  points.colwise() -= mean;
+  const Eigen::JacobiSVD<Eigen::MatrixXd> svd(points, Eigen::ComputeThinU);
+  const Eigen::Vector3d direction = svd.matrixU().col(0);
+  double farthest = 0.0;
+  for (std::size_t i = 0; i < marks.size(); ++i) {
+    const Eigen::Vector3d p = points.col(i);
+    farthest = std::max(farthest, (p - direction * direction.dot(p)).norm());
+  }
+  return farthest;
+}
+
+void requireLayout(const std::vector<const CalibrationMark*>& marks, bool floor, const CalibrationOptions& options) {
+  const std::size_t needed = floor ? 2 : 3;
+  if (marks.size() < needed) {
+    throw CalibrationError(std::to_string(marks.size()) + " mark(s) with a ball: " +
+                           (floor ? "with the floor in view two marks fix the pose; add another"
+                                  : "without the floor three marks off one line are needed; add " +
+                                        std::to_string(needed - marks.size()) + " more"));
+  }
+  const double spread = horizontalSpread(marks);
+  if (spread < options.min_spread_m) {
+    throw CalibrationError("the marks lie within " + metres(spread) + " of each other: spread them at least " +
+                           metres(options.min_spread_m) + " apart, across the sensor's view");
+  }
+  if (!floor && offLine(marks) < options.min_off_line_m) {
+    throw CalibrationError("the marks lie on one line (none is " + metres(options.min_off_line_m) +
+                           " off it), which leaves the pose free to turn about it: add a mark off the line, "
+                           "or calibrate with the floor in view");
+  }
+}
+
+// The rigid fit of the used marks: in the floor's plane on top of the floor's pose, or in 3D.
+Eigen::Isometry3d fit(const std::vector<const CalibrationMark*>& marks,
+                      const std::optional<Eigen::Isometry3d>& floor_T_R_S) {
+  const int n = static_cast<int>(marks.size());
+  if (floor_T_R_S) {
+    // Dynamic sizes: gcc 12 warns wrongly inside Eigen's umeyama for a fixed two-row matrix.
+    Eigen::MatrixXd seen(2, n), truth(2, n);
+    for (int i = 0; i < n; ++i) {
+      seen.col(i) = (*floor_T_R_S * marks[i]->ball_S_m).head<2>();
+      truth.col(i) = marks[i]->ball_R_m.head<2>();
+    }
+    const Eigen::MatrixXd T2 = Eigen::umeyama(seen, truth, false);
+    Eigen::Isometry3d planar = Eigen::Isometry3d::Identity();
+    planar.linear().topLeftCorner<2, 2>() = T2.topLeftCorner(2, 2);
+    planar.translation().head<2>() = T2.topRightCorner(2, 1);
+    return planar * *floor_T_R_S;
+  }
+  Eigen::Matrix3Xd seen(3, n), truth(3, n);
+  for (int i = 0; i < n; ++i) {
+    seen.col(i) = marks[i]->ball_S_m;
+    truth.col(i) = marks[i]->ball_R_m;
+  }
+  return Eigen::Isometry3d(Eigen::umeyama(seen, truth, false));
+}
+
+double residual(const CalibrationMark& mark, const Eigen::Isometry3d& T_R_S) {
+  return (T_R_S * mark.ball_S_m - mark.ball_R_m).norm();
+}
+
+Eigen::Matrix<double, 6, 1> parameters(const Eigen::Isometry3d& T_R_S) {
+  const SensorPose pose = SensorPose::fromTransform(T_R_S);
+  return (Eigen::Matrix<double, 6, 1>() << pose.x_m, pose.y_m, pose.z_m, pose.yaw_rad, pose.pitch_rad, pose.roll_rad)
+      .finished();
+}
+
+}  // namespace
+
+CalibrationResult calibrateSensorPose(const std::vector<CalibrationMark>& marks,
+                                      const std::optional<Eigen::Isometry3d>& floor_T_R_S,
+                                      const CalibrationOptions& options) {
+  std::vector<const CalibrationMark*> used;
+  for (const CalibrationMark& mark : marks) used.push_back(&mark);
+  requireLayout(used, floor_T_R_S.has_value(), options);
+
+  // A mislabelled mark: the one whose leaving out lets the others agree, while it lies far off
+  // their fit. With four or more marks the rest still determine the pose; repeat while that holds.
+  while (used.size() >= 4) {
+    std::size_t suspect = 0;
+    double others_rms_m = INFINITY, suspect_off_m = 0.0;
+    for (std::size_t i = 0; i < used.size(); ++i) {
+      std::vector<const CalibrationMark*> others = used;
+      others.erase(others.begin() + static_cast<long>(i));
+      const Eigen::Isometry3d T = fit(others, floor_T_R_S);
+      double sum_sq = 0.0;
+      for (const CalibrationMark* mark : others) sum_sq += std::pow(residual(*mark, T), 2);
+      const double rms = std::sqrt(sum_sq / others.size());
+      if (rms < others_rms_m) {
+        others_rms_m = rms;
+        suspect = i;
+        suspect_off_m = residual(*used[i], T);
+      }
+    }
+    if (suspect_off_m < options.reject_above_m ||
+        suspect_off_m < options.reject_factor * std::max(others_rms_m, kDetectionNoise_m)) {
+      break;
+    }
+    used.erase(used.begin() + static_cast<long>(suspect));
+  }
+  requireLayout(used, floor_T_R_S.has_value(), options);
+
+  const Eigen::Isometry3d T_R_S = fit(used, floor_T_R_S);
+  CalibrationResult result;
+  result.pose = SensorPose::fromTransform(T_R_S);
+  result.used_floor = floor_T_R_S.has_value();
+  for (const CalibrationMark& mark : marks) {
+    result.residuals_m.push_back(residual(mark, T_R_S));
+    result.used.push_back(std::find(used.begin(), used.end(), &mark) != used.end());
+  }
+  // Jackknife: the spread of the fits that leave one mark out, scaled to the whole set.
+  if (used.size() >= (floor_T_R_S ? 3u : 4u)) {
+    const Eigen::Matrix<double, 6, 1> all = parameters(T_R_S);
+    Eigen::Matrix<double, 6, 1> sum_sq = Eigen::Matrix<double, 6, 1>::Zero();
+    for (std::size_t i = 0; i < used.size(); ++i) {
+      std::vector<const CalibrationMark*> others = used;
+      others.erase(others.begin() + static_cast<long>(i));
+      Eigen::Matrix<double, 6, 1> d = parameters(fit(others, floor_T_R_S)) - all;
+      for (int k = 3; k < 6; ++k) d[k] = std::remainder(d[k], 2.0 * M_PI);
+      sum_sq += d.cwiseProduct(d);
+    }
+    const double n = static_cast<double>(used.size());
+    result.sigma = (sum_sq * (n - 1.0) / n).cwiseSqrt();
+  }
+  return result;
+}
+
+std::optional<Eigen::Vector3d> ballCentreAtPixel(const DepthFrame& frame, const Eigen::Vector2d& pixel,
+                                                 double radius_m) {
+  const Intrinsics& k = frame.intrinsics;
+  const int u0 = static_cast<int>(std::lround(pixel.x())), v0 = static_cast<int>(std::lround(pixel.y()));
+  if (u0 < 0 || v0 < 0 || u0 >= k.width || v0 >= k.height) return std::nullopt;
+  // The ball's depth at the pick (the median of a few pixels round it, so one flying pixel or the
+  // floor at the ball's edge cannot set it), then its surface: pixels within its image radius no
+  // nearer than that (the floor in front of a resting ball is) and no deeper than its radius behind.
+  std::vector<double> near_pick;
+  for (int dv = -2; dv <= 2; ++dv) {
+    for (int du = -2; du <= 2; ++du) {
+      const int u = u0 + du, v = v0 + dv;
+      if (u >= 0 && v >= 0 && u < k.width && v < k.height && frame.at(u, v) != 0)
+        near_pick.push_back(frame.at(u, v) * 1e-3);
+    }
+  }
+  if (near_pick.empty()) return std::nullopt;
+  std::nth_element(near_pick.begin(), near_pick.begin() + near_pick.size() / 2, near_pick.end());
+  const double pick_m = near_pick[near_pick.size() / 2];
+  const double nearest_m = pick_m - radius_m * 0.5, deepest_m = pick_m + radius_m;
+  const int reach_px = static_cast<int>(k.fx * radius_m / pick_m * 1.3);
+  std::vector<Eigen::Vector3d> surface;
+  for (int v = std::max(0, v0 - reach_px); v <= std::min(k.height - 1, v0 + reach_px); ++v) {
+    for (int u = std::max(0, u0 - reach_px); u <= std::min(k.width - 1, u0 + reach_px); ++u) {
+      const double z = frame.at(u, v) * 1e-3;
+      if (z == 0.0 || z < nearest_m || z > deepest_m) continue;
+      surface.push_back(k.backProject(u, v, z));
+    }
+  }
+  if (surface.size() < 10) return std::nullopt;
+  // Start behind the mean surface point along its ray; Gauss-Newton on |p - c| = r, then again on
+  // the points that fit (the floor under a resting ball and its edge's flying pixels do not).
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  for (const Eigen::Vector3d& p : surface) mean += p;
+  mean /= static_cast<double>(surface.size());
+  Eigen::Vector3d centre = mean + mean.normalized() * radius_m * 0.7;
+  constexpr double kInlier_m = 0.015;
+  for (int round = 0; round < 3; ++round) {
+    for (int iteration = 0; iteration < 15; ++iteration) {
+      Eigen::Matrix3d JtJ = Eigen::Matrix3d::Zero();
+      Eigen::Vector3d Jtr = Eigen::Vector3d::Zero();
+      for (const Eigen::Vector3d& p : surface) {
+        const Eigen::Vector3d d = centre - p;
+        const double distance = d.norm();
+        if (distance < 1e-9 || (round > 0 && std::abs(distance - radius_m) > kInlier_m)) continue;
+        const Eigen::Vector3d J = d / distance;
+        JtJ += J * J.transpose();
+        Jtr += J * (distance - radius_m);
+      }
+      const Eigen::Vector3d step = JtJ.ldlt().solve(-Jtr);
+      if (!step.allFinite()) return std::nullopt;
+      centre += step;
+      if (step.norm() < 1e-6) break;
+    }
+  }
+  return centre;
+}
+
+}  // namespace kinect3d

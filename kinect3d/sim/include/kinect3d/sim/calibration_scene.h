@@ -1,0 +1,27 @@
+// Simulated calibration sessions (docs/calibration.md): the robot at the field origin facing +y,
+// its depth sensor at a known pose, a ball resting on each mark in turn, written as a recording and
+// the marks.yaml that describes it, as a team would make them on the field.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "kinect3d/sensor_pose.h"
+
+namespace kinect3d::sim {
+
+struct CalibrationSession {
+  SensorPose pose;                          // the truth the calibration should find
+  std::vector<Eigen::Vector2d> marks_xy_m;  // where the ball rests, robot frame
+  double seconds_per_mark = 1.0;
+  std::uint64_t noise_seed = 1;
+};
+
+// dir/depth.txt, dir/depth/, dir/camera.yaml: the ball on each mark for seconds_per_mark, one mark
+// after another; and dir/marks.yaml with each mark's position and its time range (a tenth of a
+// second inside each stay, as a person would note them).
+void writeCalibrationSession(const CalibrationSession& session, const std::string& dir);
+
+}  // namespace kinect3d::sim

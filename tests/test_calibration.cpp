@@ -1,0 +1,187 @@
+// Calibrating the depth sensor's pose from balls on known marks: the solver on exact and corrupted
+// marks, the layouts it must refuse, rewriting a robot file, and `kinect3d calibrate` end to end on
+// a simulated session.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+
+#include "calibrate_pose.h"
+#include "framework_api/config.h"
+#include "kinect3d/sensor_calibration.h"
+#include "kinect3d/sim/calibration_scene.h"
+#include "run_command.h"
+#include "scoped_temp_dir.h"
+
+namespace {
+
+namespace fs = std::filesystem;
+
+const kinect3d::SensorPose kTruth{0.08, 0.21, 0.64, 0.2, 0.15, -0.05};  // yawed, pitched, rolled
+
+// The floor's view of the truth: height, pitch and roll; x, y and yaw unknown (zero).
+Eigen::Isometry3d floorPose(const kinect3d::SensorPose& truth) {
+  return kinect3d::SensorPose{0.0, 0.0, truth.z_m, 0.0, truth.pitch_rad, truth.roll_rad}.T_R_S();
+}
+
+std::vector<kinect3d::CalibrationMark> marksAt(const std::vector<Eigen::Vector2d>& xy) {
+  std::vector<kinect3d::CalibrationMark> marks;
+  for (const Eigen::Vector2d& p : xy) {
+    const Eigen::Vector3d ball_R(p.x(), p.y(), 0.11);
+    marks.push_back({"mark", ball_R, kTruth.T_R_S().inverse() * ball_R, 0.0});
+  }
+  return marks;
+}
+
+void expectPose(const kinect3d::SensorPose& found, const kinect3d::SensorPose& truth, double tol_m, double tol_rad) {
+  EXPECT_NEAR(found.x_m, truth.x_m, tol_m);
+  EXPECT_NEAR(found.y_m, truth.y_m, tol_m);
+  EXPECT_NEAR(found.z_m, truth.z_m, tol_m);
+  EXPECT_NEAR(found.yaw_rad, truth.yaw_rad, tol_rad);
+  EXPECT_NEAR(found.pitch_rad, truth.pitch_rad, tol_rad);
+  EXPECT_NEAR(found.roll_rad, truth.roll_rad, tol_rad);
+}
+
+std::string refusal(const std::vector<kinect3d::CalibrationMark>& marks, bool floor) {
+  try {
+    kinect3d::calibrateSensorPose(marks, floor ? std::optional(floorPose(kTruth)) : std::nullopt);
+  } catch (const kinect3d::CalibrationError& e) {
+    return e.what();
+  }
+  return "accepted";
+}
+
+TEST(SensorCalibration, RecoversThePoseExactlyFromNoiseFreeMarks) {
+  const auto marks = marksAt({{0.0, 2.0}, {-0.6, 2.8}, {0.6, 3.0}, {0.1, 3.8}});
+  const auto with_floor = kinect3d::calibrateSensorPose(marks, floorPose(kTruth));
+  expectPose(with_floor.pose, kTruth, 1e-9, 1e-9);
+  EXPECT_TRUE(with_floor.used_floor);
+  ASSERT_TRUE(with_floor.sigma);
+  EXPECT_LT(with_floor.sigma->norm(), 1e-9);
+  const auto without = kinect3d::calibrateSensorPose(marks, std::nullopt);
+  expectPose(without.pose, kTruth, 1e-9, 1e-9);
+  for (double residual : without.residuals_m) EXPECT_LT(residual, 1e-9);
+  // Two marks are enough with the floor.
+  expectPose(kinect3d::calibrateSensorPose(marksAt({{0.0, 2.0}, {0.6, 3.0}}), floorPose(kTruth)).pose, kTruth, 1e-9,
+             1e-9);
+}
+
+TEST(SensorCalibration, RefusesLayoutsThatCannotDetermineThePoseSayingWhatToAdd) {
+  EXPECT_NE(refusal(marksAt({{0.0, 2.0}}), true).find("1 mark(s) with a ball: with the floor in view two marks fix"),
+            std::string::npos);
+  EXPECT_NE(refusal(marksAt({{0.0, 2.0}, {0.6, 3.0}}), false).find("three marks off one line are needed; add 1 more"),
+            std::string::npos);
+  EXPECT_NE(refusal(marksAt({{0.0, 2.0}, {0.3, 2.2}, {0.1, 2.4}}), true).find("spread them at least 1.00 m apart"),
+            std::string::npos);
+  EXPECT_NE(refusal(marksAt({{0.0, 2.0}, {0.5, 3.0}, {1.0, 4.0}}), false).find("the marks lie on one line"),
+            std::string::npos);
+  EXPECT_EQ(refusal(marksAt({{0.0, 2.0}, {0.5, 3.0}, {1.0, 4.0}}), true), "accepted");  // the floor fixes the roll
+}
+
+TEST(SensorCalibration, DropsAMislabelledMarkWhenFourOrMoreAreGiven) {
+  auto marks = marksAt({{0.0, 2.0}, {-0.6, 2.8}, {0.6, 3.0}, {0.1, 3.8}, {-0.4, 2.3}});
+  // Centimetre noise on every mark, and mark 2 written 0.5 m off.
+  const double noise[5][3] = {{0.004, -0.003, 0.002},
+                              {-0.002, 0.004, 0.0},
+                              {0.003, 0.001, -0.004},
+                              {-0.004, -0.002, 0.003},
+                              {0.001, 0.003, -0.001}};
+  for (int i = 0; i < 5; ++i) marks[i].ball_S_m += Eigen::Vector3d(noise[i][0], noise[i][1], noise[i][2]);
+  marks[1].ball_R_m.x() += 0.5;
+  for (bool floor : {true, false}) {
+    const auto result = kinect3d::calibrateSensorPose(marks, floor ? std::optional(floorPose(kTruth)) : std::nullopt);
+    EXPECT_EQ(result.used, (std::vector<bool>{true, false, true, true, true})) << floor;
+    EXPECT_GT(result.residuals_m[1], 0.4);
+    expectPose(result.pose, kTruth, 0.01, 0.3 * M_PI / 180.0);
+  }
+}
+
+TEST(SensorCalibration, WritesThePoseIntoTheRobotFileChangingNothingElse) {
+  ScopedTempDir dir;
+  const fs::path robot = dir.path() / "robot.yaml";
+  const std::vector<std::string> original = {
+      "# My keeper.",
+      "host:",
+      "  robot_name: keeper   # the name in logs",
+      "  plugins: [kinect3d, console]",
+      "kinect3d:",
+      "  source: \"openni2:\"",
+      "  sensor:",
+      "    pose_in_robot: {x: 0.0, y: 0.1, z: 0.75, yaw_deg: 0.0, pitch_deg: 3.0, roll_deg: 0.0}  # measured by hand",
+      "    baseline_m: 0.075",
+      "console:",
+      "  rate_hz: 2.0"};
+  {
+    std::ofstream out(robot);
+    for (const std::string& line : original) out << line << "\n";
+  }
+  const std::string backup = kinect3d::writePoseInRobotFile(robot.string(), kTruth);
+  std::vector<std::string> written;
+  std::ifstream in(robot);
+  for (std::string line; std::getline(in, line);) written.push_back(line);
+  ASSERT_EQ(written.size(), original.size());
+  for (std::size_t i = 0; i < original.size(); ++i) {
+    if (i == 7) continue;
+    EXPECT_EQ(written[i], original[i]) << "line " << i + 1;
+  }
+  EXPECT_EQ(written[7].rfind("    pose_in_robot: {x: 0.0800, y: 0.2100, z: 0.6400, yaw_deg: 11.459", 0), 0u)
+      << written[7];
+  EXPECT_NE(written[7].find("}  # measured by hand"), std::string::npos) << written[7];
+  std::ifstream old(backup);
+  std::string first;
+  std::getline(old, first);
+  EXPECT_EQ(first, original[0]);
+  // The file still loads, with the new pose.
+  const fw::Config config = fw::Config::load(std::string(PROJECT_CONFIG_DIR) + "/defaults", robot.string(), {});
+  EXPECT_DOUBLE_EQ(config.block("kinect3d").child("sensor").child("pose_in_robot").getDouble("z", 0, 3), 0.64);
+
+  // A file without a sensor block gets one under kinect3d.
+  const fs::path bare = dir.path() / "bare.yaml";
+  std::ofstream(bare) << "host:\n  robot_name: bare\n  plugins: [kinect3d]\nkinect3d:\n  source: \"openni2:\"\n";
+  kinect3d::writePoseInRobotFile(bare.string(), kTruth);
+  const fw::Config bare_config = fw::Config::load(std::string(PROJECT_CONFIG_DIR) + "/defaults", bare.string(), {});
+  EXPECT_DOUBLE_EQ(bare_config.block("kinect3d").child("sensor").child("pose_in_robot").getDouble("y", -3, 3), 0.21);
+  EXPECT_EQ(bare_config.block("kinect3d").getString("source"), "openni2:");
+}
+
+// What a team does on the field: a recording of the ball on four marks, the marks file, one command.
+TEST(CalibrateCommand, FindsASimulatedSensorsPoseAndWritesItIntoTheRobotFile) {
+  ScopedTempDir dir;
+  const kinect3d::SensorPose truth{-0.10, 0.15, 0.70, -5.0 * M_PI / 180, 5.0 * M_PI / 180, 4.0 * M_PI / 180};
+  kinect3d::sim::writeCalibrationSession({truth, {{0.0, 2.0}, {-0.6, 2.8}, {0.6, 3.0}, {0.1, 3.8}}, 0.7, 3},
+                                         dir.path().string());
+  const fs::path robot = dir.path() / "robot.yaml";
+  std::ofstream(robot) << "host:\n  robot_name: r\n  plugins: [kinect3d]\nkinect3d:\n  sensor:\n"
+                       << "    pose_in_robot: {x: 0.0, y: 0.0, z: 0.7, yaw_deg: 0.0, pitch_deg: 0.0, roll_deg: 0.0}\n";
+  const auto [status, out] =
+      runCommand(std::string(KINECT3D_EXE) + " calibrate --source tum:" + dir.path().string() + " --marks " +
+                 (dir.path() / "marks.yaml").string() + " --config " + robot.string() + " --write 2>/dev/null");
+  ASSERT_EQ(status, 0) << out;
+  EXPECT_NE(out.find("# 1 sigma: x "), std::string::npos) << out;
+  EXPECT_NE(out.find("height, pitch and roll from the floor"), std::string::npos) << out;
+  const fw::ConfigView pose = fw::Config::load(std::string(PROJECT_CONFIG_DIR) + "/defaults", robot.string(), {})
+                                  .block("kinect3d")
+                                  .child("sensor")
+                                  .child("pose_in_robot");
+  const kinect3d::SensorPose found{pose.getDouble("x", -9, 9),
+                                   pose.getDouble("y", -9, 9),
+                                   pose.getDouble("z", -9, 9),
+                                   pose.getDouble("yaw_deg", -180, 180) * M_PI / 180,
+                                   pose.getDouble("pitch_deg", -90, 90) * M_PI / 180,
+                                   pose.getDouble("roll_deg", -180, 180) * M_PI / 180};
+  expectPose(found, truth, 0.01, 0.3 * M_PI / 180.0);
+}
+
+TEST(CalibrateCommand, AMarkWithoutABallIsNamedWithItsLine) {
+  ScopedTempDir dir;
+  kinect3d::sim::writeCalibrationSession({kTruth, {{0.0, 2.0}, {0.6, 3.0}}, 0.5, 3}, dir.path().string());
+  const fs::path marks = dir.path() / "late.yaml";
+  std::ofstream(marks) << "marks:\n  - {x: 0.0, y: 2.0, from_s: 0.1, to_s: 0.4}\n"
+                       << "  - {x: 0.6, y: 3.0, from_s: 5.0, to_s: 6.0}   # after the recording ends\n";
+  const auto [status, out] = runCommand(std::string(KINECT3D_EXE) + " calibrate --source tum:" + dir.path().string() +
+                                        " --marks " + marks.string() + " 2>&1");
+  EXPECT_EQ(status, 2);
+  EXPECT_NE(out.find("mark 2 (" + marks.string() + ":3): no ball found between 5"), std::string::npos) << out;
+}
+
+}  // namespace
