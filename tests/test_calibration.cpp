@@ -3,11 +3,14 @@
 // a simulated session.
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <filesystem>
 #include <fstream>
+#include <thread>
 
 #include "calibrate_pose.h"
 #include "framework_api/config.h"
+#include "framework_api/host.h"
 #include "kinect3d/sensor_calibration.h"
 #include "kinect3d/sim/calibration_scene.h"
 #include "run_command.h"
@@ -182,6 +185,45 @@ TEST(CalibrateCommand, AMarkWithoutABallIsNamedWithItsLine) {
                                         " --marks " + marks.string() + " 2>&1");
   EXPECT_EQ(status, 2);
   EXPECT_NE(out.find("mark 2 (" + marks.string() + ":3): no ball found between 5"), std::string::npos) << out;
+}
+
+// The calibration alarms of the kinect3d plugin on the hung ball scene (sensor level, 0.7 m up), with
+// pose_in_robot as given: the truth, or a sensor knocked since (tilted, or lowered).
+std::vector<fw::Event> alarmsWithPose(const std::string& pose) {
+  const fw::Config config = fw::Config::load(
+      std::string(PROJECT_CONFIG_DIR) + "/defaults", std::string(PROJECT_CONFIG_DIR) + "/robots/demo.yaml",
+      {"host.plugins=[kinect3d]", "kinect3d.source=sim:hung_3m", "kinect3d.realtime=false",
+       "kinect3d.calibration_check.interval_frames=10", "kinect3d.sensor.pose_in_robot=" + pose});
+  fw::Host host(config, PRODUCT_PLUGIN_DIR);
+  host.world().openJournal(false);
+  host.start();
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(120);
+  while (!host.sourcesFinished() && std::chrono::steady_clock::now() < deadline) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  host.stop();
+  std::vector<fw::Event> alarms;
+  for (const fw::JournalEntry& entry : host.world().takeJournal(nullptr)) {
+    const auto* event = std::get_if<fw::Event>(&entry.item);
+    if (event != nullptr && event->kind == "calibration_alarm") alarms.push_back(*event);
+  }
+  return alarms;
+}
+
+TEST(CalibrationAlarm, RaisedOnAKnockedSensorAndNotOtherwise) {
+  EXPECT_TRUE(alarmsWithPose("{x: 0.0, y: 0.0, z: 0.7, yaw_deg: 0.0, pitch_deg: 0.0, roll_deg: 0.0}").empty());
+  // Yaw and the offset on the robot are invisible to the floor: no alarm either.
+  EXPECT_TRUE(alarmsWithPose("{x: 0.1, y: 0.2, z: 0.7, yaw_deg: 10.0, pitch_deg: 0.0, roll_deg: 0.0}").empty());
+  const auto tilted = alarmsWithPose("{x: 0.0, y: 0.0, z: 0.7, yaw_deg: 0.0, pitch_deg: 3.0, roll_deg: 0.0}");
+  ASSERT_EQ(tilted.size(), 1u);  // once per episode, not once per check
+  EXPECT_NE(tilted[0].message.find("THE SENSOR HAS MOVED"), std::string::npos);
+  EXPECT_NE(tilted[0].message.find("pose_in_robot says z 0.700 m, pitch 3.00 deg"), std::string::npos)
+      << tilted[0].message;
+  EXPECT_NE(tilted[0].message.find("Estimated pose_in_robot: {x: 0.000, y: 0.000, z: 0.70"), std::string::npos)
+      << tilted[0].message;
+  const auto lowered = alarmsWithPose("{x: 0.0, y: 0.0, z: 0.78, yaw_deg: 0.0, pitch_deg: 0.0, roll_deg: 0.0}");
+  ASSERT_EQ(lowered.size(), 1u);
+  EXPECT_NE(lowered[0].message.find("the floor puts it at z 0.70"), std::string::npos) << lowered[0].message;
 }
 
 }  // namespace

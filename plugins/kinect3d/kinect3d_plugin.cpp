@@ -4,6 +4,8 @@
 // match log it also publishes each depth frame (when the log wants them), its dropped frames and
 // the events a person looks for afterwards (the floor found, the sensor reopened).
 #include <chrono>
+#include <cmath>
+#include <cstdio>
 #include <memory>
 
 #include "framework_api/log.h"
@@ -12,6 +14,7 @@
 #include "kinect3d/config_io.h"
 #include "kinect3d/depth_source.h"
 #include "kinect3d/log_source.h"
+#include "kinect3d/sensor_calibration.h"
 #include "kinect3d/sim/sim_sources.h"
 #include "kinect3d/trajectory.h"
 
@@ -36,6 +39,12 @@ class Kinect3dPlugin : public fw::Plugin {
       throw fw::ConfigError(context.config.originOf("source") + ": kinect3d.source: " + e.what());
     }
     fw::logInfo(source_name_, "reading " + source_->describe());
+    const kinect3d::DetectorConfig detector_config = kinect3d::readDetectorConfig(context.config);
+    calibrated_ = detector_config.ground.pose;
+    if (calibrated_) {
+      calibration_check_.emplace(kinect3d::readCalibrationCheckConfig(context.config), *detector_config.ground.pose,
+                                 detector_config.ground);
+    }
   }
 
   fw::StepResult step() override {
@@ -58,6 +67,7 @@ class Kinect3dPlugin : public fw::Plugin {
       reported_alignment_ = true;
     }
     reportSourceCounters();
+    checkCalibration();
     if (!detections_.balls.empty()) world_.publishBalls(detections_.balls);
     if (const auto trajectory = trajectory_->update(frame_.source_time_s, detections_.balls)) {
       world_.publishTrajectory(*trajectory);
@@ -101,6 +111,26 @@ class Kinect3dPlugin : public fw::Plugin {
     }
   }
 
+  // A sensor knocked since its calibration: loud in the log and in the world state, with the pose
+  // the floor now implies.
+  void checkCalibration() {
+    if (!calibration_check_) return;
+    const std::optional<kinect3d::SensorPose> moved = calibration_check_->check(frame_);
+    if (!moved) return;
+    const double deg = 180.0 / M_PI;
+    char message[512];
+    std::snprintf(message, sizeof message,
+                  "THE SENSOR HAS MOVED since its calibration: the floor puts it at z %.3f m, pitch %.2f deg, "
+                  "roll %.2f deg; pose_in_robot says z %.3f m, pitch %.2f deg, roll %.2f deg. Estimated "
+                  "pose_in_robot: {x: %.3f, y: %.3f, z: %.3f, yaw_deg: %.2f, pitch_deg: %.2f, roll_deg: %.2f}. "
+                  "Recalibrate (docs/calibration.md)",
+                  moved->z_m, moved->pitch_rad * deg, moved->roll_rad * deg, calibrated_->z_m,
+                  calibrated_->pitch_rad * deg, calibrated_->roll_rad * deg, moved->x_m, moved->y_m, moved->z_m,
+                  moved->yaw_rad * deg, moved->pitch_rad * deg, moved->roll_rad * deg);
+    fw::logError(source_name_, message);
+    publishEvent("calibration_alarm", message);
+  }
+
   fw::WorldState& world_;
   const std::string source_name_;  // this plugin's block name: what its observations carry
   kinect3d::BallDetector detector_;
@@ -109,6 +139,8 @@ class Kinect3dPlugin : public fw::Plugin {
   kinect3d::DepthFrame frame_;
   kinect3d::Detections detections_;
   bool reported_alignment_ = false;
+  std::optional<kinect3d::SensorPose> calibrated_;  // pose_in_robot, when configured
+  std::optional<kinect3d::FloorCalibrationCheck> calibration_check_;
   std::uint64_t reported_reconnects_ = 0;
 };
 

@@ -112,4 +112,14 @@ TrajectoryConfig readTrajectoryConfig(const fw::ConfigView& kinect3d) {
   return config;
 }
 
+FloorCalibrationCheck::Config readCalibrationCheckConfig(const fw::ConfigView& kinect3d) {
+  const fw::ConfigView check = kinect3d.child("calibration_check");
+  FloorCalibrationCheck::Config config;
+  config.interval_frames = check.getInt("interval_frames", 1, 100000);
+  config.max_height_error_m = check.getDouble("max_height_error_m", 0.001, 1.0);
+  config.max_tilt_error_rad = degreesToRadians(check.getDouble("max_tilt_error_deg", 0.05, 45.0));
+  config.confirmations = check.getInt("confirmations", 1, 1000);
+  return config;
+}
+
 }  // namespace kinect3d

@@ -86,6 +86,12 @@ Eigen::Isometry3d fit(const std::vector<const CalibrationMark*>& marks,
   return Eigen::Isometry3d(Eigen::umeyama(seen, truth, false));
 }
 
+// The floor search's settings without the configured pose, which would stand in for the fit.
+GroundAligner::Config withoutPose(GroundAligner::Config ground) {
+  ground.pose.reset();
+  return ground;
+}
+
 double residual(const CalibrationMark& mark, const Eigen::Isometry3d& T_R_S) {
   return (T_R_S * mark.ball_S_m - mark.ball_R_m).norm();
 }
@@ -212,6 +218,35 @@ std::optional<Eigen::Vector3d> ballCentreAtPixel(const DepthFrame& frame, const 
     }
   }
   return centre;
+}
+
+FloorCalibrationCheck::FloorCalibrationCheck(const Config& config, const SensorPose& calibrated,
+                                             GroundAligner::Config ground)
+    : config_(config), calibrated_(calibrated), floor_(withoutPose(ground)) {}
+
+std::optional<SensorPose> FloorCalibrationCheck::check(const DepthFrame& frame) {
+  if (++frames_ % config_.interval_frames != 0) return std::nullopt;
+  const std::optional<Eigen::Isometry3d> fitted = floor_.fitFloor(frame);
+  if (!fitted) return std::nullopt;  // no floor in view: nothing to compare
+  const Eigen::Isometry3d T_calibrated = calibrated_.T_R_S();
+  // The floor's up direction seen from the sensor, by the calibration and by the fit.
+  const Eigen::Vector3d up_calibrated = T_calibrated.linear().transpose() * Eigen::Vector3d::UnitZ();
+  const Eigen::Vector3d up_fitted = fitted->linear().transpose() * Eigen::Vector3d::UnitZ();
+  const double tilt_rad = std::acos(std::clamp(up_calibrated.dot(up_fitted), -1.0, 1.0));
+  const double height_m = std::abs(fitted->translation().z() - T_calibrated.translation().z());
+  if (tilt_rad <= config_.max_tilt_error_rad && height_m <= config_.max_height_error_m) {
+    disagreements_ = 0;
+    alarmed_ = false;
+    return std::nullopt;
+  }
+  if (++disagreements_ < config_.confirmations || alarmed_) return std::nullopt;
+  alarmed_ = true;
+  const SensorPose floor = SensorPose::fromTransform(*fitted);
+  SensorPose moved = calibrated_;
+  moved.z_m = floor.z_m;
+  moved.pitch_rad = floor.pitch_rad;
+  moved.roll_rad = floor.roll_rad;
+  return moved;
 }
 
 }  // namespace kinect3d

@@ -7,6 +7,7 @@
 #include "framework_api/config.h"
 #include "kinect3d/ball_detector.h"
 #include "kinect3d/depth_frame.h"
+#include "kinect3d/sensor_calibration.h"
 #include "kinect3d/sensor_pose.h"
 #include "kinect3d/trajectory.h"
 
@@ -25,5 +26,7 @@ Intrinsics readIntrinsics(const fw::ConfigView& intrinsics);
 DetectorConfig readDetectorConfig(const fw::ConfigView& kinect3d);
 // The trajectory estimator's, from the same block (kinect3d.trajectory and kinect3d.ball).
 TrajectoryConfig readTrajectoryConfig(const fw::ConfigView& kinect3d);
+// The running calibration check's, from kinect3d.calibration_check.
+FloorCalibrationCheck::Config readCalibrationCheckConfig(const fw::ConfigView& kinect3d);
 
 }  // namespace kinect3d

@@ -33,10 +33,11 @@ class GroundAligner {
   // this is that pose; otherwise the floor is fitted on the first frame that shows enough of it,
   // checked every refit_interval_frames and refitted when its inliers fall below the minimum.
   std::optional<Eigen::Isometry3d> update(const DepthFrame& frame);
+  // Fits the floor plane in this frame alone; returns the pose it implies (yaw 0, at x = y = 0) or
+  // nothing (the calibration check compares it with the configured pose).
+  std::optional<Eigen::Isometry3d> fitFloor(const DepthFrame& frame);
 
  private:
-  // Fits the floor plane; returns the pose it implies (yaw 0, at x = y = 0) or nothing.
-  std::optional<Eigen::Isometry3d> fitFloor(const DepthFrame& frame);
   double inlierFraction(const DepthFrame& frame, const Eigen::Isometry3d& T_R_S) const;
 
   Config config_;

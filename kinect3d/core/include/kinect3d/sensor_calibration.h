@@ -12,6 +12,7 @@
 #include <Eigen/Geometry>
 
 #include "kinect3d/depth_frame.h"
+#include "kinect3d/ground_aligner.h"
 #include "kinect3d/sensor_pose.h"
 
 namespace kinect3d {
@@ -52,6 +53,33 @@ struct CalibrationOptions {
 CalibrationResult calibrateSensorPose(const std::vector<CalibrationMark>& marks,
                                       const std::optional<Eigen::Isometry3d>& floor_T_R_S,
                                       const CalibrationOptions& options = {});
+
+// While the robot plays: is the floor still where the calibrated pose puts it? A knocked sensor
+// tilts or drops; every interval_frames the floor is fitted in the frame alone and compared with
+// the pose, and a disagreement beyond the limits in `confirmations` checks in a row is an alarm.
+class FloorCalibrationCheck {
+ public:
+  struct Config {
+    int interval_frames = 30;
+    double max_height_error_m = 0.05;
+    double max_tilt_error_rad = 2.0 * M_PI / 180.0;
+    int confirmations = 3;  // one bad fit (a robot across the floor) is not a moved sensor
+  };
+  // ground: the floor search's settings (its pose is ignored).
+  FloorCalibrationCheck(const Config& config, const SensorPose& calibrated, GroundAligner::Config ground);
+
+  // The pose the floor now implies (the calibrated x, y and yaw; height, pitch and roll from the
+  // floor) when this frame confirms that the sensor has moved; reported once per episode.
+  std::optional<SensorPose> check(const DepthFrame& frame);
+
+ private:
+  Config config_;
+  SensorPose calibrated_;
+  GroundAligner floor_;
+  int frames_ = 0;
+  int disagreements_ = 0;
+  bool alarmed_ = false;
+};
 
 // The centre of a ball of radius_m whose surface the user picked at pixel (u, v): the depth within
 // the ball's image around the pixel, fitted with a sphere of that radius. Nothing when the pixel
