@@ -158,7 +158,8 @@ TEST(CalibrateCommand, FindsASimulatedSensorsPoseAndWritesItIntoTheRobotFile) {
                        << "    pose_in_robot: {x: 0.0, y: 0.0, z: 0.7, yaw_deg: 0.0, pitch_deg: 0.0, roll_deg: 0.0}\n";
   const auto [status, out] =
       runCommand(std::string(KINECT3D_EXE) + " calibrate --source tum:" + dir.path().string() + " --marks " +
-                 (dir.path() / "marks.yaml").string() + " --config " + robot.string() + " --write 2>/dev/null");
+                 (dir.path() / "marks.yaml").string() + " --config " + robot.string() + " --write --plot " +
+                 (dir.path() / "plot").string() + " 2>/dev/null");
   ASSERT_EQ(status, 0) << out;
   EXPECT_NE(out.find("# 1 sigma: x "), std::string::npos) << out;
   EXPECT_NE(out.find("height, pitch and roll from the floor"), std::string::npos) << out;
@@ -173,6 +174,13 @@ TEST(CalibrateCommand, FindsASimulatedSensorsPoseAndWritesItIntoTheRobotFile) {
                                    pose.getDouble("pitch_deg", -90, 90) * M_PI / 180,
                                    pose.getDouble("roll_deg", -180, 180) * M_PI / 180};
   expectPose(found, truth, 0.01, 0.3 * M_PI / 180.0);
+  // The page draws, as a person opening it sees it.
+  const auto [page_status, dom] =
+      runCommand("chromium --headless --no-sandbox --disable-gpu --virtual-time-budget=5000 --dump-dom file://" +
+                 (dir.path() / "plot" / "index.html").string() + " 2>/dev/null");
+  ASSERT_EQ(page_status, 0);
+  EXPECT_NE(dom.find("data-drawn=\"yes\""), std::string::npos);
+  EXPECT_NE(dom.find("pose_in_robot: {x: -0.1"), std::string::npos);
 }
 
 TEST(CalibrateCommand, AMarkWithoutABallIsNamedWithItsLine) {

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Regenerates docs/images/: a real Kinect frame next to simulated ones, on one colour map, and the
-# match report of the demo robot's run.
+# match report of the demo robot's run, and a calibration page.
 # Needs a build (tools/build.sh) (the real frame comes from tests/data/real-depth).
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -17,3 +17,9 @@ build/bin/vision_host --robot config/robots/demo.yaml --set "logger.folder=$run_
 build/bin/kinect3d report match "$(ls -d "$run_dir"/logs/*/)" --out "$run_dir/report"
 chromium --headless --no-sandbox --disable-gpu --window-size=1200,1560 --virtual-time-budget=5000 \
   --screenshot="$(pwd)/docs/images/match_report.png" "file://$run_dir/report/index.html" 2> /dev/null
+# The calibration page of a simulated session with one mark written 0.5 m off (docs/calibration.md).
+build/bin/kinect3d report calibration --out "$run_dir/calibration-report.md" --keep "$run_dir/sessions" > /dev/null 2>&1
+build/bin/kinect3d calibrate --source "tum:$run_dir/sessions/rolled" \
+  --marks "$run_dir/sessions/rolled/marks_6one mark 0.5 m off.yaml" --plot "$run_dir/calibration" > /dev/null 2>&1
+chromium --headless --no-sandbox --disable-gpu --window-size=1200,640 --virtual-time-budget=5000 \
+  --screenshot="$(pwd)/docs/images/calibration.png" "file://$run_dir/calibration/index.html" 2> /dev/null

@@ -9,6 +9,8 @@
 
 namespace kinect3d {
 
-void writeCalibrationReport(const fw::Config& config, const std::string& out_path);
+// keep_dir: where each session (a TUM folder with its marks.yaml and the report's marks files) stays,
+// in <keep_dir>/<yawed|rolled|high|low>/ (empty: a temporary folder).
+void writeCalibrationReport(const fw::Config& config, const std::string& out_path, const std::string& keep_dir);
 
 }  // namespace kinect3d

@@ -17,6 +17,7 @@
 #include <optional>
 
 #include "calibrate_pose.h"
+#include "calibration_plot.h"
 #include "calibration_report.h"
 #include "cli_sources.h"
 #include "detect_line.h"
@@ -358,6 +359,7 @@ void addCalibrate(CLI::App& app) {
     ConfigOptions config;
     kinect3d::PoseCalibrationOptions pose;
     bool no_floor = false;
+    std::string plot;
   };
   auto options = std::make_shared<Options>();
   CLI::App* command = app.add_subcommand(
@@ -371,6 +373,7 @@ void addCalibrate(CLI::App& app) {
   command->add_flag("--write", options->pose.write,
                     "Write the pose into the --config robot file (the old file is kept as a dated copy)");
   command->add_flag("--no-floor", options->no_floor, "Fit all six degrees of freedom from the marks alone");
+  command->add_option("--plot", options->plot, "Also draw the set-up and the residuals as a page in this folder");
   command->callback([options, command] {
     if (!command->get_subcommands().empty()) return;  // calibrate drag
     if (options->pose.source.empty() || options->pose.marks_file.empty()) {
@@ -381,7 +384,9 @@ void addCalibrate(CLI::App& app) {
     }
     options->pose.robot_file = options->config.robot_file;
     options->pose.use_floor = !options->no_floor;
-    kinect3d::printPoseCalibration(kinect3d::calibratePose(options->pose, options->config.load()), std::cout);
+    const kinect3d::PoseCalibration calibration = kinect3d::calibratePose(options->pose, options->config.load());
+    kinect3d::printPoseCalibration(calibration, std::cout);
+    if (!options->plot.empty()) kinect3d::writeCalibrationPlot(calibration, options->plot);
   });
   CLI::App* drag = command->add_subcommand(
       "drag", "Fit the ball's air drag and bounce restitution from recorded flights (kinect3d detect output)");
@@ -419,7 +424,8 @@ void addReport(CLI::App& app) {
       ->capture_default_str();
   command->add_option("--real-depth", options->report.real_depth_dir, "detection: folder of the real Kinect frames")
       ->capture_default_str();
-  command->add_option("--keep", options->keep, "fusion: keep every case's input files and fused output here");
+  command->add_option("--keep", options->keep,
+                      "fusion: keep every case's input files and fused output here; calibration: every session");
   options->config.addTo(command, /*with_robot_file=*/false);
   command->callback([options] {
     if ((options->kind == "match") != !options->log.empty()) {
@@ -431,7 +437,7 @@ void addReport(CLI::App& app) {
     }
     const fw::Config config = options->config.load();
     if (options->kind == "calibration") {
-      kinect3d::writeCalibrationReport(config, options->out);
+      kinect3d::writeCalibrationReport(config, options->out, options->keep);
     } else if (options->kind == "trajectory") {
       kinect3d::writeTrajectoryReport(config, options->out);
     } else if (options->kind == "fusion") {

@@ -10,6 +10,7 @@
 #include <map>
 #include <optional>
 
+#include "chart_page.h"
 #include "framework_api/config.h"
 #include "framework_api/log.h"
 #include "kinect3d/match_log.h"
@@ -251,21 +252,7 @@ void writeMatchReport(const std::string& log_folder, const std::string& out_dir)
   match["plugins"] = plugins;
   match["events"] = events;
 
-  fs::create_directories(out_dir);
-  const auto write = [&](const std::string& name, const std::string& text) {
-    const fs::path path = fs::path(out_dir) / name;
-    std::ofstream file(path);
-    file << text;
-    if (!file.flush()) throw std::runtime_error("cannot write '" + path.string() + "'");
-  };
-  write("index.html", kMatchReportPage);
-  write("match_data.js", "// The match report's data (kinect3d report match).\nconst MATCH = " + match.dump() + ";\n");
-  std::error_code error;
-  fs::copy_file(KINECT3D_CHART_JS, fs::path(out_dir) / "chart.min.js", fs::copy_options::overwrite_existing, error);
-  if (error) {
-    throw std::runtime_error(std::string("cannot copy Chart.js from ") + KINECT3D_CHART_JS + " (Debian package " +
-                             "libjs-chart.js): " + error.message());
-  }
+  writeChartPage(out_dir, kMatchReportPage, "match_data.js", "MATCH", match.dump());
   fw::logInfo("report", "match report of " + log_folder + " in " + (fs::path(out_dir) / "index.html").string() + ": " +
                             std::to_string(flights_json.size()) + " flights, " + std::to_string(events.size()) +
                             " events");

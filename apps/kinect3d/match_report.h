@@ -9,7 +9,7 @@
 
 namespace kinect3d {
 
-// Writes out_dir/index.html, out_dir/match_data.js and out_dir/chart.min.js.
+// Writes out_dir/index.html, out_dir/match_data.js and out_dir/chart.min.js (chart_page.h).
 void writeMatchReport(const std::string& log_folder, const std::string& out_dir);
 
 }  // namespace kinect3d
