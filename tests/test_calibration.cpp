@@ -195,6 +195,23 @@ TEST(CalibrateCommand, AMarkWithoutABallIsNamedWithItsLine) {
   EXPECT_NE(out.find("mark 2 (" + marks.string() + ":3): no ball found between 5"), std::string::npos) << out;
 }
 
+// Live (a device, no time ranges): one prompt per mark, a second of frames averaged after each Enter.
+// The simulated device shows one hung ball, so both marks see it at the same place: the solve then
+// refuses the layout, which it only reaches when both captures found the ball.
+TEST(CalibrateCommand, LiveAsksForEachMarkAndCapturesAfterEnter) {
+  ScopedTempDir dir;
+  const fs::path marks = dir.path() / "marks.yaml";
+  std::ofstream(marks) << "marks:\n  - {x: 0.0, y: 3.0, z: 1.0}\n  - {x: 0.0, y: 3.0, z: 1.0}\n";
+  const auto [status, out] =
+      runCommand("printf '\\n\\n' | " + std::string(KINECT3D_EXE) +
+                 " calibrate --source 'openni2:kinect3d-sim://hung_3m?frames=600' --marks " + marks.string() + " 2>&1");
+  EXPECT_EQ(status, 2);
+  EXPECT_NE(out.find("Put the ball on mark 1 (" + marks.string() + ":2) at (0, 3) and press Enter"), std::string::npos)
+      << out;
+  EXPECT_NE(out.find("Put the ball on mark 2"), std::string::npos) << out;
+  EXPECT_NE(out.find("the marks lie within 0.00 m of each other"), std::string::npos) << out;
+}
+
 // The calibration alarms of the kinect3d plugin on the hung ball scene (sensor level, 0.7 m up), with
 // pose_in_robot as given: the truth, or a sensor knocked since (tilted, or lowered).
 std::vector<fw::Event> alarmsWithPose(const std::string& pose) {
