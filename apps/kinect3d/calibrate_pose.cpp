@@ -144,19 +144,19 @@ std::string fixed(double value, int decimals) {
   return text.str();
 }
 
-std::string poseLine(const SensorPose& pose) {
+}  // namespace
+
+std::string poseInRobotYaml(const SensorPose& pose) {
   return "{x: " + fixed(pose.x_m, 4) + ", y: " + fixed(pose.y_m, 4) + ", z: " + fixed(pose.z_m, 4) +
          ", yaw_deg: " + fixed(pose.yaw_rad * 180.0 / M_PI, 3) +
          ", pitch_deg: " + fixed(pose.pitch_rad * 180.0 / M_PI, 3) +
          ", roll_deg: " + fixed(pose.roll_rad * 180.0 / M_PI, 3) + "}";
 }
 
-}  // namespace
-
 void printPoseCalibration(const PoseCalibration& calibration, std::ostream& out) {
   const CalibrationResult& result = calibration.result;
   const std::vector<CalibrationMark>& marks = calibration.marks;
-  out << "kinect3d:\n  sensor:\n    pose_in_robot: " << poseLine(result.pose) << "\n";
+  out << "kinect3d:\n  sensor:\n    pose_in_robot: " << poseInRobotYaml(result.pose) << "\n";
   if (result.sigma) {
     const auto& s = *result.sigma;
     out << "# 1 sigma: x " << fixed(100 * s[0], 1) << " cm, y " << fixed(100 * s[1], 1) << " cm, z "
@@ -264,7 +264,7 @@ std::string writePoseInRobotFile(const std::string& robot_file, const SensorPose
     }
     return std::nullopt;
   };
-  const std::string value = poseLine(pose);
+  const std::string value = poseInRobotYaml(pose);
   const auto kinect3d = findKey("kinect3d", std::string::npos);
   if (!kinect3d) {
     lines.push_back("kinect3d:");

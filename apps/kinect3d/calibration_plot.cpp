@@ -2,8 +2,6 @@
 
 #include <nlohmann/json.hpp>
 
-#include <sstream>
-
 #include "chart_page.h"
 
 namespace kinect3d {
@@ -27,13 +25,8 @@ void writeCalibrationPlot(const PoseCalibration& calibration, const std::string&
                      {"residual_m", calibration.result.residuals_m[i]},
                      {"used", static_cast<bool>(calibration.result.used[i])}});
   }
-  const SensorPose& p = calibration.result.pose;
-  std::ostringstream pose;
-  pose.precision(4);
-  pose << "{x: " << p.x_m << ", y: " << p.y_m << ", z: " << p.z_m << ", yaw_deg: " << p.yaw_rad * 180 / M_PI
-       << ", pitch_deg: " << p.pitch_rad * 180 / M_PI << ", roll_deg: " << p.roll_rad * 180 / M_PI << "}";
   const nlohmann::json data = {
-      {"pose", pose.str()},
+      {"pose", poseInRobotYaml(calibration.result.pose)},
       {"sensor", {{"x_m", sensor.x()}, {"y_m", sensor.y()}, {"view_x_m", view.x()}, {"view_y_m", view.y()}}},
       {"marks", marks}};
   writeChartPage(out_dir, kCalibrationPage, "calibration_data.js", "CALIBRATION", data.dump());

@@ -2,6 +2,7 @@
 // (kinect3d/match_log.h, docs/match-log.md), one folder per run. Each step writes what the world
 // state journalled since the last one as one committed batch. When the log reaches its budget, the
 // disk fills up or refuses a write, recording stops with a loud error and the robot plays on.
+#include <cmath>
 #include <filesystem>
 
 #include "framework_api/log.h"
