@@ -146,13 +146,6 @@ std::string fixed(double value, int decimals) {
 
 }  // namespace
 
-std::string poseInRobotYaml(const SensorPose& pose) {
-  return "{x: " + fixed(pose.x_m, 4) + ", y: " + fixed(pose.y_m, 4) + ", z: " + fixed(pose.z_m, 4) +
-         ", yaw_deg: " + fixed(pose.yaw_rad * 180.0 / M_PI, 3) +
-         ", pitch_deg: " + fixed(pose.pitch_rad * 180.0 / M_PI, 3) +
-         ", roll_deg: " + fixed(pose.roll_rad * 180.0 / M_PI, 3) + "}";
-}
-
 void printPoseCalibration(const PoseCalibration& calibration, std::ostream& out) {
   const CalibrationResult& result = calibration.result;
   const std::vector<CalibrationMark>& marks = calibration.marks;

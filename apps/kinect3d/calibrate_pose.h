@@ -28,9 +28,6 @@ struct PoseCalibration {
 // CalibrationError, fw::ConfigError or DepthSourceError saying what to fix.
 PoseCalibration calibratePose(const PoseCalibrationOptions& options, const fw::Config& config);
 
-// "{x: .., y: .., z: .., yaw_deg: .., pitch_deg: .., roll_deg: ..}": pose_in_robot's value.
-std::string poseInRobotYaml(const SensorPose& pose);
-
 // The pose as lines for the robot file, then the uncertainty and each mark's residual as comments.
 void printPoseCalibration(const PoseCalibration& calibration, std::ostream& out);
 

@@ -50,6 +50,13 @@ FusionConfig readFusionConfig(const fw::ConfigView& block) {
   config.track.lost_after_s = track.getDouble("lost_after_s", 0.01, 60.0);
   config.track.min_flight_speed_mps = track.getDouble("min_flight_speed_mps", 0.0, 50.0);
   config.track.initial_speed_sigma_mps = track.getDouble("initial_speed_sigma_mps", 0.1, 50.0);
+
+  const fw::ConfigView check = block.child("alignment_check");
+  config.alignment_check.enabled = check.getBool("enabled");
+  config.alignment_check.window_pairs = check.getInt("window_pairs", 10, 100000);
+  config.alignment_check.max_yaw_error_rad = fw::degreesToRadians(check.getDouble("max_yaw_error_deg", 0.1, 90.0));
+  config.alignment_check.max_offset_error_m = check.getDouble("max_offset_error_m", 0.005, 5.0);
+  config.alignment_check.confirmations = check.getInt("confirmations", 1, 1000);
   return config;
 }
 

@@ -40,8 +40,7 @@ OmniMeasurement::OmniMeasurement(const fw::OmniBallObservation& observation, con
       omni_(omni),
       pose_config_(pose_config),
       radius_m_(ball_radius_m),
-      bearing_sigma_rad_(observation.bearing_sigma_rad > 0.0 ? observation.bearing_sigma_rad : omni.bearing_sigma_rad),
-      distance_sigma_m_(observation.distance_sigma_m),
+      observation_(observation),
       z_(2) {
   z_ << observation.bearing_rad, observation.distance_m;
 }
@@ -57,15 +56,15 @@ Eigen::VectorXd OmniMeasurement::predict(const Eigen::Vector3d& p_F) const {
 
 Eigen::MatrixXd OmniMeasurement::noise(const Eigen::Vector3d& p_F) const {
   const double distance = predict(p_F)[1];
-  double sigma_d =
-      distance_sigma_m_ > 0.0 ? distance_sigma_m_ : omni_.distance_sigma_m + omni_.distance_sigma_fraction * distance;
+  double sigma_d = omniDistanceSigma_m(observation_, omni_, distance);
   // For a ball in the air the phantom's distance hangs on the height so steeply (46 m per m for a
   // ball half a metre up, 4.5 m away) that a linearised update would throw the ball about: there
   // the omni gives its bearing and a looser hold on the ray.
   const double airborne = std::clamp((p_F.z() - radius_m_) / kAirborneRamp_m, 0.0, 1.0);
   sigma_d = std::hypot(sigma_d, airborne * kPhantomDistanceFraction * distance);
   Eigen::MatrixXd R = Eigen::MatrixXd::Zero(2, 2);
-  R(0, 0) = bearing_sigma_rad_ * bearing_sigma_rad_ + pose_config_.sigma_theta_rad * pose_config_.sigma_theta_rad;
+  const double sigma_b = omniBearingSigma_rad(observation_, omni_);
+  R(0, 0) = sigma_b * sigma_b + pose_config_.sigma_theta_rad * pose_config_.sigma_theta_rad;
   R(1, 1) = sigma_d * sigma_d + pose_config_.sigma_xy_m * pose_config_.sigma_xy_m;
   return R;
 }
@@ -83,6 +82,15 @@ Eigen::Vector3d OmniMeasurement::groundBall_F() const {
   Eigen::Vector3d p_F = pose_.T_F_R() * ground.groundPoint_R();
   p_F.z() = radius_m_;
   return p_F;
+}
+
+double omniBearingSigma_rad(const fw::OmniBallObservation& observation, const OmniConfig& omni) {
+  return observation.bearing_sigma_rad > 0.0 ? observation.bearing_sigma_rad : omni.bearing_sigma_rad;
+}
+
+double omniDistanceSigma_m(const fw::OmniBallObservation& observation, const OmniConfig& omni, double distance_m) {
+  return observation.distance_sigma_m > 0.0 ? observation.distance_sigma_m
+                                            : omni.distance_sigma_m + omni.distance_sigma_fraction * distance_m;
 }
 
 }  // namespace fusion

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdio>
 #include <memory>
+#include <string>
 
 #include "framework_api/log.h"
 #include "framework_api/plugin.h"
@@ -15,6 +16,7 @@
 #include "kinect3d/depth_source.h"
 #include "kinect3d/log_source.h"
 #include "kinect3d/sensor_calibration.h"
+#include "kinect3d/sensor_pose.h"
 #include "kinect3d/sim/sim_sources.h"
 #include "kinect3d/trajectory.h"
 
@@ -118,15 +120,15 @@ class Kinect3dPlugin : public fw::Plugin {
     const std::optional<kinect3d::SensorPose> moved = calibration_check_->check(frame_);
     if (!moved) return;
     const double deg = 180.0 / M_PI;
-    char message[512];
-    std::snprintf(message, sizeof message,
-                  "THE SENSOR HAS MOVED since its calibration: the floor puts it at z %.3f m, pitch %.2f deg, "
-                  "roll %.2f deg; pose_in_robot says z %.3f m, pitch %.2f deg, roll %.2f deg. Estimated "
-                  "pose_in_robot: {x: %.3f, y: %.3f, z: %.3f, yaw_deg: %.2f, pitch_deg: %.2f, roll_deg: %.2f}. "
-                  "Recalibrate (docs/calibration.md)",
+    char comparison[256];
+    std::snprintf(comparison, sizeof comparison,
+                  "the floor puts it at z %.3f m, pitch %.2f deg, roll %.2f deg; pose_in_robot says z %.3f m, "
+                  "pitch %.2f deg, roll %.2f deg",
                   moved->z_m, moved->pitch_rad * deg, moved->roll_rad * deg, calibrated_->z_m,
-                  calibrated_->pitch_rad * deg, calibrated_->roll_rad * deg, moved->x_m, moved->y_m, moved->z_m,
-                  moved->yaw_rad * deg, moved->pitch_rad * deg, moved->roll_rad * deg);
+                  calibrated_->pitch_rad * deg, calibrated_->roll_rad * deg);
+    const std::string message = "THE SENSOR HAS MOVED since its calibration: " + std::string(comparison) +
+                                ". Estimated pose_in_robot: " + kinect3d::poseInRobotYaml(*moved) +
+                                ". Recalibrate (docs/calibration.md)";
     fw::logError(source_name_, message);
     publishEvent("calibration_alarm", message);
   }

@@ -2,6 +2,7 @@
 // robot file (config/defaults/fusion.yaml documents every key), as structs with the shipped defaults.
 #pragma once
 
+#include <cmath>
 #include <string>
 
 #include "framework_api/config.h"
@@ -52,12 +53,22 @@ struct TrackConfig {
   double initial_speed_sigma_mps = 3.0;  // velocity uncertainty of a new track
 };
 
+// Do the Kinect's ground balls still lie where the omni camera sees them? (AlignmentCheck)
+struct AlignmentCheckConfig {
+  bool enabled = true;
+  int window_pairs = 150;                         // ball pairs one fit uses; a fit every half window
+  double max_yaw_error_rad = 2.0 * M_PI / 180.0;  // an alarm beyond these ...
+  double max_offset_error_m = 0.05;
+  int confirmations = 2;  // ... in this many fits in a row
+};
+
 struct FusionConfig {
   MotionConfig motion;
   KinectConfig kinect;
   OmniConfig omni;
   PoseConfig pose;
   TrackConfig track;
+  AlignmentCheckConfig alignment_check;
   double max_delay_s = 0.15;  // measurements later than this behind the newest are dropped
 };
 

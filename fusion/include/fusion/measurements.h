@@ -46,10 +46,14 @@ class OmniMeasurement : public MeasurementModel {
   OmniConfig omni_;
   PoseConfig pose_config_;
   double radius_m_;
-  double bearing_sigma_rad_;
-  double distance_sigma_m_;  // 0: from the configured model
+  fw::OmniBallObservation observation_;
   Eigen::VectorXd z_;
 };
+
+// The omni camera's noise for a ground ball distance_m away: the observation's own sigmas where it
+// carries them, else the configured model (the distance's growing with the distance).
+double omniBearingSigma_rad(const fw::OmniBallObservation& observation, const OmniConfig& omni);
+double omniDistanceSigma_m(const fw::OmniBallObservation& observation, const OmniConfig& omni, double distance_m);
 
 // Wraps an angle into [-pi, pi).
 double wrapAngle(double a_rad);

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 
 namespace kinect3d {
 
@@ -42,6 +43,14 @@ SensorPose SensorPose::fromTransform(const Eigen::Isometry3d& T_R_S) {
       (yawPitch(pose.yaw_rad, pose.pitch_rad) * levelSensorToRobot()).transpose() * T_R_S.linear();
   pose.roll_rad = std::atan2(roll(1, 0), roll(0, 0));
   return pose;
+}
+
+std::string poseInRobotYaml(const SensorPose& pose) {
+  const double deg = 180.0 / M_PI;
+  char text[160];
+  std::snprintf(text, sizeof text, "{x: %.4f, y: %.4f, z: %.4f, yaw_deg: %.3f, pitch_deg: %.3f, roll_deg: %.3f}",
+                pose.x_m, pose.y_m, pose.z_m, pose.yaw_rad * deg, pose.pitch_rad * deg, pose.roll_rad * deg);
+  return text;
 }
 
 }  // namespace kinect3d

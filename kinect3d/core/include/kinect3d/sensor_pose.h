@@ -1,6 +1,8 @@
 // Where the depth sensor sits on the robot, and the transform it implies.
 #pragma once
 
+#include <string>
+
 #include <Eigen/Geometry>
 
 namespace kinect3d {
@@ -25,5 +27,9 @@ struct SensorPose {
   // down (|pitch| < 90 deg).
   static SensorPose fromTransform(const Eigen::Isometry3d& T_R_S);
 };
+
+// "{x: .., y: .., z: .., yaw_deg: .., pitch_deg: .., roll_deg: ..}": pose_in_robot's value as a
+// robot file, a message or a page shows it (0.1 mm, 0.001 deg).
+std::string poseInRobotYaml(const SensorPose& pose);
 
 }  // namespace kinect3d
