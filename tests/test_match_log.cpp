@@ -18,6 +18,7 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 
+#include "demo_log.h"
 #include "framework_api/host.h"
 #include "fusion/json_lines.h"
 #include "kinect3d/match_log.h"
@@ -193,30 +194,6 @@ TEST(MatchLog, ABadLogIsNamedWithItsFileAndWhatIsWrong) {
   EXPECT_NE(errorOf(dir.path().string()).find(file.string() + ": schema version 99, this program reads version 1"),
             std::string::npos)
       << errorOf(dir.path().string());
-}
-
-// The demo robot's run with its log in folder; returns the host's summaries.
-std::vector<fw::PluginSummary> runDemo(const std::string& folder, std::vector<std::string> overrides = {}) {
-  overrides.insert(overrides.end(),
-                   {"host.plugins=[localisation, kinect3d, omni, fusion, logger]", "logger.folder=" + folder});
-  const fw::Config config = fw::Config::load(std::string(PROJECT_CONFIG_DIR) + "/defaults",
-                                             std::string(PROJECT_CONFIG_DIR) + "/robots/demo.yaml", overrides);
-  fw::Host host(config, PRODUCT_PLUGIN_DIR);
-  host.start();
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(120);
-  while (!host.sourcesFinished() && std::chrono::steady_clock::now() < deadline) {
-    std::this_thread::sleep_for(std::chrono::milliseconds(100));
-    host.watch();
-  }
-  host.stop();
-  return host.summaries();
-}
-
-std::string onlySubfolder(const fs::path& folder) {
-  std::vector<fs::path> runs;
-  for (const auto& entry : fs::directory_iterator(folder)) runs.push_back(entry.path());
-  if (runs.size() != 1) throw std::runtime_error("expected one run folder in " + folder.string());
-  return runs.front().string();
 }
 
 class LoggedDemo : public ::testing::Test {

@@ -15,6 +15,8 @@
 #include <iostream>
 #include <memory>
 #include <optional>
+#include <set>
+#include <thread>
 
 #include "calibrate_pose.h"
 #include "calibration_plot.h"
@@ -22,6 +24,7 @@
 #include "cli_sources.h"
 #include "detect_line.h"
 #include "framework_api/config.h"
+#include "framework_api/host.h"
 #include "framework_api/install_layout.h"
 #include "framework_api/log.h"
 #include "fusion/json_lines.h"
@@ -38,7 +41,9 @@
 #include "kinect3d/trajectory.h"
 #include "match_report.h"
 #include "match_tools.h"
+#include "match_view.h"
 #include "offline_fusion.h"
+#include "view_server.h"
 
 namespace {
 
@@ -490,6 +495,95 @@ void addExport(CLI::App& app) {
   });
 }
 
+namespace fs = std::filesystem;
+
+// SIGINT and SIGTERM, blocked in this thread and every thread started after, to be waited for.
+sigset_t blockStopSignals() {
+  sigset_t signals;
+  sigemptyset(&signals);
+  sigaddset(&signals, SIGINT);
+  sigaddset(&signals, SIGTERM);
+  pthread_sigmask(SIG_BLOCK, &signals, nullptr);
+  return signals;
+}
+
+// The run folder the logger of a host started after `before` writes, once it holds a readable log.
+std::string newRunFolder(const fs::path& base, const std::set<fs::path>& before) {
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+  while (std::chrono::steady_clock::now() < deadline) {
+    std::error_code error;
+    for (const fs::directory_entry& entry : fs::directory_iterator(base, error)) {
+      if (before.count(entry.path()) != 0) continue;
+      try {
+        kinect3d::MatchLogReader check(entry.path().string());
+        return entry.path().string();
+      } catch (const kinect3d::MatchLogError&) {
+        // still being created
+      }
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  }
+  throw std::runtime_error(base.string() + ": the logger started no run there within 20 s");
+}
+
+void addView(CLI::App& app) {
+  struct Options {
+    std::string log, live;
+    ConfigOptions config;
+    kinect3d::ViewServerOptions server;
+  };
+  auto options = std::make_shared<Options>();
+  CLI::App* command = app.add_subcommand(
+      "view", "Serve a browser view of a match log, or of the robot live, in 3D and in time (docs/viewer.md)");
+  command->add_option("log", options->log, "Match log folder")->check(CLI::ExistingDirectory);
+  command->add_option("--live", options->live, "Run this robot's plugins here and view them as they log")
+      ->check(CLI::ExistingFile);
+  command->add_option("--set", options->config.overrides, "--live: override a value, as vision_host --set")->take_all();
+  options->config.addTo(command, /*with_robot_file=*/false);
+  command->add_option("--port", options->server.port, "TCP port (0: any free one)")->capture_default_str();
+  command->add_option("--bind", options->server.bind, "Address to listen on (127.0.0.1: this machine only)")
+      ->capture_default_str();
+  command->callback([options] {
+    if (options->log.empty() == options->live.empty()) {
+      throw CLI::ValidationError("view", "give a match log folder or --live robot.yaml (one of them)");
+    }
+    const sigset_t stop_signals = blockStopSignals();
+    const timespec poll{0, 100'000'000};
+    if (options->live.empty()) {
+      kinect3d::MatchView view(options->log);
+      const kinect3d::ViewServer server(view, options->server);
+      std::cout << "serving " << options->log << " on " << server.url() << " (Ctrl-C stops)" << std::endl;
+      while (sigtimedwait(&stop_signals, nullptr, &poll) <= 0) {
+      }
+      return;
+    }
+    // Live: the robot's plugins in this process, the logger among them with the depth, and the view
+    // reading its log as it grows. The browser only ever reads the log: it costs the host nothing.
+    std::vector<std::string> overrides = options->config.overrides;
+    overrides.push_back("logger.depth=true");
+    fw::Config config = fw::Config::load(options->config.defaults_dir, options->live, overrides);
+    std::vector<std::string> plugins = config.block("host").getStringList("plugins");
+    if (std::find(plugins.begin(), plugins.end(), "logger") == plugins.end()) {
+      plugins.push_back("logger");
+      std::string list;
+      for (const std::string& plugin : plugins) list += (list.empty() ? "" : ", ") + plugin;
+      overrides.push_back("host.plugins=[" + list + "]");
+      config = fw::Config::load(options->config.defaults_dir, options->live, overrides);
+    }
+    const fs::path base = config.block("logger").getString("folder");
+    std::set<fs::path> before;
+    std::error_code error;
+    for (const fs::directory_entry& entry : fs::directory_iterator(base, error)) before.insert(entry.path());
+    fw::Host host(config, fw::defaultPluginDir());
+    host.start();
+    kinect3d::MatchView view(newRunFolder(base, before));
+    const kinect3d::ViewServer server(view, options->server);
+    std::cout << "serving the robot live on " << server.url() << "?live (Ctrl-C stops)" << std::endl;
+    while (sigtimedwait(&stop_signals, nullptr, &poll) <= 0) host.watch();
+    host.stop(std::chrono::milliseconds(800));
+  });
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -506,6 +600,7 @@ int main(int argc, char** argv) {
   addReport(app);
   addReplay(app);
   addExport(app);
+  addView(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -14,8 +14,7 @@
 #include "framework_api/config.h"
 #include "framework_api/log.h"
 #include "kinect3d/match_log.h"
-#include "kinect3d/sim/ball_motion.h"
-#include "kinect3d/sim/scene.h"
+#include "recorded_truth.h"
 
 namespace kinect3d {
 
@@ -30,33 +29,6 @@ constexpr std::size_t kMaxFlights = 12;
 constexpr int kPathSamples = 40;
 constexpr double kFrame_s = 1.0 / 30.0;  // the depth sensor's frame time, to find a fit's first detection
 constexpr double kMaxAhead_s = 1.5;      // a predicted path is drawn this far past the last fit at most
-
-// The ball's true path in the robot frame when the log comes from the simulator (kinect3d.source
-// = sim:<scene> in the recorded configuration), else nothing.
-class Truth {
- public:
-  explicit Truth(const RunInfo& run) {
-    try {
-      const fw::ConfigView root = fw::Config::parseDocument(run.config_yaml, "recorded configuration").root();
-      const std::string source = root.child("kinect3d").getString("source");
-      if (source.rfind("sim:", 0) != 0) return;
-      scene_ = sim::loadScene(source.substr(4));
-      if (scene_->ball) motion_.emplace(*scene_->ball, scene_->physics, scene_->duration_s);
-    } catch (const std::exception&) {
-      scene_.reset();  // a log without a simulated source, or whose scene is gone: no truth to draw
-    }
-  }
-  bool known() const { return motion_.has_value(); }
-  // At a source time of the depth sensor.
-  Eigen::Vector3d ball_R(double source_time_s) const {
-    const double t = source_time_s - scene_->start_time_s;
-    return scene_->robot.poseAt(t).T_F_R().inverse() * motion_->positionAt(t);
-  }
-
- private:
-  std::optional<sim::Scene> scene_;
-  std::optional<sim::BallMotion> motion_;
-};
 
 struct Xyz {
   std::vector<double> x, y, z;
@@ -89,7 +61,7 @@ struct Flight {
 };
 
 // A flight's page entry. to_run_s maps the depth sensor's clock onto seconds since the run started.
-json flightJson(const Flight& flight, const std::vector<fw::BallObservation>& balls, const Truth& truth,
+json flightJson(const Flight& flight, const std::vector<fw::BallObservation>& balls, const RecordedTruth& truth,
                 const std::function<double(double)>& to_run_s) {
   const fw::BallTrajectory& last = flight.fits.back();
   // From the detections the first fit rested on (a segment keeps at most a second of them) to the
@@ -133,7 +105,7 @@ void writeMatchReport(const std::string& log_folder, const std::string& out_dir)
   const double start_s = run.start_wall_time_s;
   const auto sources = log.depthSources();
   const std::string depth_source = sources.empty() ? "kinect3d" : sources.front().first;
-  const Truth truth(run);
+  const RecordedTruth truth(run);
 
   std::map<std::string, std::vector<double>> seen;  // source -> wall times it saw a ball
   std::vector<fw::BallObservation> depth_balls;

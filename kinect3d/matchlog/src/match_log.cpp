@@ -541,20 +541,48 @@ std::vector<std::pair<std::string, std::uint64_t>> MatchLogReader::depthSources(
   return sources;
 }
 
+namespace {
+constexpr const char* kDepthColumns =
+    "seq, wall_time_s, frame_index, source_time_s, receive_time_s, width, height, fx, fy, cx, cy, png";
+}  // namespace
+
 MatchLogReader::DepthFrames::DepthFrames(const MatchLogReader& log, const std::string& source)
     : log_(log),
-      query_(std::make_unique<Statement>(log.db_,
-                                         "SELECT seq, wall_time_s, frame_index, source_time_s, receive_time_s, width, "
-                                         "height, fx, fy, cx, cy, png FROM depth_frame WHERE source = ? ORDER BY seq",
-                                         log.path_)) {
+      query_(std::make_unique<Statement>(
+          log.db_, (std::string("SELECT ") + kDepthColumns + " FROM depth_frame WHERE source = ? ORDER BY seq").c_str(),
+          log.path_)) {
   sqlite3_bind_text(query_->stmt, 1, source.c_str(), -1, SQLITE_TRANSIENT);
 }
 
 MatchLogReader::DepthFrames::~DepthFrames() = default;
 
 bool MatchLogReader::DepthFrames::next(fw::DepthImage& image, double& wall_time_s) {
-  Statement& q = *query_;
-  if (!q.row()) return false;
+  if (!query_->row()) return false;
+  log_.decodeDepthRow(*query_, image, wall_time_s);
+  return true;
+}
+
+std::vector<MatchLogReader::DepthFrameStamp> MatchLogReader::depthFrameStamps(const std::string& source) const {
+  Statement q(db_, "SELECT seq, frame_index, source_time_s, wall_time_s FROM depth_frame WHERE source = ? ORDER BY seq",
+              path_);
+  sqlite3_bind_text(q.stmt, 1, source.c_str(), -1, SQLITE_TRANSIENT);
+  std::vector<DepthFrameStamp> stamps;
+  while (q.row()) stamps.push_back({q.integer(0), static_cast<std::uint64_t>(q.integer(1)), q.real(2), q.real(3)});
+  return stamps;
+}
+
+fw::DepthImage MatchLogReader::depthFrame(std::int64_t seq) const {
+  Statement q(db_, (std::string("SELECT ") + kDepthColumns + ", source FROM depth_frame WHERE seq = ?").c_str(), path_);
+  sqlite3_bind_int64(q.stmt, 1, seq);
+  if (!q.row()) fail("no depth frame at seq " + std::to_string(seq));
+  fw::DepthImage image;
+  double wall_time_s = 0.0;
+  decodeDepthRow(q, image, wall_time_s);
+  image.source = q.text(12);
+  return image;
+}
+
+void MatchLogReader::decodeDepthRow(Statement& q, fw::DepthImage& image, double& wall_time_s) const {
   wall_time_s = q.real(1);
   image.index = static_cast<std::uint64_t>(q.integer(2));
   image.stamp = {q.real(3), q.real(4)};
@@ -569,12 +597,10 @@ bool MatchLogReader::DepthFrames::next(fw::DepthImage& image, double& wall_time_
   const cv::Mat png(1, size, CV_8UC1, const_cast<unsigned char*>(bytes));
   const cv::Mat depth = size > 0 ? cv::imdecode(png, cv::IMREAD_ANYDEPTH) : cv::Mat();
   if (depth.empty() || depth.type() != CV_16UC1 || depth.cols != image.width || depth.rows != image.height) {
-    log_.fail("depth frame " + std::to_string(image.index) + " (seq " + std::to_string(q.integer(0)) +
-              "): the image is not a " + std::to_string(image.width) + "x" + std::to_string(image.height) +
-              " 16-bit PNG");
+    fail("depth frame " + std::to_string(image.index) + " (seq " + std::to_string(q.integer(0)) +
+         "): the image is not a " + std::to_string(image.width) + "x" + std::to_string(image.height) + " 16-bit PNG");
   }
   image.depth_mm.assign(depth.ptr<std::uint16_t>(), depth.ptr<std::uint16_t>() + depth.total());
-  return true;
 }
 
 }  // namespace kinect3d

@@ -92,6 +92,17 @@ class MatchLogReader {
   // The depth plugins that recorded depth, and how many frames each.
   std::vector<std::pair<std::string, std::uint64_t>> depthSources() const;
 
+  // Where each depth frame of one source sits in the log, without decoding it (for random access).
+  struct DepthFrameStamp {
+    std::int64_t seq;  // its place in the log
+    std::uint64_t index;
+    double source_time_s;
+    double wall_time_s;
+  };
+  std::vector<DepthFrameStamp> depthFrameStamps(const std::string& source) const;
+  // One depth frame by its seq. Throws MatchLogError naming it when it is missing or undecodable.
+  fw::DepthImage depthFrame(std::int64_t seq) const;
+
   // The depth frames of one source in order, one at a time (a match's depth does not fit in memory).
   class DepthFrames {
    public:
@@ -110,6 +121,8 @@ class MatchLogReader {
 
  private:
   [[noreturn]] void fail(const std::string& reason) const;
+  // A depth_frame row's columns (seq, wall_time_s, frame_index, ... png) into image.
+  void decodeDepthRow(Statement& row, fw::DepthImage& image, double& wall_time_s) const;
   std::string path_;
   std::string folder_;
   sqlite3* db_ = nullptr;

@@ -1,0 +1,361 @@
+#include "match_view.h"
+
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <map>
+
+#include "framework_api/config.h"
+#include "kinect3d/ball_candidates.h"
+#include "kinect3d/config_io.h"
+
+namespace kinect3d {
+
+namespace {
+
+using nlohmann::json;
+
+// The page draws every n-th depth pixel in u and v as a point (4: about 19,000 for a Kinect frame),
+// in whole centimetres (a third of the bytes of metres with decimals).
+constexpr int kPointStride = 4;
+// A source's ball counts for a moment when it is at most this old (a frame at 30 Hz, and some).
+constexpr double kRecent_s = 0.05;
+// A flight is drawn this far past the fit at most.
+constexpr double kMaxAhead_s = 1.5;
+constexpr int kPathSamples = 40;
+
+double rounded(double value, double step = 0.001) { return std::round(value / step) * step; }
+json xyz(const Eigen::Vector3d& p) { return {rounded(p.x()), rounded(p.y()), rounded(p.z())}; }
+
+// The publication of `items` (sorted by time) at or before t_s and at most max_age_s old.
+template <typename Item>
+const Item* latestAt(const std::vector<std::pair<double, Item>>& items, double t_s, double max_age_s) {
+  const auto after = std::upper_bound(items.begin(), items.end(), t_s + 1e-9,
+                                      [](double t, const std::pair<double, Item>& item) { return t < item.first; });
+  if (after == items.begin() || t_s - std::prev(after)->first > max_age_s) return nullptr;
+  return &std::prev(after)->second;
+}
+
+}  // namespace
+
+// The publications a moment needs, each with its time on the depth sensor's clock. A cleared
+// trajectory or world ball is an empty entry.
+struct MatchView::Published {
+  std::vector<std::pair<double, fw::BallFrame>> kinect;
+  std::vector<std::pair<double, fw::OmniFrame>> omni;
+  std::vector<std::pair<double, std::optional<fw::FusedBall>>> fused;
+  std::vector<std::pair<double, std::optional<fw::BallTrajectory>>> trajectory;
+  std::vector<std::pair<double, fw::RobotPose>> pose;
+};
+
+MatchView::MatchView(const std::string& log_folder) : folder_(log_folder) { index(); }
+MatchView::~MatchView() = default;
+
+std::uintmax_t MatchView::logBytes() const {
+  std::error_code error;
+  std::uintmax_t bytes = 0;
+  for (const char* suffix : {"", "-wal"}) {
+    const std::uintmax_t size = std::filesystem::file_size(folder_ + "/" + kMatchLogFile + suffix, error);
+    if (!error) bytes += size;
+  }
+  return bytes;
+}
+
+void MatchView::reloadIfGrown() {
+  if (logBytes() != log_bytes_) index();
+}
+
+void MatchView::index() {
+  log_bytes_ = logBytes();
+  log_ = std::make_unique<MatchLogReader>(folder_);
+  const RunInfo& run = log_->run();
+  truth_ = std::make_unique<RecordedTruth>(run);
+  const fw::ConfigView kinect3d =
+      fw::Config::parseDocument(run.config_yaml, folder_ + " (recorded configuration)").block("kinect3d");
+  if (!detector_) {
+    detector_config_ = readDetectorConfig(kinect3d);
+    detector_ = std::make_unique<BallDetector>(detector_config_, "view");
+  }
+  const auto sources = log_->depthSources();
+  depth_source_ = sources.empty() ? "kinect3d" : sources.front().first;
+  frames_ = log_->depthFrameStamps(depth_source_);
+
+  // The depth sensor's clock against the host's, for what carries only a wall time.
+  std::vector<double> offsets;
+  for (const auto& frame : frames_) offsets.push_back(frame.source_time_s - frame.wall_time_s);
+  std::nth_element(offsets.begin(), offsets.begin() + offsets.size() / 2, offsets.end());
+  const double wall_to_source_s = offsets.empty() ? 0.0 : offsets[offsets.size() / 2];
+  const double t0 = frames_.empty() ? 0.0 : frames_.front().source_time_s;
+
+  published_ = std::make_unique<Published>();
+  Published& p = *published_;
+  json height_kinect = {{"t_s", json::array()}, {"z_m", json::array()}};
+  json height_fused = height_kinect, gap_kinect = {{"t_s", json::array()}, {"d_m", json::array()}},
+       gap_omni = gap_kinect;
+  std::map<std::string, json> processing, dropped;
+  std::map<std::string, std::uint64_t> dropped_before;
+  json events = json::array();
+  double omni_reach_m = 0.0;
+  const auto addPoint = [&](json& series, const char* value_key, double t, double value) {
+    series["t_s"].push_back(rounded(t - t0));
+    series[value_key].push_back(rounded(value));
+  };
+  for (const fw::JournalEntry& entry : log_->entries()) {
+    const double wall_t = entry.wall_time_s + wall_to_source_s;
+    if (const auto* frame = std::get_if<fw::BallFrame>(&entry.item)) {
+      if (frame->balls.empty() || frame->balls.front().source != depth_source_) continue;
+      const double t = frame->stamp.source_time_s;
+      p.kinect.emplace_back(t, *frame);
+      for (const fw::BallObservation& ball : frame->balls) addPoint(height_kinect, "z_m", t, ball.position_m.z());
+      if (const auto* fused = latestAt(p.fused, t, kRecent_s); fused != nullptr && *fused) {
+        double nearest = 1e9;
+        for (const fw::BallObservation& ball : frame->balls) {
+          nearest = std::min(nearest, (ball.position_m - (*fused)->position_R).norm());
+        }
+        addPoint(gap_kinect, "d_m", t, nearest);
+      }
+    } else if (const auto* omni = std::get_if<fw::OmniFrame>(&entry.item)) {
+      const double t = omni->stamp.source_time_s;
+      p.omni.emplace_back(t, *omni);
+      for (const fw::OmniBallObservation& ball : omni->balls) omni_reach_m = std::max(omni_reach_m, ball.distance_m);
+      if (const auto* fused = latestAt(p.fused, t, kRecent_s); fused != nullptr && *fused && !omni->balls.empty()) {
+        double nearest = 1e9;
+        for (const fw::OmniBallObservation& ball : omni->balls) {
+          nearest = std::min(nearest, (ball.groundPoint_R() - (*fused)->position_R).head<2>().norm());
+        }
+        addPoint(gap_omni, "d_m", t, nearest);
+      }
+    } else if (const auto* fused = std::get_if<fw::FusedBall>(&entry.item)) {
+      p.fused.emplace_back(fused->stamp.source_time_s, *fused);
+      addPoint(height_fused, "z_m", fused->stamp.source_time_s, fused->position_F.z());
+    } else if (std::holds_alternative<fw::FusedBallCleared>(entry.item)) {
+      p.fused.emplace_back(wall_t, std::nullopt);
+    } else if (const auto* fit = std::get_if<fw::BallTrajectory>(&entry.item)) {
+      if (fit->source == depth_source_) p.trajectory.emplace_back(fit->time_s, *fit);
+    } else if (const auto* lost = std::get_if<fw::TrajectoryCleared>(&entry.item)) {
+      if (lost->source == depth_source_) p.trajectory.emplace_back(wall_t, std::nullopt);
+    } else if (const auto* pose = std::get_if<fw::RobotPose>(&entry.item)) {
+      p.pose.emplace_back(pose->stamp.source_time_s, *pose);
+    } else if (const auto* health = std::get_if<fw::PluginHealth>(&entry.item)) {
+      json& series = processing[health->plugin];
+      if (series.is_null()) series = {{"t_s", json::array()}, {"p50_ms", json::array()}, {"p99_ms", json::array()}};
+      series["t_s"].push_back(rounded(wall_t - t0));
+      series["p50_ms"].push_back(rounded(1000.0 * health->processing_p50_s, 0.01));
+      series["p99_ms"].push_back(rounded(1000.0 * health->processing_p99_s, 0.01));
+      json& lost_frames = dropped[health->plugin];
+      if (lost_frames.is_null()) lost_frames = {{"t_s", json::array()}, {"frames", json::array()}};
+      lost_frames["t_s"].push_back(rounded(wall_t - t0));
+      lost_frames["frames"].push_back(health->dropped_frames - dropped_before[health->plugin]);
+      dropped_before[health->plugin] = health->dropped_frames;
+    } else if (const auto* event = std::get_if<fw::Event>(&entry.item)) {
+      events.push_back({{"t_s", rounded(event->stamp.source_time_s - t0)},
+                        {"source", event->source},
+                        {"kind", event->kind},
+                        {"message", event->message}});
+    }
+  }
+  // Publications arrive in the order they were published, not always in their stamps' order.
+  const auto byTime = [](const auto& a, const auto& b) { return a.first < b.first; };
+  std::stable_sort(p.kinect.begin(), p.kinect.end(), byTime);
+  std::stable_sort(p.omni.begin(), p.omni.end(), byTime);
+  std::stable_sort(p.fused.begin(), p.fused.end(), byTime);
+  std::stable_sort(p.trajectory.begin(), p.trajectory.end(), byTime);
+  std::stable_sort(p.pose.begin(), p.pose.end(), byTime);
+
+  json frames = json::array(), height_truth = {{"t_s", json::array()}, {"z_m", json::array()}};
+  for (const auto& frame : frames_) {
+    frames.push_back(rounded(frame.source_time_s - t0));
+    if (truth_->known()) addPoint(height_truth, "z_m", frame.source_time_s, truth_->ball_R(frame.source_time_s).z());
+  }
+  json processing_series = json::array(), dropped_series = json::array();
+  for (auto& [plugin, series] : processing) processing_series.push_back({{"plugin", plugin}, {"series", series}});
+  for (auto& [plugin, series] : dropped) dropped_series.push_back({{"plugin", plugin}, {"series", series}});
+
+  run_ = {{"robot", run.robot},
+          {"software_version", run.software_version},
+          {"replayed_from", run.replayed_from},
+          {"folder", folder_},
+          {"depth_source", depth_source_},
+          {"frames_t_s", frames},
+          {"ball_radius_m", detector_config_.ball.radius_m},
+          {"voxel_m", detector_config_.grid.voxel_m},
+          {"max_range_m", detector_config_.points.max_range_m},
+          {"omni_reach_m", rounded(omni_reach_m)},
+          {"truth", truth_->known()},
+          {"height", {{"kinect", height_kinect}, {"fused", height_fused}, {"truth", height_truth}}},
+          {"gap", {{"kinect", gap_kinect}, {"omni", gap_omni}}},
+          {"processing", processing_series},
+          {"dropped", dropped_series},
+          {"events", events}};
+  t0_ = t0;
+}
+
+json MatchView::run() {
+  const std::lock_guard<std::mutex> lock(mutex_);
+  reloadIfGrown();
+  return run_;
+}
+
+DepthFrame MatchView::depthFrame(std::size_t frame) const {
+  const fw::DepthImage image = log_->depthFrame(frames_[frame].seq);
+  DepthFrame depth;
+  depth.intrinsics = {image.width, image.height, image.fx, image.fy, image.cx, image.cy};
+  depth.depth_mm = image.depth_mm;
+  depth.source_time_s = image.stamp.source_time_s;
+  depth.receive_time_s = image.stamp.receive_time_s;
+  depth.index = image.index;
+  depth.sensor_id = image.source;
+  return depth;
+}
+
+std::optional<json> MatchView::frame(std::size_t frame) {
+  const std::lock_guard<std::mutex> lock(mutex_);
+  if (frame >= frames_.size()) return std::nullopt;
+  const DepthFrame depth = depthFrame(frame);
+  const double t = depth.source_time_s;
+  const Published& p = *published_;
+
+  Detections detections;
+  detector_->detect(depth, detections);
+  json scene = {{"frame", frame}, {"t_s", rounded(t - t0_)}, {"frame_index", depth.index}};
+
+  // The sensor and the depth points it saw (robot frame), while it knows where the floor is.
+  json points = json::array();
+  scene["sensor"] = nullptr;
+  if (const std::optional<Eigen::Isometry3d> T_R_S = detector_->T_R_S()) {
+    const Intrinsics& k = depth.intrinsics;
+    const double range_m = detector_config_.points.max_range_m;
+    json corners = json::array();
+    for (const auto& [u, v] : {std::pair{0, 0}, {k.width, 0}, {k.width, k.height}, {0, k.height}}) {
+      corners.push_back(xyz(*T_R_S * (range_m * Eigen::Vector3d((u - k.cx) / k.fx, (v - k.cy) / k.fy, 1.0))));
+    }
+    scene["sensor"] = {{"position_m", xyz(T_R_S->translation())}, {"far_corners_m", corners}};
+    for (int v = 0; v < k.height; v += kPointStride) {
+      for (int u = 0; u < k.width; u += kPointStride) {
+        const double z = depth.at(u, v) / 1000.0;
+        if (z < detector_config_.points.min_range_m || z > range_m) continue;
+        const Eigen::Vector3d p_R = *T_R_S * Eigen::Vector3d((u - k.cx) / k.fx * z, (v - k.cy) / k.fy * z, z);
+        for (int i = 0; i < 3; ++i) points.push_back(std::lround(100.0 * p_R[i]));
+      }
+    }
+  }
+  scene["points_cm"] = points;
+
+  // The paper's Figs. 2-3: the occupied voxels, and each group that passed the mask with its core
+  // and the empty shell around it.
+  json voxels = json::array(), candidates = json::array();
+  if (const OccupancyGrid* grid = detector_->grid(); grid != nullptr && detections.aligned) {
+    for (const VoxelIndex& v : grid->occupiedVoxels()) {
+      const Eigen::Vector3f c = grid->centerOf(v);
+      for (int i = 0; i < 3; ++i) voxels.push_back(rounded(c[i]));
+    }
+    std::vector<BallCandidate> found;
+    BallCandidateFinder(detector_config_.mask).find(*grid, found);
+    const double voxel = grid->voxel_m();
+    for (const BallCandidate& candidate : found) {
+      const Eigen::Vector3d centre =
+          0.5 * (grid->centerOf(candidate.min) + grid->centerOf(candidate.max)).cast<double>();
+      candidates.push_back({{"centre_m", xyz(centre)},
+                            {"core_m", voxel * detector_config_.mask.core_voxels},
+                            {"mask_m", voxel * detector_config_.mask.mask_voxels}});
+    }
+  }
+  scene["voxels_m"] = voxels;
+  scene["candidates"] = candidates;
+
+  // Every source's ball at this moment, as the robot had them.
+  json kinect = json::array(), omni = json::array();
+  if (const fw::BallFrame* balls = latestAt(p.kinect, t, kRecent_s)) {
+    for (const fw::BallObservation& ball : balls->balls) {
+      kinect.push_back(
+          {{"p_m", xyz(ball.position_m)}, {"state", fw::toString(ball.state)}, {"static", ball.is_static}});
+    }
+  }
+  if (const fw::OmniFrame* image = latestAt(p.omni, t, kRecent_s)) {
+    for (const fw::OmniBallObservation& ball : image->balls) {
+      Eigen::Vector3d ground = ball.groundPoint_R();
+      ground.z() = detector_config_.ball.radius_m;
+      omni.push_back({{"p_m", xyz(ground)}});
+    }
+  }
+  scene["kinect"] = kinect;
+  scene["omni"] = omni;
+  scene["fused"] = nullptr;
+  if (const auto* fused = latestAt(p.fused, t, kRecent_s); fused != nullptr && *fused) {
+    scene["fused"] = {
+        {"p_m", xyz((*fused)->position_R)}, {"state", fw::toString((*fused)->state)}, {"sources", (*fused)->sources}};
+  }
+  scene["pose"] = nullptr;
+  if (const fw::RobotPose* pose = latestAt(p.pose, t, 0.5)) {
+    scene["pose"] = {{"x_m", pose->x_m}, {"y_m", pose->y_m}, {"theta_rad", pose->theta_rad}};
+  }
+
+  // The flight as the robot predicted it then: from the fit on to the touchdown.
+  scene["trajectory"] = nullptr;
+  if (const auto* fit = latestAt(p.trajectory, t, 0.3); fit != nullptr && *fit) {
+    const fw::BallTrajectory& trajectory = **fit;
+    const double end_s =
+        trajectory.touchdown ? std::min(trajectory.touchdown->time_s, t + kMaxAhead_s) : t + kMaxAhead_s;
+    json path = json::array();
+    for (int i = 0; i <= kPathSamples; ++i) {
+      const Eigen::Vector3d position = trajectory.positionAt(t + (end_s - t) * i / kPathSamples);
+      if (position.z() < 0.0) break;
+      path.push_back(xyz(position));
+    }
+    json drawn = {
+        {"state", fw::toString(trajectory.state)}, {"path_m", path}, {"touchdown", nullptr}, {"crossing", nullptr}};
+    if (trajectory.touchdown) {
+      drawn["touchdown"] = {
+          {"p_m", {rounded(trajectory.touchdown->point_m.x()), rounded(trajectory.touchdown->point_m.y())}},
+          {"sigma_m", rounded(trajectory.touchdown->sigma_m)},
+          {"in_s", rounded(trajectory.touchdown->time_s - t)}};
+    }
+    if (trajectory.crossing) {
+      drawn["crossing"] = {{"x_m", rounded(trajectory.crossing->x_m)}, {"z_m", rounded(trajectory.crossing->z_m)}};
+    }
+    scene["trajectory"] = drawn;
+  }
+  scene["truth"] = truth_->known() ? xyz(truth_->ball_R(t)) : json(nullptr);
+  return scene;
+}
+
+std::optional<std::string> MatchView::depthPng(std::size_t frame) {
+  const std::lock_guard<std::mutex> lock(mutex_);
+  if (frame >= frames_.size()) return std::nullopt;
+  const DepthFrame depth = depthFrame(frame);
+  Detections detections;
+  detector_->detect(depth, detections);  // where the sensor is, when it finds the floor itself
+  const Intrinsics& k = depth.intrinsics;
+  // Range to colour: near is warm, far is cold, no depth is black.
+  const cv::Mat depth_mm(k.height, k.width, CV_16UC1, const_cast<std::uint16_t*>(depth.depth_mm.data()));
+  const double near_mm = 1000.0 * detector_config_.points.min_range_m,
+               far_mm = 1000.0 * detector_config_.points.max_range_m;
+  cv::Mat scaled, image;
+  depth_mm.convertTo(scaled, CV_8UC1, -255.0 / (far_mm - near_mm), 255.0 * far_mm / (far_mm - near_mm));
+  cv::applyColorMap(scaled, image, cv::COLORMAP_JET);
+  image.setTo(cv::Scalar(0, 0, 0), depth_mm == 0);
+
+  // The balls the robot saw then, where they fall in the image, with the ball's size there.
+  const std::optional<Eigen::Isometry3d> T_R_S = detector_->T_R_S();
+  const fw::BallFrame* balls = latestAt(published_->kinect, depth.source_time_s, kRecent_s);
+  if (T_R_S && balls != nullptr) {
+    for (const fw::BallObservation& ball : balls->balls) {
+      const Eigen::Vector3d p_S = T_R_S->inverse() * ball.position_m;
+      if (p_S.z() <= 0.0) continue;
+      const cv::Point centre(static_cast<int>(k.cx + k.fx * p_S.x() / p_S.z()),
+                             static_cast<int>(k.cy + k.fy * p_S.y() / p_S.z()));
+      const int radius = static_cast<int>(k.fx * detector_config_.ball.radius_m / p_S.z());
+      cv::circle(image, centre, radius + 2, cv::Scalar(255, 255, 255), 2, cv::LINE_AA);
+      cv::putText(image, ball.state == fw::BallState::kAir ? "air" : "ground", centre + cv::Point(radius + 4, 0),
+                  cv::FONT_HERSHEY_SIMPLEX, 0.5, cv::Scalar(255, 255, 255), 1, cv::LINE_AA);
+    }
+  }
+  std::vector<unsigned char> png;
+  cv::imencode(".png", image, png);
+  return std::string(png.begin(), png.end());
+}
+
+}  // namespace kinect3d

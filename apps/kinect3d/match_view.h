@@ -1,0 +1,65 @@
+// What `kinect3d view` shows, read from a match log: the run with its timelines (one JSON for the
+// page's charts and slider), and for any depth frame the 3D scene of that moment (decimated depth
+// points, the occupied voxels and each candidate's core and mask, every source's balls, the
+// trajectory with its touchdown and crossing, the truth) and the depth image with the detections
+// drawn on it. Everything 3D is in the robot frame of that moment, as the robot saw it.
+//
+// The voxels and masks are not in the log: the frame's depth is run through the detector again with
+// the recorded configuration (the same grid and mask the robot used; the scene map, which needs the
+// frames before, is not involved). A log that is still being written (the live view) is read again
+// when it has grown.
+#pragma once
+
+#include <nlohmann/json.hpp>
+
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "kinect3d/ball_detector.h"
+#include "kinect3d/match_log.h"
+#include "recorded_truth.h"
+
+namespace kinect3d {
+
+class MatchView {
+ public:
+  // Throws MatchLogError naming the log when it cannot be read, fw::ConfigError when its recorded
+  // configuration cannot.
+  explicit MatchView(const std::string& log_folder);
+  ~MatchView();
+
+  // The run: who and when, the depth frames' times (the slider's steps), the sensor's range, and the
+  // timelines (ball height per source and the truth, each source's distance to the fused ball,
+  // processing time and dropped frames per plugin, events). Reads the log again if it grew.
+  nlohmann::json run();
+  // Depth frame `frame` (0-based, in the order of run()'s frames) as a 3D scene; nothing when there
+  // is no such frame.
+  std::optional<nlohmann::json> frame(std::size_t frame);
+  // Its depth image, coloured by range, with every ball the robot saw then drawn on it (PNG).
+  std::optional<std::string> depthPng(std::size_t frame);
+
+ private:
+  struct Published;
+  std::uintmax_t logBytes() const;  // the database and its write-ahead log
+  void reloadIfGrown();
+  void index();
+  DepthFrame depthFrame(std::size_t frame) const;
+
+  std::string folder_;
+  std::unique_ptr<MatchLogReader> log_;
+  std::unique_ptr<RecordedTruth> truth_;
+  DetectorConfig detector_config_;
+  std::unique_ptr<BallDetector> detector_;
+  std::string depth_source_;
+  std::vector<MatchLogReader::DepthFrameStamp> frames_;
+  double t0_ = 0.0;  // the first depth frame's source time: the page's zero
+  std::unique_ptr<Published> published_;
+  nlohmann::json run_;
+  std::uintmax_t log_bytes_ = 0;
+  std::mutex mutex_;  // the HTTP server asks from several threads
+};
+
+}  // namespace kinect3d

@@ -1,0 +1,112 @@
+#include "view_server.h"
+
+#include <httplib.h>
+
+#include <fstream>
+#include <map>
+#include <optional>
+#include <sstream>
+#include <stdexcept>
+#include <thread>
+
+namespace kinect3d {
+
+extern const std::string kViewerPage;  // viewer/index.html, built in
+
+namespace {
+
+std::string readScript(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) {
+    throw std::runtime_error(path + ": cannot read it (the viewer needs Debian's libjs-three and libjs-chart.js)");
+  }
+  std::ostringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+// The frame number of /api/.../<n>, or nothing when it is not a number the view can hold.
+std::optional<std::size_t> frameNumber(const httplib::Request& request) {
+  try {
+    return static_cast<std::size_t>(std::stoul(request.matches[1].str()));
+  } catch (const std::exception&) {
+    return std::nullopt;
+  }
+}
+
+}  // namespace
+
+struct ViewServer::Impl {
+  std::map<std::string, std::string> scripts;
+  httplib::Server server;
+  std::thread listener;
+};
+
+ViewServer::ViewServer(MatchView& view, const ViewServerOptions& options)
+    : impl_(std::make_unique<Impl>()), options_(options) {
+  impl_->scripts = {{"/three.min.js", readScript(KINECT3D_THREE_JS)},
+                    {"/OrbitControls.js", readScript(KINECT3D_ORBIT_CONTROLS_JS)},
+                    {"/chart.min.js", readScript(KINECT3D_CHART_JS)}};
+  httplib::Server& server = impl_->server;
+  server.Get("/", [](const httplib::Request&, httplib::Response& response) {
+    response.set_content(kViewerPage, "text/html; charset=utf-8");
+  });
+  for (const auto& [route, script] : impl_->scripts) {
+    server.Get(route, [&script = script](const httplib::Request&, httplib::Response& response) {
+      response.set_content(script, "application/javascript");
+    });
+  }
+  server.Get("/api/run", [&view](const httplib::Request&, httplib::Response& response) {
+    response.set_content(view.run().dump(), "application/json");
+  });
+  server.Get(R"(/api/frame/(\d+))", [&view](const httplib::Request& request, httplib::Response& response) {
+    const std::optional<std::size_t> frame = frameNumber(request);
+    const std::optional<nlohmann::json> scene = frame ? view.frame(*frame) : std::nullopt;
+    if (!scene) {
+      response.status = 404;
+      return;
+    }
+    response.set_content(scene->dump(), "application/json");
+  });
+  server.Get(R"(/api/depth/(\d+)\.png)", [&view](const httplib::Request& request, httplib::Response& response) {
+    const std::optional<std::size_t> frame = frameNumber(request);
+    const std::optional<std::string> png = frame ? view.depthPng(*frame) : std::nullopt;
+    if (!png) {
+      response.status = 404;
+      return;
+    }
+    response.set_content(*png, "image/png");
+  });
+  // A bad log frame (a damaged PNG) answers 500 with the reason; the server goes on.
+  server.set_exception_handler([](const httplib::Request&, httplib::Response& response, std::exception_ptr error) {
+    try {
+      std::rethrow_exception(error);
+    } catch (const std::exception& e) {
+      response.set_content(e.what(), "text/plain");
+    }
+    response.status = 500;
+  });
+  server.set_error_handler([](const httplib::Request& request, httplib::Response& response) {
+    response.set_content(std::to_string(response.status) + ": " + request.path + "\n", "text/plain");
+  });
+
+  port_ = options.port == 0 ? server.bind_to_any_port(options.bind)
+                            : (server.bind_to_port(options.bind, options.port) ? options.port : -1);
+  if (port_ < 0) {
+    throw std::runtime_error("cannot listen on " + options.bind + ":" + std::to_string(options.port) +
+                             " (in use, or not an address of this machine)");
+  }
+  impl_->listener = std::thread([&server] { server.listen_after_bind(); });
+}
+
+ViewServer::~ViewServer() {
+  impl_->server.stop();
+  impl_->listener.join();
+}
+
+std::string ViewServer::url() const {
+  return "http://" + (options_.bind == "0.0.0.0" ? std::string("<this machine>") : options_.bind) + ":" +
+         std::to_string(port_) + "/";
+}
+
+}  // namespace kinect3d

@@ -1,0 +1,237 @@
+// `kinect3d view` as a person uses it: the server started on the demo's match log, the page opened in
+// headless Chromium (WebGL through SwiftShader) and read back from its DOM and a screenshot; every
+// path outside the viewer's routes refused; the live view of a running robot.
+#include <gtest/gtest.h>
+#include <netinet/in.h>
+#include <signal.h>
+#include <spawn.h>
+#include <sys/socket.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <fcntl.h>
+
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <regex>
+#include <sstream>
+#include <thread>
+
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+
+#include "demo_log.h"
+#include "kinect3d/match_log.h"
+#include "run_command.h"
+#include "scoped_temp_dir.h"
+
+namespace {
+
+namespace fs = std::filesystem;
+
+// `kinect3d view <args>` in the background on any free port of 127.0.0.1, stopped with SIGTERM.
+class ServedView {
+ public:
+  explicit ServedView(const std::vector<std::string>& view_args) {
+    std::vector<std::string> args = {KINECT3D_EXE, "view"};
+    args.insert(args.end(), view_args.begin(), view_args.end());
+    args.insert(args.end(), {"--port", "0", "--bind", "127.0.0.1"});
+    std::vector<char*> argv;
+    for (std::string& arg : args) argv.push_back(arg.data());
+    argv.push_back(nullptr);
+    posix_spawn_file_actions_t actions;
+    posix_spawn_file_actions_init(&actions);
+    posix_spawn_file_actions_addopen(&actions, 1, output_.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    posix_spawn_file_actions_addopen(&actions, 2, "/dev/null", O_WRONLY, 0);
+    if (posix_spawn(&pid_, argv[0], &actions, nullptr, argv.data(), environ) != 0) throw std::runtime_error("spawn");
+    posix_spawn_file_actions_destroy(&actions);
+    // It prints its address once it listens.
+    const std::regex address(R"(http://127\.0\.0\.1:(\d+)/)");
+    for (int i = 0; i < 300 && port_ == 0; ++i) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(100));
+      std::ifstream in(output_);
+      std::stringstream text;
+      text << in.rdbuf();
+      std::smatch match;
+      const std::string printed = text.str();
+      if (std::regex_search(printed, match, address)) port_ = std::stoi(match[1].str());
+    }
+    if (port_ == 0) throw std::runtime_error("kinect3d view printed no address");
+  }
+  ~ServedView() {
+    if (pid_ > 0) stop();
+  }
+  // SIGTERM; its exit status.
+  int stop() {
+    kill(pid_, SIGTERM);
+    int status = 0;
+    waitpid(pid_, &status, 0);
+    pid_ = 0;
+    return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  }
+  std::string url(const std::string& path = "/") const { return "http://127.0.0.1:" + std::to_string(port_) + path; }
+  int port() const { return port_; }
+
+ private:
+  ScopedTempDir dir_;
+  std::string output_ = (dir_.path() / "out.txt").string();
+  pid_t pid_ = 0;
+  int port_ = 0;
+};
+
+// One GET with the path sent exactly as written (no client normalises it): the whole response.
+std::string rawGet(int port, const std::string& path) {
+  const int sock = socket(AF_INET, SOCK_STREAM, 0);
+  sockaddr_in address{};
+  address.sin_family = AF_INET;
+  address.sin_port = htons(static_cast<std::uint16_t>(port));
+  address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  if (connect(sock, reinterpret_cast<sockaddr*>(&address), sizeof address) != 0) {
+    close(sock);
+    throw std::runtime_error("cannot connect to port " + std::to_string(port));
+  }
+  const std::string request = "GET " + path + " HTTP/1.1\r\nHost: 127.0.0.1\r\nConnection: close\r\n\r\n";
+  if (send(sock, request.data(), request.size(), 0) != static_cast<ssize_t>(request.size())) {
+    close(sock);
+    throw std::runtime_error("cannot send the request");
+  }
+  std::string response;
+  char buffer[4096];
+  for (ssize_t n; (n = recv(sock, buffer, sizeof buffer, 0)) > 0;) response.append(buffer, static_cast<std::size_t>(n));
+  close(sock);
+  return response;
+}
+
+// The value of data-<name> on the page's status element.
+std::string statusValue(const std::string& dom, const std::string& name) {
+  std::smatch match;
+  if (!std::regex_search(dom, match, std::regex("data-" + name + "=\"([^\"]*)\""))) return "";
+  return match[1].str();
+}
+
+class ViewedDemo : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    dir_ = new ScopedTempDir;
+    runDemo(dir_->path().string());
+    folder_ = onlySubfolder(dir_->path());
+  }
+  static void TearDownTestSuite() { delete dir_; }
+  static ScopedTempDir* dir_;
+  static std::string folder_;
+};
+ScopedTempDir* ViewedDemo::dir_ = nullptr;
+std::string ViewedDemo::folder_;
+
+template <typename T>
+std::vector<T> itemsOf(const std::vector<fw::JournalEntry>& entries) {
+  std::vector<T> items;
+  for (const fw::JournalEntry& entry : entries) {
+    if (const T* item = std::get_if<T>(&entry.item)) items.push_back(*item);
+  }
+  return items;
+}
+
+TEST_F(ViewedDemo, ThePageShowsTheLobInThreeDimensionsAndInTime) {
+  const kinect3d::MatchLogReader log(folder_);
+  const auto entries = log.entries();
+  const auto frames = log.depthFrameStamps("kinect3d");
+  ASSERT_GT(frames.size(), 60u);
+  // The moment of the lob's highest detection, in the page's time (seconds from the first frame).
+  std::size_t kinect_balls = 0, fused = itemsOf<fw::FusedBall>(entries).size();
+  double apex_z = 0.0, apex_s = 0.0;
+  for (const fw::BallFrame& frame : itemsOf<fw::BallFrame>(entries)) {
+    for (const fw::BallObservation& ball : frame.balls) {
+      ++kinect_balls;
+      if (ball.position_m.z() > apex_z) {
+        apex_z = ball.position_m.z();
+        apex_s = ball.stamp.source_time_s - frames.front().source_time_s;
+      }
+    }
+  }
+  ASSERT_GT(apex_z, 0.8);
+
+  ServedView view({folder_});
+  const std::string page = "'" + view.url("/?t=" + std::to_string(apex_s)) + "'";
+  const std::string chromium =
+      "chromium --headless --no-sandbox --disable-gpu --use-gl=swiftshader --enable-unsafe-swiftshader "
+      "--window-size=1280,1100 --virtual-time-budget=10000 ";
+  const auto [status, dom] = runCommand(chromium + "--dump-dom " + page + " 2>/dev/null");
+  ASSERT_EQ(status, 0);
+  ASSERT_EQ(statusValue(dom, "ready"), "yes") << dom.substr(0, 2000);
+  EXPECT_NE(dom.find("Kinect3D view: demo"), std::string::npos);
+  // The slider holds every depth frame; the height timeline every Kinect ball, fused ball and a true
+  // height per frame (the log comes from the simulator).
+  EXPECT_EQ(statusValue(dom, "frames"), std::to_string(frames.size()));
+  EXPECT_EQ(statusValue(dom, "height-points"), std::to_string(kinect_balls + fused + frames.size()));
+  EXPECT_EQ(statusValue(dom, "charts"), "4");
+  // At the apex: the Kinect's ball, the fused one, the truth, the prediction, and the ball's mask.
+  EXPECT_EQ(statusValue(dom, "kinect"), "1");
+  EXPECT_EQ(statusValue(dom, "fused"), "1");
+  EXPECT_EQ(statusValue(dom, "truth"), "1");
+  EXPECT_EQ(statusValue(dom, "trajectory"), "1");
+  EXPECT_GE(std::stoi("0" + statusValue(dom, "candidates")), 1);
+  EXPECT_GE(std::stoi("0" + statusValue(dom, "voxels")), 10);
+  EXPECT_GE(std::stoi("0" + statusValue(dom, "points")), 5000);
+  EXPECT_NE(dom.find("touchdown at "), std::string::npos);
+  EXPECT_NE(dom.find("floor_found"), std::string::npos);
+
+  // The picture: the 3D view (its top-left 850 x 480 pixels) has the Kinect's ball in its blue, the
+  // candidate's core in orange and the prediction in magenta.
+  ScopedTempDir out;
+  const fs::path shot = out.path() / "shot.png";
+  ASSERT_EQ(runCommand(chromium + "--screenshot=" + shot.string() + " " + page + " 2>/dev/null").first, 0);
+  const cv::Mat picture = cv::imread(shot.string(), cv::IMREAD_COLOR);
+  ASSERT_FALSE(picture.empty());
+  const cv::Mat view3d = picture(cv::Rect(8, 40, 850, 480));
+  const auto pixels = [&](cv::Scalar low_bgr, cv::Scalar high_bgr) {
+    cv::Mat hit;
+    cv::inRange(view3d, low_bgr, high_bgr, hit);
+    return cv::countNonZero(hit);
+  };
+  EXPECT_GT(pixels({200, 90, 20}, {255, 160, 90}), 30) << "the Kinect's ball (#2f7bff)";
+  EXPECT_GT(pixels({0, 110, 220}, {60, 170, 255}), 100) << "a candidate's core (#ff8c1a)";
+  EXPECT_GT(pixels({220, 30, 220}, {255, 100, 255}), 30) << "the prediction (#ff40ff)";
+  EXPECT_EQ(view.stop(), 0);  // SIGTERM ends it cleanly
+}
+
+TEST_F(ViewedDemo, NothingOutsideTheViewersRoutesIsReachable) {
+  ServedView view({folder_});
+  // What it serves (so that the refusals below are the server refusing, not a dead server).
+  EXPECT_NE(rawGet(view.port(), "/api/run").find("HTTP/1.1 200"), std::string::npos);
+  EXPECT_NE(rawGet(view.port(), "/three.min.js").find("HTTP/1.1 200"), std::string::npos);
+  const std::string run_folder = fs::path(folder_).filename().string();
+  for (const std::string& path : std::vector<std::string>{
+           "/match.sqlite", "/../match.sqlite", "/..%2fmatch.sqlite", "/" + run_folder + "/match.sqlite",
+           "/../../../../../../etc/passwd", "/%2e%2e/%2e%2e/%2e%2e/etc/passwd", "//etc/passwd",
+           "/api/frame/../../../etc/passwd", "/api/depth/..%2f..%2fmatch.sqlite", "/api/frame/99999999999999999999",
+           "/three.min.js/../../match.sqlite", "/api/run/../../match.sqlite"}) {
+    const std::string response = rawGet(view.port(), path);
+    EXPECT_EQ(response.rfind("HTTP/1.1 404", 0), 0u) << path << ":\n" << response.substr(0, 200);
+    EXPECT_EQ(response.find("SQLite format 3"), std::string::npos) << path;
+    EXPECT_EQ(response.find("root:"), std::string::npos) << path;
+  }
+}
+
+TEST(LiveView, FollowsARobotAsItRunsAndStopsOnSigterm) {
+  ScopedTempDir logs;
+  ServedView view({"--live", std::string(PROJECT_CONFIG_DIR) + "/robots/demo.yaml", "--set",
+                   "logger.folder=" + logs.path().string()});
+  // The run grows while the demo's lob plays (3.5 s in real time).
+  const auto framesNow = [&] {
+    const std::string response = rawGet(view.port(), "/api/run");
+    std::smatch match;
+    std::regex_search(response, match, std::regex(R"("frames_t_s":\[([^\]]*)\])"));
+    const std::string times = match[1].str();
+    return times.empty() ? 0 : 1 + std::count(times.begin(), times.end(), ',');
+  };
+  const long early = framesNow();
+  std::this_thread::sleep_for(std::chrono::milliseconds(2500));
+  const long later = framesNow();
+  EXPECT_GT(later, early + 20);
+  EXPECT_EQ(view.stop(), 0);
+  EXPECT_NO_THROW(kinect3d::MatchLogReader(onlySubfolder(logs.path())));  // the host's log, kept
+}
+
+}  // namespace
