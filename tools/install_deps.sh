@@ -4,7 +4,7 @@
 set -euo pipefail
 
 PACKAGES=(
-  build-essential cmake
+  build-essential cmake pkg-config
   clang-format                  # the style test
   clang libclang-rt-14-dev      # the fuzzers (tools/fuzz.sh): clang with libFuzzer
   libeigen3-dev
@@ -17,8 +17,10 @@ PACKAGES=(
   nlohmann-json3-dev
   libgtest-dev
   libsqlite3-dev                # the match log
-  libjs-chart.js                # the match report's charts
-  chromium                      # the match report's test opens the page as a person would
+  libjs-chart.js                # the match report's and the viewer's charts
+  libjs-three                   # the viewer's 3D view (three.js and its orbit controls)
+  libcpp-httplib-dev            # the viewer's web server
+  chromium                      # the page tests open the pages as a person would
 )
 
 missing=()

@@ -526,6 +526,19 @@ std::string newRunFolder(const fs::path& base, const std::set<fs::path>& before)
   throw std::runtime_error(base.string() + ": the logger started no run there within 20 s");
 }
 
+// A match log folder as given, or in a folder of them (the logger's logs/) the newest, said aloud.
+std::string newestRun(const std::string& folder) {
+  if (fs::exists(fs::path(folder) / kinect3d::kMatchLogFile)) return folder;
+  std::vector<std::string> runs;
+  for (const fs::directory_entry& entry : fs::directory_iterator(folder)) {
+    if (fs::exists(entry.path() / kinect3d::kMatchLogFile)) runs.push_back(entry.path().string());
+  }
+  if (runs.empty()) throw std::runtime_error(folder + ": neither a match log nor a folder of them");
+  const std::string newest = *std::max_element(runs.begin(), runs.end());  // <date>_<time>_<robot>
+  fw::logInfo("view", "the newest of " + std::to_string(runs.size()) + " runs in " + folder + ": " + newest);
+  return newest;
+}
+
 void addView(CLI::App& app) {
   struct Options {
     std::string log, live;
@@ -535,12 +548,15 @@ void addView(CLI::App& app) {
   auto options = std::make_shared<Options>();
   CLI::App* command = app.add_subcommand(
       "view", "Serve a browser view of a match log, or of the robot live, in 3D and in time (docs/viewer.md)");
-  command->add_option("log", options->log, "Match log folder")->check(CLI::ExistingDirectory);
+  command->add_option("log", options->log, "Match log folder, or a folder of them (the newest is shown)")
+      ->check(CLI::ExistingDirectory);
   command->add_option("--live", options->live, "Run this robot's plugins here and view them as they log")
       ->check(CLI::ExistingFile);
   command->add_option("--set", options->config.overrides, "--live: override a value, as vision_host --set")->take_all();
   options->config.addTo(command, /*with_robot_file=*/false);
-  command->add_option("--port", options->server.port, "TCP port (0: any free one)")->capture_default_str();
+  command->add_option("--port", options->server.port, "TCP port (0: any free one)")
+      ->check(CLI::Range(0, 65535))
+      ->capture_default_str();
   command->add_option("--bind", options->server.bind, "Address to listen on (127.0.0.1: this machine only)")
       ->capture_default_str();
   command->callback([options] {
@@ -550,9 +566,10 @@ void addView(CLI::App& app) {
     const sigset_t stop_signals = blockStopSignals();
     const timespec poll{0, 100'000'000};
     if (options->live.empty()) {
-      kinect3d::MatchView view(options->log);
+      const std::string run = newestRun(options->log);
+      kinect3d::MatchView view(run);
       const kinect3d::ViewServer server(view, options->server);
-      std::cout << "serving " << options->log << " on " << server.url() << " (Ctrl-C stops)" << std::endl;
+      std::cout << "serving " << run << " on " << server.url() << " (Ctrl-C stops)" << std::endl;
       while (sigtimedwait(&stop_signals, nullptr, &poll) <= 0) {
       }
       return;

@@ -1,6 +1,7 @@
 #include "view_server.h"
 
 #include <httplib.h>
+#include <unistd.h>
 
 #include <fstream>
 #include <map>
@@ -90,6 +91,12 @@ ViewServer::ViewServer(MatchView& view, const ViewServerOptions& options)
     response.set_content(std::to_string(response.status) + ": " + request.path + "\n", "text/plain");
   });
 
+  // Quick restarts yes (SO_REUSEADDR), but not httplib's SO_REUSEPORT: a second viewer on the same
+  // port must fail, not share the port and answer every other request from another log.
+  server.set_socket_options([](socket_t sock) {
+    const int yes = 1;
+    setsockopt(sock, SOL_SOCKET, SO_REUSEADDR, &yes, sizeof(yes));
+  });
   port_ = options.port == 0 ? server.bind_to_any_port(options.bind)
                             : (server.bind_to_port(options.bind, options.port) ? options.port : -1);
   if (port_ < 0) {
@@ -105,8 +112,12 @@ ViewServer::~ViewServer() {
 }
 
 std::string ViewServer::url() const {
-  return "http://" + (options_.bind == "0.0.0.0" ? std::string("<this machine>") : options_.bind) + ":" +
-         std::to_string(port_) + "/";
+  std::string host = options_.bind;
+  if (host == "0.0.0.0") {  // every interface: the name the team's laptops know this machine by
+    char name[256] = {};
+    host = gethostname(name, sizeof(name) - 1) == 0 ? name : "localhost";
+  }
+  return "http://" + host + ":" + std::to_string(port_) + "/";
 }
 
 }  // namespace kinect3d
