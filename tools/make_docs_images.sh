@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Regenerates docs/images/: a real Kinect frame next to simulated ones, on one colour map, and the
-# match report of the demo robot's run, and a calibration page.
+# match report of the demo robot's run, a calibration page, and the demo's lob in the viewer.
 # Needs a build (tools/build.sh) (the real frame comes from tests/data/real-depth).
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -23,3 +23,15 @@ build/bin/kinect3d calibrate --source "tum:$run_dir/sessions/rolled" \
   --marks "$run_dir/sessions/rolled/marks_6one mark 0.5 m off.yaml" --plot "$run_dir/calibration" > /dev/null 2>&1
 chromium --headless --no-sandbox --disable-gpu --window-size=1200,640 --virtual-time-budget=5000 \
   --screenshot="$(pwd)/docs/images/calibration.png" "file://$run_dir/calibration/index.html" 2> /dev/null
+# The demo's lob in the viewer (docs/viewer.md), rising towards the robot.
+build/bin/kinect3d view "$(ls -d "$run_dir"/logs/*/)" --port 0 --bind 127.0.0.1 > "$run_dir/view.out" 2> /dev/null &
+viewer=$!
+trap 'kill $viewer 2> /dev/null; rm -rf "$real_dir" "$run_dir"' EXIT
+for _ in $(seq 100); do
+  grep -q "http://" "$run_dir/view.out" && break
+  sleep 0.1
+done
+url=$(grep -o "http://[0-9.:]*/" "$run_dir/view.out")
+chromium --headless --no-sandbox --disable-gpu --use-gl=swiftshader --enable-unsafe-swiftshader \
+  --window-size=1280,1100 --virtual-time-budget=10000 --screenshot="$(pwd)/docs/images/viewer.png" "${url}?t=0.75" \
+  2> /dev/null
