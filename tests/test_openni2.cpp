@@ -6,7 +6,9 @@
 #include <chrono>
 #include <filesystem>
 #include <fstream>
+#include <thread>
 
+#include "framework_api/host.h"
 #include "kinect3d/ball_detector.h"
 #include "kinect3d/depth_source.h"
 #include "kinect3d/oni_recording.h"
@@ -104,6 +106,67 @@ TEST_F(OniRecording, TruncatedRecordingIsAnErrorNamingTheFile) {
   } catch (const kinect3d::DepthSourceError& e) {
     EXPECT_NE(std::string(e.what()).find(cut), std::string::npos) << e.what();
   }
+}
+
+// A recording of `frames` frames of hung_3m whose frame record `damaged` (0-based) has its header
+// overwritten: OpenNI2's player then retries that record for ever and delivers nothing more.
+std::string recordingWithADamagedFrame(const fs::path& dir, int frames, int damaged) {
+  const std::string path = (dir / "damaged.oni").string();
+  kinect3d::recordOni(kinect3d::sim::simulatedDeviceUri("hung_3m", frames), path, frames, 10.0);
+  std::ifstream in(path, std::ios::binary);
+  std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  in.close();
+  // Every record starts "NIR\0"; a depth frame's is the one followed by tens of kilobytes.
+  const std::string magic("NIR\0", 4);
+  std::vector<std::size_t> frame_records;
+  for (std::size_t at = bytes.find(magic); at != std::string::npos;) {
+    const std::size_t next = bytes.find(magic, at + 1);
+    if (next != std::string::npos && next - at > 10'000) frame_records.push_back(at);
+    at = next;
+  }
+  if (static_cast<int>(frame_records.size()) != frames) throw std::runtime_error("unexpected .oni layout");
+  bytes.replace(frame_records[damaged], 4, "XXXX");
+  std::ofstream(path, std::ios::binary | std::ios::trunc) << bytes;
+  return path;
+}
+
+TEST_F(OniRecording, ADamagedFrameIsAnErrorNamingItNotAWaitForEver) {
+  const std::string path = recordingWithADamagedFrame(dir_, 6, 3);
+  auto playback = kinect3d::sim::sourcesWithSimulator().open(path);
+  DepthFrame frame;
+  int delivered = 0;
+  try {
+    // Without a bound on the wait this read never returns (and the test times out).
+    for (ReadResult result; (result = playback->read(frame)) != ReadResult::kEnd;) {
+      if (result == ReadResult::kFrame) ++delivered;
+    }
+    FAIL() << "a damaged recording must not read as complete";
+  } catch (const kinect3d::DepthSourceError& e) {
+    const std::string message = e.what();
+    EXPECT_NE(message.find("oni:" + path + ": frame 4 of 6"), std::string::npos) << message;
+    EXPECT_NE(message.find("damaged"), std::string::npos) << message;
+  }
+  EXPECT_EQ(delivered, 3) << "the frames before the damage";
+}
+
+TEST_F(OniRecording, TheHostGivesUpOnADamagedRecordingAndSaysWhere) {
+  const std::string path = recordingWithADamagedFrame(dir_, 6, 3);
+  const fw::Config config = fw::Config::load(
+      std::string(PROJECT_CONFIG_DIR) + "/defaults", std::string(PROJECT_CONFIG_DIR) + "/robots/demo.yaml",
+      {"host.plugins=[kinect3d]", "kinect3d.source=oni:" + path, "kinect3d.realtime=false"});
+  fw::Host host(config, PRODUCT_PLUGIN_DIR);
+  host.start();
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(120);
+  while (!host.sourcesFinished() && std::chrono::steady_clock::now() < deadline) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  host.stop();
+  ASSERT_TRUE(host.sourcesFinished()) << "the host still waits on the damaged frame";
+  const fw::PluginSummary& kinect = host.summaries().at(0);
+  EXPECT_EQ(kinect.frames, 3u);
+  EXPECT_TRUE(kinect.gave_up);
+  EXPECT_EQ(kinect.stuck, 0u) << "each read waits a slice at a time";
+  EXPECT_NE(kinect.last_error.find("frame 4 of 6"), std::string::npos) << kinect.last_error;
 }
 
 TEST(OpenNI2Device, CountsDroppedFrames) {

@@ -60,8 +60,8 @@ void runInfo(const std::string& uri) {
     const kinect3d::ReadResult result = source->read(frame);
     if (result == kinect3d::ReadResult::kEnd) break;
     if (result == kinect3d::ReadResult::kNoFrameYet) {
-      if (std::chrono::steady_clock::now() - last_frame > std::chrono::seconds(2)) break;
-      continue;
+      if (live && std::chrono::steady_clock::now() - last_frame > std::chrono::seconds(2)) break;
+      continue;  // a recording that stalls says so itself
     }
     last_frame = std::chrono::steady_clock::now();
     const kinect3d::DepthStats stats = kinect3d::computeStats(frame);

@@ -5,6 +5,7 @@
 #include <cstring>
 #include <filesystem>
 #include <mutex>
+#include <optional>
 #include <thread>
 
 #include "framework_api/log.h"
@@ -87,11 +88,6 @@ class OpenNI2Stream {
     const openni::Status waited = openni::OpenNI::waitForAnyStream(streams, 1, &ready, timeout_ms);
     if (waited == openni::STATUS_TIME_OUT) return false;
     if (waited != openni::STATUS_OK) throw DepthSourceError(label + ": " + lastError());
-    return readReady(frame, label);
-  }
-
-  // Reads the next frame without waiting (for recordings in manual playback).
-  bool readReady(DepthFrame& frame, const std::string& label) {
     openni::VideoFrameRef ref;
     if (stream_.readFrame(&ref) != openni::STATUS_OK || !ref.isValid()) {
       throw DepthSourceError(label + ": cannot read a frame: " + lastError());
@@ -256,14 +252,28 @@ class OniRecording : public DepthSource {
   std::string describe() const override { return "oni:" + path_; }
 
  private:
+  // OpenNI2's player retries a damaged record for ever without a word, and its readFrame() waits for
+  // ever, so a frame is waited for in slices (the caller stays stoppable) and at most this long.
+  static constexpr std::chrono::seconds kDamagedAfter{2};
+
   ReadResult readFrame(DepthFrame& frame) override {
     if (read_ >= frames_) return ReadResult::kEnd;
+    const std::string where = "frame " + std::to_string(read_ + 1) + " of " + std::to_string(frames_);
+    bool arrived = false;
     try {
-      stream_.readReady(frame, describe());
+      arrived = stream_.read(frame, static_cast<int>(options().max_wait_s * 1000.0), describe());
     } catch (const DepthSourceError& e) {
-      throw DepthSourceError(std::string(e.what()) + " (frame " + std::to_string(read_ + 1) + " of " +
-                             std::to_string(frames_) + "; the file may be truncated)");
+      throw DepthSourceError(std::string(e.what()) + " (" + where + "; the recording is damaged or truncated there)");
     }
+    if (!arrived) {
+      if (!waiting_since_) waiting_since_ = Clock::now();
+      if (Clock::now() - *waiting_since_ > kDamagedAfter) {
+        throw DepthSourceError(describe() + ": " + where + " never came out of OpenNI2's player (" +
+                               std::to_string(kDamagedAfter.count()) + " s): the recording is damaged there");
+      }
+      return ReadResult::kNoFrameYet;
+    }
+    waiting_since_.reset();
     ++read_;
     frame.sensor_id = describe();
     return ReadResult::kFrame;
@@ -273,6 +283,7 @@ class OniRecording : public DepthSource {
   OpenNI2Stream stream_;
   int frames_ = 0;
   int read_ = 0;
+  std::optional<Clock::time_point> waiting_since_;  // since when the next frame is awaited
 };
 
 }  // namespace

@@ -29,7 +29,7 @@ class DepthSourceError : public std::runtime_error {
 
 enum class ReadResult {
   kFrame,       // frame filled
-  kNoFrameYet,  // nothing within the wait (live device); try again
+  kNoFrameYet,  // nothing within the wait (a live device, a paced or slow recording); try again
   kEnd          // the recording or scene is over
 };
 
@@ -37,7 +37,7 @@ struct SourceOptions {
   // Recordings and the simulator: deliver frames at their recorded rate rather than as fast as
   // possible (live devices are always real time).
   bool realtime = false;
-  // The longest read() may block waiting for a live device.
+  // The longest read() may block waiting for a frame.
   double max_wait_s = 0.1;
   // Live devices: one that cannot be opened yet (slow USB enumeration at boot) is waited for and
   // opened when it appears, as the robot wants; otherwise opening it is an error, as a command wants.
