@@ -5,17 +5,16 @@
 #                                test packaging, not code). OpenNI2's own process-wide allocations
 #                                are suppressed (tests/sanitizers/lsan.supp says why). Not yet in
 #                                CI: on a 2-core VM the build alone takes about 15 minutes.
-#   tools/sanitize.sh thread     ThreadSanitizer in build-tsan/, the framework's tests (plugin
-#                                loader, world state, host and its watchdog: where threads meet).
-#                                The scene map's ray-casting worker inside the detector is not
-#                                covered: its tests are in the detector's suite, the heavy build.
-#                                In CI (tools/test.sh).
+#   tools/sanitize.sh thread     ThreadSanitizer in build-tsan/, where threads meet: the framework's
+#                                tests (plugin loader, world state, host and its watchdog) and the
+#                                scene map's (its ray-casting worker), each built without the
+#                                detector's heavy build. In CI (tools/test.sh).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 mode="${1:-address}"
 case "$mode" in
   address) dir=build-sanitize flags="-fsanitize=address,undefined -fno-omit-frame-pointer" targets=() ;;
-  thread) dir=build-tsan flags="-fsanitize=thread -fno-omit-frame-pointer" targets=(--target framework_tests) ;;
+  thread) dir=build-tsan flags="-fsanitize=thread -fno-omit-frame-pointer" targets=(--target framework_tests scene_map_tests) ;;
   *) echo "usage: tools/sanitize.sh [address|thread]" >&2; exit 2 ;;
 esac
 tools/install_deps.sh
@@ -26,8 +25,9 @@ if [ "$mode" = thread ]; then
   export TSAN_OPTIONS="halt_on_error=1 second_deadlock_stack=1"
   # The two tests that run the product's own plugins need the detector's heavy build; they run in
   # tools/test.sh's ordinary build.
-  exec "$dir"/bin/framework_tests \
+  "$dir"/bin/framework_tests \
     --gtest_filter=-HostProcess.DemoConfigRunsWithShippedPlugins:HostProcess.KeepsRunningWhenItsOutputIsClosed
+  exec "$dir"/bin/scene_map_tests
 fi
 cd "$dir"
 export ASAN_OPTIONS=detect_leaks=1
