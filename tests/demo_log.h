@@ -1,14 +1,14 @@
 // The demo robot's run recorded by the logger, for the tests of what a team does with a match log.
 #pragma once
 
-#include <chrono>
 #include <filesystem>
 #include <stdexcept>
 #include <string>
-#include <thread>
+#include <variant>
 #include <vector>
 
 #include "framework_api/host.h"
+#include "run_host.h"
 
 // Runs the demo robot (its lob, in real time: 3.5 s) with its log under folder; returns the host's
 // summaries.
@@ -18,14 +18,18 @@ inline std::vector<fw::PluginSummary> runDemo(const std::string& folder, std::ve
   const fw::Config config = fw::Config::load(std::string(PROJECT_CONFIG_DIR) + "/defaults",
                                              std::string(PROJECT_CONFIG_DIR) + "/robots/demo.yaml", overrides);
   fw::Host host(config, PRODUCT_PLUGIN_DIR);
-  host.start();
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(120);
-  while (!host.sourcesFinished() && std::chrono::steady_clock::now() < deadline) {
-    std::this_thread::sleep_for(std::chrono::milliseconds(100));
-    host.watch();
-  }
-  host.stop();
+  runUntilSourcesEnd(host);
   return host.summaries();
+}
+
+// The items of one kind (fw::Event, fw::BallFrame, ...) among a log's entries.
+template <typename T>
+std::vector<T> itemsOf(const std::vector<fw::JournalEntry>& entries) {
+  std::vector<T> items;
+  for (const fw::JournalEntry& entry : entries) {
+    if (const T* item = std::get_if<T>(&entry.item)) items.push_back(*item);
+  }
+  return items;
 }
 
 // The one run folder the logger made under folder.

@@ -3,10 +3,8 @@
 // a simulated session.
 #include <gtest/gtest.h>
 
-#include <chrono>
 #include <filesystem>
 #include <fstream>
-#include <thread>
 
 #include "calibrate_pose.h"
 #include "framework_api/config.h"
@@ -14,6 +12,7 @@
 #include "kinect3d/sensor_calibration.h"
 #include "kinect3d/sim/calibration_scene.h"
 #include "run_command.h"
+#include "run_host.h"
 #include "scoped_temp_dir.h"
 
 namespace {
@@ -221,12 +220,7 @@ std::vector<fw::Event> alarmsWithPose(const std::string& pose) {
        "kinect3d.calibration_check.interval_frames=10", "kinect3d.sensor.pose_in_robot=" + pose});
   fw::Host host(config, PRODUCT_PLUGIN_DIR);
   host.world().openJournal(false);
-  host.start();
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(120);
-  while (!host.sourcesFinished() && std::chrono::steady_clock::now() < deadline) {
-    std::this_thread::sleep_for(std::chrono::milliseconds(20));
-  }
-  host.stop();
+  runUntilSourcesEnd(host);
   std::vector<fw::Event> alarms;
   for (const fw::JournalEntry& entry : host.world().takeJournal(nullptr)) {
     const auto* event = std::get_if<fw::Event>(&entry.item);

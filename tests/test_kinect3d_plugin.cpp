@@ -3,12 +3,11 @@
 
 #include <nlohmann/json.hpp>
 
-#include <chrono>
 #include <cstdio>
-#include <thread>
 
 #include "framework_api/host.h"
 #include "run_command.h"
+#include "run_host.h"
 
 namespace {
 
@@ -17,13 +16,7 @@ TEST(Kinect3dPlugin, PublishesTheBallToTheWorldState) {
       std::string(PROJECT_CONFIG_DIR) + "/defaults", std::string(PROJECT_CONFIG_DIR) + "/robots/demo.yaml",
       {"host.plugins=[kinect3d]", "kinect3d.source=sim:hung_3m", "kinect3d.realtime=false"});
   fw::Host host(config, PRODUCT_PLUGIN_DIR);
-  host.start();
-  // A generous bound: the loop ends as soon as the source does (seconds; more under sanitizers).
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(120);
-  while (!host.sourcesFinished() && std::chrono::steady_clock::now() < deadline) {
-    std::this_thread::sleep_for(std::chrono::milliseconds(10));
-  }
-  host.stop();
+  runUntilSourcesEnd(host);
   ASSERT_TRUE(host.sourcesFinished());
   EXPECT_EQ(host.summaries().at(0).frames, 90u);
   const auto balls = host.world().recentBalls("kinect3d");

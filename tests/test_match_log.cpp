@@ -29,15 +29,6 @@ namespace {
 
 namespace fs = std::filesystem;
 
-template <typename T>
-std::vector<T> itemsOf(const std::vector<fw::JournalEntry>& entries) {
-  std::vector<T> items;
-  for (const fw::JournalEntry& entry : entries) {
-    if (const T* item = std::get_if<T>(&entry.item)) items.push_back(*item);
-  }
-  return items;
-}
-
 fw::DepthImage depthImage(std::uint64_t index) {
   fw::DepthImage image;
   image.width = 64;

@@ -6,7 +6,6 @@
 #include <chrono>
 #include <filesystem>
 #include <fstream>
-#include <thread>
 
 #include "framework_api/host.h"
 #include "kinect3d/ball_detector.h"
@@ -14,6 +13,7 @@
 #include "kinect3d/oni_recording.h"
 #include "kinect3d/sim/kinect_simulator.h"
 #include "kinect3d/sim/sim_sources.h"
+#include "run_host.h"
 #include "scoped_temp_dir.h"
 
 namespace {
@@ -155,12 +155,7 @@ TEST_F(OniRecording, TheHostGivesUpOnADamagedRecordingAndSaysWhere) {
       std::string(PROJECT_CONFIG_DIR) + "/defaults", std::string(PROJECT_CONFIG_DIR) + "/robots/demo.yaml",
       {"host.plugins=[kinect3d]", "kinect3d.source=oni:" + path, "kinect3d.realtime=false"});
   fw::Host host(config, PRODUCT_PLUGIN_DIR);
-  host.start();
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(120);
-  while (!host.sourcesFinished() && std::chrono::steady_clock::now() < deadline) {
-    std::this_thread::sleep_for(std::chrono::milliseconds(10));
-  }
-  host.stop();
+  runUntilSourcesEnd(host);
   ASSERT_TRUE(host.sourcesFinished()) << "the host still waits on the damaged frame";
   const fw::PluginSummary& kinect = host.summaries().at(0);
   EXPECT_EQ(kinect.frames, 3u);

@@ -124,15 +124,6 @@ class ViewedDemo : public ::testing::Test {
 ScopedTempDir* ViewedDemo::dir_ = nullptr;
 std::string ViewedDemo::folder_;
 
-template <typename T>
-std::vector<T> itemsOf(const std::vector<fw::JournalEntry>& entries) {
-  std::vector<T> items;
-  for (const fw::JournalEntry& entry : entries) {
-    if (const T* item = std::get_if<T>(&entry.item)) items.push_back(*item);
-  }
-  return items;
-}
-
 TEST_F(ViewedDemo, ThePageShowsTheLobInThreeDimensionsAndInTime) {
   const kinect3d::MatchLogReader log(folder_);
   const auto entries = log.entries();

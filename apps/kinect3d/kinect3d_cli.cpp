@@ -497,16 +497,6 @@ void addExport(CLI::App& app) {
 
 namespace fs = std::filesystem;
 
-// SIGINT and SIGTERM, blocked in this thread and every thread started after, to be waited for.
-sigset_t blockStopSignals() {
-  sigset_t signals;
-  sigemptyset(&signals);
-  sigaddset(&signals, SIGINT);
-  sigaddset(&signals, SIGTERM);
-  pthread_sigmask(SIG_BLOCK, &signals, nullptr);
-  return signals;
-}
-
 // The run folder the logger of a host started after `before` writes, once it holds a readable log.
 std::string newRunFolder(const fs::path& base, const std::set<fs::path>& before) {
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
@@ -563,7 +553,7 @@ void addView(CLI::App& app) {
     if (options->log.empty() == options->live.empty()) {
       throw CLI::ValidationError("view", "give a match log folder or --live robot.yaml (one of them)");
     }
-    const sigset_t stop_signals = blockStopSignals();
+    const sigset_t stop_signals = fw::blockStopSignals();
     const timespec poll{0, 100'000'000};
     if (options->live.empty()) {
       const std::string run = newestRun(options->log);

@@ -14,28 +14,13 @@
 #include "framework_api/install_layout.h"
 #include "framework_api/log.h"
 
-namespace {
-
 namespace fs = std::filesystem;
-
-// Blocks SIGINT and SIGTERM in this thread and, by inheritance, in every plugin thread started
-// after it; the main loop then collects them with sigtimedwait, so no handler runs inside a plugin.
-sigset_t blockStopSignals() {
-  sigset_t signals;
-  sigemptyset(&signals);
-  sigaddset(&signals, SIGINT);
-  sigaddset(&signals, SIGTERM);
-  pthread_sigmask(SIG_BLOCK, &signals, nullptr);
-  return signals;
-}
-
-}  // namespace
 
 int main(int argc, char** argv) {
   // Whatever reads our output may go away (tee, an ssh session): a write then fails with EPIPE
   // instead of killing the host mid-match.
   std::signal(SIGPIPE, SIG_IGN);
-  const sigset_t stop_signals = blockStopSignals();
+  const sigset_t stop_signals = fw::blockStopSignals();
 
   CLI::App app{"Runs the vision plugins a robot configuration enables."};
   std::string robot_file;

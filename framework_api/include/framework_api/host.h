@@ -2,6 +2,8 @@
 // WorldState. vision_host is a thin command line around this class; tests drive it directly.
 #pragma once
 
+#include <signal.h>
+
 #include <atomic>
 #include <chrono>
 #include <condition_variable>
@@ -79,5 +81,10 @@ class Host {
 
 // One summary line per plugin: "kinect3d 1.0.0: 301 frames in 10.0 s (30.1 Hz), 0 errors".
 std::string formatSummary(const PluginSummary& summary);
+
+// For a program that runs a host: blocks SIGINT and SIGTERM in the calling thread and, by
+// inheritance, in every plugin thread started after it, so that no handler runs inside a plugin;
+// its main loop collects them with sigtimedwait(returned set, ...) between Host::watch() calls.
+sigset_t blockStopSignals();
 
 }  // namespace fw
