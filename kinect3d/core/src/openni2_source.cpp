@@ -258,17 +258,17 @@ class OniRecording : public DepthSource {
 
   ReadResult readFrame(DepthFrame& frame) override {
     if (read_ >= frames_) return ReadResult::kEnd;
-    const std::string where = "frame " + std::to_string(read_ + 1) + " of " + std::to_string(frames_);
+    const auto where = [this] { return "frame " + std::to_string(read_ + 1) + " of " + std::to_string(frames_); };
     bool arrived = false;
     try {
       arrived = stream_.read(frame, static_cast<int>(options().max_wait_s * 1000.0), describe());
     } catch (const DepthSourceError& e) {
-      throw DepthSourceError(std::string(e.what()) + " (" + where + "; the recording is damaged or truncated there)");
+      throw DepthSourceError(std::string(e.what()) + " (" + where() + "; the recording is damaged or truncated there)");
     }
     if (!arrived) {
       if (!waiting_since_) waiting_since_ = Clock::now();
       if (Clock::now() - *waiting_since_ > kDamagedAfter) {
-        throw DepthSourceError(describe() + ": " + where + " never came out of OpenNI2's player (" +
+        throw DepthSourceError(describe() + ": " + where() + " never came out of OpenNI2's player (" +
                                std::to_string(kDamagedAfter.count()) + " s): the recording is damaged there");
       }
       return ReadResult::kNoFrameYet;
