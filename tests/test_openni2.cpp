@@ -157,7 +157,7 @@ TEST_F(OniRecording, TheHostGivesUpOnADamagedRecordingAndSaysWhere) {
   fw::Host host(config, PRODUCT_PLUGIN_DIR);
   runUntilSourcesEnd(host);
   ASSERT_TRUE(host.sourcesFinished()) << "the host still waits on the damaged frame";
-  const fw::PluginSummary& kinect = host.summaries().at(0);
+  const fw::PluginSummary kinect = host.summaries().at(0);  // summaries() is a copy
   EXPECT_EQ(kinect.frames, 3u);
   EXPECT_TRUE(kinect.gave_up);
   EXPECT_EQ(kinect.stuck, 0u) << "each read waits a slice at a time";
