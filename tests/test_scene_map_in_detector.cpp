@@ -2,6 +2,7 @@
 // the map follows the robot's field pose, and the trajectory ignores balls in static space.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <optional>
 #include <vector>
 

@@ -208,16 +208,10 @@ TEST_F(ViewedDemo, NothingOutsideTheViewersRoutesIsReachable) {
 TEST_F(ViewedDemo, ASecondViewerOnTheSamePortIsRefusedNotShared) {
   ServedView first({folder_});
   // `timeout` ends a second viewer that wrongly shares the port, so that the test fails, not hangs.
-  const std::string command = std::string("timeout 10 ") + KINECT3D_EXE + " view " + folder_ +
-                              " --bind 127.0.0.1 --port " + std::to_string(first.port()) + " 2>&1; echo exit=$?";
-  FILE* pipe = popen(command.c_str(), "r");
-  ASSERT_NE(pipe, nullptr);
-  std::string output;
-  char buffer[512];
-  while (fgets(buffer, sizeof buffer, pipe)) output += buffer;
-  pclose(pipe);
+  const auto [status, output] = runCommand(std::string("timeout 10 ") + KINECT3D_EXE + " view " + folder_ +
+                                           " --bind 127.0.0.1 --port " + std::to_string(first.port()) + " 2>&1");
   EXPECT_NE(output.find("cannot listen on 127.0.0.1:" + std::to_string(first.port())), std::string::npos) << output;
-  EXPECT_NE(output.find("exit=2"), std::string::npos) << output;
+  EXPECT_EQ(status, 2) << output;
   EXPECT_NE(rawGet(first.port(), "/api/run").find("HTTP/1.1 200"), std::string::npos);
 }
 
