@@ -31,8 +31,6 @@ TEST(SceneMap, FlagsABallHungInPlaceAsStaticButNeverAFlyingOne) {
   DepthFrame frame;
   kinect3d::sim::GroundTruth truth;
   kinect3d::Detections detections;
-  kinect3d::TrajectoryConfig trajectory_config;
-  auto trajectory = kinect3d::makeTrajectoryEstimator(trajectory_config);
   int early_static = 0, late_static = 0, late_balls = 0;
   for (int i = 0; i < simulator.frameCount(); ++i) {
     simulator.render(i, frame, truth);
@@ -42,7 +40,6 @@ TEST(SceneMap, FlagsABallHungInPlaceAsStaticButNeverAFlyingOne) {
     // Static after 2 s of rays: those of frame 60, published with the rays of frame 70.
     if (i < 60) early_static += is_static;
     if (i >= 75) late_static += is_static, ++late_balls;
-    trajectory->update(frame.source_time_s, detections.balls);
   }
   EXPECT_EQ(early_static, 0);
   EXPECT_EQ(late_static, late_balls);
