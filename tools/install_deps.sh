@@ -6,7 +6,7 @@ set -euo pipefail
 PACKAGES=(
   build-essential cmake pkg-config
   clang-format                  # the style test
-  clang libclang-rt-14-dev      # the fuzzers (tools/fuzz.sh): clang with libFuzzer
+  clang libclang-rt-14-dev      # the sanitizer build and its fuzzers (tools/sanitize.sh, tools/fuzz.sh)
   libeigen3-dev
   libpcl-dev
   liboctomap-dev
