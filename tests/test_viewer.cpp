@@ -18,10 +18,13 @@
 #include <sstream>
 #include <thread>
 
+#include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 
 #include "demo_log.h"
+#include "framework_api/config.h"
+#include "framework_api/world_state.h"
 #include "kinect3d/match_log.h"
 #include "run_command.h"
 #include "scoped_temp_dir.h"
@@ -213,6 +216,62 @@ TEST_F(ViewedDemo, ASecondViewerOnTheSamePortIsRefusedNotShared) {
   EXPECT_NE(output.find("cannot listen on 127.0.0.1:" + std::to_string(first.port())), std::string::npos) << output;
   EXPECT_EQ(status, 2) << output;
   EXPECT_NE(rawGet(first.port(), "/api/run").find("HTTP/1.1 200"), std::string::npos);
+}
+
+// The scene of depth frame `frame` as `kinect3d view` serves it.
+nlohmann::json servedFrame(const ServedView& view, int frame) {
+  const std::string response = rawGet(view.port(), "/api/frame/" + std::to_string(frame));
+  EXPECT_EQ(response.rfind("HTTP/1.1 200", 0), 0u) << response.substr(0, 200);
+  return nlohmann::json::parse(response.substr(response.find("\r\n\r\n") + 4));
+}
+
+TEST(ViewedLog, TheFusedBallIsHeldUntilTheFusionClearsIt) {
+  // A log written by hand: 30 depth frames at 30 Hz (a wall 2 m ahead); the world ball published
+  // with frame 3 and cleared at frame 20, nothing published between (no source saw the ball).
+  ScopedTempDir dir;
+  const std::string folder = (dir.path() / "run").string();
+  const fw::Config config = fw::Config::load(std::string(PROJECT_CONFIG_DIR) + "/defaults",
+                                             std::string(PROJECT_CONFIG_DIR) + "/robots/demo.yaml", {});
+  const double source_to_wall_s = 1900.0;
+  const auto stampOf = [&](int frame) {
+    const double source_s = 100.0 + frame / 30.0;
+    return fw::Stamp{source_s, source_s + source_to_wall_s};
+  };
+  {
+    kinect3d::MatchLogWriter writer(folder, {"demo", "0.1.0", config.toYaml(), 2000.0, ""});
+    for (int i = 0; i < 30; ++i) {
+      fw::DepthImage image;
+      image.width = 64;
+      image.height = 48;
+      image.fx = image.fy = 57.5;
+      image.cx = 31.5;
+      image.cy = 23.5;
+      image.depth_mm.assign(64 * 48, 2000);
+      image.index = static_cast<std::uint64_t>(i);
+      image.source = "kinect3d";
+      image.stamp = stampOf(i);
+      writer.write({image.stamp.receive_time_s, image});
+      if (i == 3) {
+        fw::FusedBall ball;
+        ball.position_R = {0.2, 1.5, 1.1};
+        ball.state = fw::BallState::kAir;
+        ball.sources = {"kinect3d"};
+        ball.stamp = image.stamp;
+        writer.write({image.stamp.receive_time_s, ball});
+      }
+      if (i == 20) writer.write({image.stamp.receive_time_s, fw::FusedBallCleared{}});
+    }
+  }
+  ServedView view({folder});
+  EXPECT_TRUE(servedFrame(view, 2)["fused"].is_null()) << "before the fusion published it";
+  for (const int frame : {3, 10, 19}) {
+    const nlohmann::json fused = servedFrame(view, frame)["fused"];
+    ASSERT_TRUE(fused.is_object()) << "frame " << frame;
+    EXPECT_EQ(fused["p_m"], nlohmann::json({0.2, 1.5, 1.1})) << "frame " << frame;
+    EXPECT_NEAR(fused["published_ago_s"].get<double>(), (frame - 3) / 30.0, 1e-3) << "frame " << frame;
+  }
+  EXPECT_TRUE(servedFrame(view, 21)["fused"].is_null()) << "after the fusion cleared it";
+  EXPECT_EQ(view.stop(), 0);
 }
 
 TEST(LiveView, FollowsARobotAsItRunsAndStopsOnSigterm) {

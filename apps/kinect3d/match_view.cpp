@@ -283,10 +283,14 @@ std::optional<json> MatchView::frame(std::size_t frame) {
   }
   scene["kinect"] = kinect;
   scene["omni"] = omni;
+  // The world ball as the robot held it then: the fusion's last publication until it cleared the
+  // ball, however old (no source sees a ball above the robot, yet the robot still acts on it).
   scene["fused"] = nullptr;
-  if (const auto* fused = latestAt(p.fused, t, kRecent_s); fused != nullptr && *fused) {
-    scene["fused"] = {
-        {"p_m", xyz((*fused)->position_R)}, {"state", fw::toString((*fused)->state)}, {"sources", (*fused)->sources}};
+  if (const auto* fused = latestAt(p.fused, t, INFINITY); fused != nullptr && *fused) {
+    scene["fused"] = {{"p_m", xyz((*fused)->position_R)},
+                      {"state", fw::toString((*fused)->state)},
+                      {"sources", (*fused)->sources},
+                      {"published_ago_s", rounded(t - (*fused)->stamp.source_time_s)}};
   }
   scene["pose"] = nullptr;
   if (const fw::RobotPose* pose = latestAt(p.pose, t, 0.5)) {
