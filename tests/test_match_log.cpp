@@ -24,25 +24,11 @@
 #include "kinect3d/match_log.h"
 #include "run_command.h"
 #include "scoped_temp_dir.h"
+#include "small_depth_image.h"
 
 namespace {
 
 namespace fs = std::filesystem;
-
-fw::DepthImage depthImage(std::uint64_t index) {
-  fw::DepthImage image;
-  image.width = 64;
-  image.height = 48;
-  image.fx = image.fy = 57.5;
-  image.cx = 31.5;
-  image.cy = 23.5;
-  image.depth_mm.resize(64 * 48);
-  for (std::size_t i = 0; i < image.depth_mm.size(); ++i) image.depth_mm[i] = static_cast<std::uint16_t>(i * 7 + index);
-  image.index = index;
-  image.source = "kinect3d";
-  image.stamp = {100.0 + index / 30.0, 2000.0 + index / 30.0};
-  return image;
-}
 
 std::string errorOf(const std::string& folder) {
   try {
@@ -92,12 +78,12 @@ TEST(MatchLog, RoundTripsEveryKindOfPublication) {
       {1.6, fw::RobotPose{1.0, -2.0, 0.3, {99.8, 2000.0}}},
       {1.7, fw::Event{"kinect3d", "floor_found", "aligned", {100.0, 2000.0}}},
       {1.8, health},
-      {1.9, depthImage(0)},
+      {1.9, smallDepthImage(0)},
   };
   {
     kinect3d::MatchLogWriter writer(folder, run);
     for (const fw::JournalEntry& entry : written) writer.write(entry);
-    writer.write({2.0, depthImage(1)});
+    writer.write({2.0, smallDepthImage(1)});
     writer.commit();
   }
   const kinect3d::MatchLogReader log(folder);
@@ -138,7 +124,7 @@ TEST(MatchLog, RoundTripsEveryKindOfPublication) {
   double wall_s = 0.0;
   for (std::uint64_t i = 0; i < 2; ++i) {
     ASSERT_TRUE(frames.next(image, wall_s));
-    const fw::DepthImage expected = depthImage(i);
+    const fw::DepthImage expected = smallDepthImage(i);
     EXPECT_EQ(image.depth_mm, expected.depth_mm);  // lossless
     EXPECT_EQ(image.index, i);
     EXPECT_DOUBLE_EQ(image.stamp.source_time_s, expected.stamp.source_time_s);
@@ -168,7 +154,7 @@ TEST(MatchLog, ABadLogIsNamedWithItsFileAndWhatIsWrong) {
 
   {
     kinect3d::MatchLogWriter writer(dir.path().string(), {});
-    for (int i = 0; i < 200; ++i) writer.write({i * 1.0, depthImage(i)});
+    for (int i = 0; i < 200; ++i) writer.write({i * 1.0, smallDepthImage(i)});
   }
   fs::remove(file.string() + "-wal");
   fs::resize_file(file, fs::file_size(file) / 2);  // a copy cut short

@@ -28,6 +28,7 @@
 #include "kinect3d/match_log.h"
 #include "run_command.h"
 #include "scoped_temp_dir.h"
+#include "small_depth_image.h"
 
 namespace {
 
@@ -232,24 +233,11 @@ TEST(ViewedLog, TheFusedBallIsHeldUntilTheFusionClearsIt) {
   const std::string folder = (dir.path() / "run").string();
   const fw::Config config = fw::Config::load(std::string(PROJECT_CONFIG_DIR) + "/defaults",
                                              std::string(PROJECT_CONFIG_DIR) + "/robots/demo.yaml", {});
-  const double source_to_wall_s = 1900.0;
-  const auto stampOf = [&](int frame) {
-    const double source_s = 100.0 + frame / 30.0;
-    return fw::Stamp{source_s, source_s + source_to_wall_s};
-  };
   {
     kinect3d::MatchLogWriter writer(folder, {"demo", "0.1.0", config.toYaml(), 2000.0, ""});
     for (int i = 0; i < 30; ++i) {
-      fw::DepthImage image;
-      image.width = 64;
-      image.height = 48;
-      image.fx = image.fy = 57.5;
-      image.cx = 31.5;
-      image.cy = 23.5;
-      image.depth_mm.assign(64 * 48, 2000);
-      image.index = static_cast<std::uint64_t>(i);
-      image.source = "kinect3d";
-      image.stamp = stampOf(i);
+      fw::DepthImage image = smallDepthImage(static_cast<std::uint64_t>(i));
+      image.depth_mm.assign(image.depth_mm.size(), 2000);
       writer.write({image.stamp.receive_time_s, image});
       if (i == 3) {
         fw::FusedBall ball;
