@@ -51,7 +51,30 @@ struct MatchView::Published {
   std::vector<std::pair<double, fw::RobotPose>> pose;
 };
 
-MatchView::MatchView(const std::string& log_folder) : folder_(log_folder) { index(); }
+// The run's timelines as the page draws them, grown with the log.
+struct MatchView::Timelines {
+  json frames = json::array();
+  json height_kinect = {{"t_s", json::array()}, {"z_m", json::array()}};
+  json height_fused = height_kinect, height_truth = height_kinect;
+  json gap_kinect = {{"t_s", json::array()}, {"d_m", json::array()}}, gap_omni = gap_kinect;
+  std::map<std::string, json> processing, dropped;
+  std::map<std::string, std::uint64_t> dropped_before;
+  json events = json::array();
+  double omni_reach_m = 0.0;
+};
+
+MatchView::MatchView(const std::string& log_folder)
+    : folder_(log_folder),
+      log_(std::make_unique<MatchLogReader>(log_folder)),
+      truth_(std::make_unique<RecordedTruth>(log_->run())),
+      published_(std::make_unique<Published>()),
+      timelines_(std::make_unique<Timelines>()) {
+  const fw::ConfigView kinect3d =
+      fw::Config::parseDocument(log_->run().config_yaml, folder_ + " (recorded configuration)").block("kinect3d");
+  detector_config_ = readDetectorConfig(kinect3d);
+  detector_ = std::make_unique<BallDetector>(detector_config_, "view");
+  index();
+}
 MatchView::~MatchView() = default;
 
 std::uintmax_t MatchView::logBytes() const {
@@ -70,91 +93,88 @@ void MatchView::reloadIfGrown() {
 
 void MatchView::index() {
   log_bytes_ = logBytes();
-  log_ = std::make_unique<MatchLogReader>(folder_);
-  const RunInfo& run = log_->run();
-  truth_ = std::make_unique<RecordedTruth>(run);
-  const fw::ConfigView kinect3d =
-      fw::Config::parseDocument(run.config_yaml, folder_ + " (recorded configuration)").block("kinect3d");
-  if (!detector_) {
-    detector_config_ = readDetectorConfig(kinect3d);
-    detector_ = std::make_unique<BallDetector>(detector_config_, "view");
+  if (frames_.empty()) {
+    const auto sources = log_->depthSources();
+    depth_source_ = sources.empty() ? "kinect3d" : sources.front().first;
   }
-  const auto sources = log_->depthSources();
-  depth_source_ = sources.empty() ? "kinect3d" : sources.front().first;
-  frames_ = log_->depthFrameStamps(depth_source_);
-
-  // The depth sensor's clock against the host's, for what carries only a wall time.
-  std::vector<double> offsets;
-  for (const auto& frame : frames_) offsets.push_back(frame.source_time_s - frame.wall_time_s);
-  std::nth_element(offsets.begin(), offsets.begin() + offsets.size() / 2, offsets.end());
-  const double wall_to_source_s = offsets.empty() ? 0.0 : offsets[offsets.size() / 2];
-  const double t0 = frames_.empty() ? 0.0 : frames_.front().source_time_s;
-
-  published_ = std::make_unique<Published>();
-  Published& p = *published_;
-  json height_kinect = {{"t_s", json::array()}, {"z_m", json::array()}};
-  json height_fused = height_kinect, gap_kinect = {{"t_s", json::array()}, {"d_m", json::array()}},
-       gap_omni = gap_kinect;
-  std::map<std::string, json> processing, dropped;
-  std::map<std::string, std::uint64_t> dropped_before;
-  json events = json::array();
-  double omni_reach_m = 0.0;
+  const std::vector<MatchLogReader::DepthFrameStamp> new_frames =
+      log_->depthFrameStamps(depth_source_, frames_.empty() ? 0 : frames_.back().seq);
+  if (frames_.empty() && !new_frames.empty()) {
+    // The page's zero, and the depth sensor's clock against the host's for what carries only a wall
+    // time: fixed by the first frames, so what is indexed stays where it was drawn.
+    t0_ = new_frames.front().source_time_s;
+    std::vector<double> offsets;
+    for (const auto& frame : new_frames) offsets.push_back(frame.source_time_s - frame.wall_time_s);
+    std::nth_element(offsets.begin(), offsets.begin() + offsets.size() / 2, offsets.end());
+    wall_to_source_s_ = offsets[offsets.size() / 2];
+  }
+  Timelines& l = *timelines_;
   const auto addPoint = [&](json& series, const char* value_key, double t, double value) {
-    series["t_s"].push_back(rounded(t - t0));
+    series["t_s"].push_back(rounded(t - t0_));
     series[value_key].push_back(rounded(value));
   };
-  for (const fw::JournalEntry& entry : log_->entries()) {
-    const double wall_t = entry.wall_time_s + wall_to_source_s;
-    if (const auto* frame = std::get_if<fw::BallFrame>(&entry.item)) {
-      if (frame->balls.empty() || frame->balls.front().source != depth_source_) continue;
-      const double t = frame->stamp.source_time_s;
-      p.kinect.emplace_back(t, *frame);
-      for (const fw::BallObservation& ball : frame->balls) addPoint(height_kinect, "z_m", t, ball.position_m.z());
-      if (const auto* fused = latestAt(p.fused, t, kRecent_s); fused != nullptr && *fused) {
-        double nearest = 1e9;
-        for (const fw::BallObservation& ball : frame->balls) {
-          nearest = std::min(nearest, (ball.position_m - (*fused)->position_R).norm());
+  for (const auto& frame : new_frames) {
+    frames_.push_back(frame);
+    l.frames.push_back(rounded(frame.source_time_s - t0_));
+    if (truth_->known()) addPoint(l.height_truth, "z_m", frame.source_time_s, truth_->ball_R(frame.source_time_s).z());
+  }
+  // What was published since the last index (nothing before the first depth frame: it sets the zero).
+  Published& p = *published_;
+  if (!frames_.empty()) {
+    for (const fw::JournalEntry& entry : log_->entries(last_seq_, &last_seq_)) {
+      const double wall_t = entry.wall_time_s + wall_to_source_s_;
+      if (const auto* frame = std::get_if<fw::BallFrame>(&entry.item)) {
+        if (frame->balls.empty() || frame->balls.front().source != depth_source_) continue;
+        const double t = frame->stamp.source_time_s;
+        p.kinect.emplace_back(t, *frame);
+        for (const fw::BallObservation& ball : frame->balls) addPoint(l.height_kinect, "z_m", t, ball.position_m.z());
+        if (const auto* fused = latestAt(p.fused, t, kRecent_s); fused != nullptr && *fused) {
+          double nearest = 1e9;
+          for (const fw::BallObservation& ball : frame->balls) {
+            nearest = std::min(nearest, (ball.position_m - (*fused)->position_R).norm());
+          }
+          addPoint(l.gap_kinect, "d_m", t, nearest);
         }
-        addPoint(gap_kinect, "d_m", t, nearest);
-      }
-    } else if (const auto* omni = std::get_if<fw::OmniFrame>(&entry.item)) {
-      const double t = omni->stamp.source_time_s;
-      p.omni.emplace_back(t, *omni);
-      for (const fw::OmniBallObservation& ball : omni->balls) omni_reach_m = std::max(omni_reach_m, ball.distance_m);
-      if (const auto* fused = latestAt(p.fused, t, kRecent_s); fused != nullptr && *fused && !omni->balls.empty()) {
-        double nearest = 1e9;
-        for (const fw::OmniBallObservation& ball : omni->balls) {
-          nearest = std::min(nearest, (ball.groundPoint_R() - (*fused)->position_R).head<2>().norm());
+      } else if (const auto* omni = std::get_if<fw::OmniFrame>(&entry.item)) {
+        const double t = omni->stamp.source_time_s;
+        p.omni.emplace_back(t, *omni);
+        for (const fw::OmniBallObservation& ball : omni->balls)
+          l.omni_reach_m = std::max(l.omni_reach_m, ball.distance_m);
+        if (const auto* fused = latestAt(p.fused, t, kRecent_s); fused != nullptr && *fused && !omni->balls.empty()) {
+          double nearest = 1e9;
+          for (const fw::OmniBallObservation& ball : omni->balls) {
+            nearest = std::min(nearest, (ball.groundPoint_R() - (*fused)->position_R).head<2>().norm());
+          }
+          addPoint(l.gap_omni, "d_m", t, nearest);
         }
-        addPoint(gap_omni, "d_m", t, nearest);
+      } else if (const auto* fused = std::get_if<fw::FusedBall>(&entry.item)) {
+        p.fused.emplace_back(fused->stamp.source_time_s, *fused);
+        addPoint(l.height_fused, "z_m", fused->stamp.source_time_s, fused->position_F.z());
+      } else if (std::holds_alternative<fw::FusedBallCleared>(entry.item)) {
+        p.fused.emplace_back(wall_t, std::nullopt);
+      } else if (const auto* fit = std::get_if<fw::BallTrajectory>(&entry.item)) {
+        if (fit->source == depth_source_) p.trajectory.emplace_back(fit->time_s, *fit);
+      } else if (const auto* lost = std::get_if<fw::TrajectoryCleared>(&entry.item)) {
+        if (lost->source == depth_source_) p.trajectory.emplace_back(wall_t, std::nullopt);
+      } else if (const auto* pose = std::get_if<fw::RobotPose>(&entry.item)) {
+        p.pose.emplace_back(pose->stamp.source_time_s, *pose);
+      } else if (const auto* health = std::get_if<fw::PluginHealth>(&entry.item)) {
+        json& series = l.processing[health->plugin];
+        if (series.is_null()) series = {{"t_s", json::array()}, {"p50_ms", json::array()}, {"p99_ms", json::array()}};
+        series["t_s"].push_back(rounded(wall_t - t0_));
+        series["p50_ms"].push_back(rounded(1000.0 * health->processing_p50_s, 0.01));
+        series["p99_ms"].push_back(rounded(1000.0 * health->processing_p99_s, 0.01));
+        json& lost_frames = l.dropped[health->plugin];
+        if (lost_frames.is_null()) lost_frames = {{"t_s", json::array()}, {"frames", json::array()}};
+        lost_frames["t_s"].push_back(rounded(wall_t - t0_));
+        lost_frames["frames"].push_back(health->dropped_frames - l.dropped_before[health->plugin]);
+        l.dropped_before[health->plugin] = health->dropped_frames;
+      } else if (const auto* event = std::get_if<fw::Event>(&entry.item)) {
+        l.events.push_back({{"t_s", rounded(event->stamp.source_time_s - t0_)},
+                            {"source", event->source},
+                            {"kind", event->kind},
+                            {"message", event->message}});
       }
-    } else if (const auto* fused = std::get_if<fw::FusedBall>(&entry.item)) {
-      p.fused.emplace_back(fused->stamp.source_time_s, *fused);
-      addPoint(height_fused, "z_m", fused->stamp.source_time_s, fused->position_F.z());
-    } else if (std::holds_alternative<fw::FusedBallCleared>(entry.item)) {
-      p.fused.emplace_back(wall_t, std::nullopt);
-    } else if (const auto* fit = std::get_if<fw::BallTrajectory>(&entry.item)) {
-      if (fit->source == depth_source_) p.trajectory.emplace_back(fit->time_s, *fit);
-    } else if (const auto* lost = std::get_if<fw::TrajectoryCleared>(&entry.item)) {
-      if (lost->source == depth_source_) p.trajectory.emplace_back(wall_t, std::nullopt);
-    } else if (const auto* pose = std::get_if<fw::RobotPose>(&entry.item)) {
-      p.pose.emplace_back(pose->stamp.source_time_s, *pose);
-    } else if (const auto* health = std::get_if<fw::PluginHealth>(&entry.item)) {
-      json& series = processing[health->plugin];
-      if (series.is_null()) series = {{"t_s", json::array()}, {"p50_ms", json::array()}, {"p99_ms", json::array()}};
-      series["t_s"].push_back(rounded(wall_t - t0));
-      series["p50_ms"].push_back(rounded(1000.0 * health->processing_p50_s, 0.01));
-      series["p99_ms"].push_back(rounded(1000.0 * health->processing_p99_s, 0.01));
-      json& lost_frames = dropped[health->plugin];
-      if (lost_frames.is_null()) lost_frames = {{"t_s", json::array()}, {"frames", json::array()}};
-      lost_frames["t_s"].push_back(rounded(wall_t - t0));
-      lost_frames["frames"].push_back(health->dropped_frames - dropped_before[health->plugin]);
-      dropped_before[health->plugin] = health->dropped_frames;
-    } else if (const auto* event = std::get_if<fw::Event>(&entry.item)) {
-      events.push_back({{"t_s", rounded(event->stamp.source_time_s - t0)},
-                        {"source", event->source},
-                        {"kind", event->kind},
-                        {"message", event->message}});
     }
   }
   // Publications arrive in the order they were published, not always in their stamps' order.
@@ -165,32 +185,27 @@ void MatchView::index() {
   std::stable_sort(p.trajectory.begin(), p.trajectory.end(), byTime);
   std::stable_sort(p.pose.begin(), p.pose.end(), byTime);
 
-  json frames = json::array(), height_truth = {{"t_s", json::array()}, {"z_m", json::array()}};
-  for (const auto& frame : frames_) {
-    frames.push_back(rounded(frame.source_time_s - t0));
-    if (truth_->known()) addPoint(height_truth, "z_m", frame.source_time_s, truth_->ball_R(frame.source_time_s).z());
-  }
   json processing_series = json::array(), dropped_series = json::array();
-  for (auto& [plugin, series] : processing) processing_series.push_back({{"plugin", plugin}, {"series", series}});
-  for (auto& [plugin, series] : dropped) dropped_series.push_back({{"plugin", plugin}, {"series", series}});
-
+  for (const auto& [plugin, series] : l.processing)
+    processing_series.push_back({{"plugin", plugin}, {"series", series}});
+  for (const auto& [plugin, series] : l.dropped) dropped_series.push_back({{"plugin", plugin}, {"series", series}});
+  const RunInfo& run = log_->run();
   run_ = {{"robot", run.robot},
           {"software_version", run.software_version},
           {"replayed_from", run.replayed_from},
           {"folder", folder_},
           {"depth_source", depth_source_},
-          {"frames_t_s", frames},
+          {"frames_t_s", l.frames},
           {"ball_radius_m", detector_config_.ball.radius_m},
           {"voxel_m", detector_config_.grid.voxel_m},
           {"max_range_m", detector_config_.points.max_range_m},
-          {"omni_reach_m", rounded(omni_reach_m)},
+          {"omni_reach_m", rounded(l.omni_reach_m)},
           {"truth", truth_->known()},
-          {"height", {{"kinect", height_kinect}, {"fused", height_fused}, {"truth", height_truth}}},
-          {"gap", {{"kinect", gap_kinect}, {"omni", gap_omni}}},
+          {"height", {{"kinect", l.height_kinect}, {"fused", l.height_fused}, {"truth", l.height_truth}}},
+          {"gap", {{"kinect", l.gap_kinect}, {"omni", l.gap_omni}}},
           {"processing", processing_series},
           {"dropped", dropped_series},
-          {"events", events}};
-  t0_ = t0;
+          {"events", l.events}};
 }
 
 json MatchView::run() {

@@ -6,8 +6,9 @@
 //
 // The voxels and masks are not in the log: the frame's depth is run through the detector again with
 // the recorded configuration (the same grid and mask the robot used; the scene map, which needs the
-// frames before, is not involved). A log that is still being written (the live view) is read again
-// when it has grown.
+// frames before, is not involved). A log that is still being written (the live view) is followed as
+// it grows: only what was logged since the last look is read, so a poll costs what is new, not the
+// whole match.
 #pragma once
 
 #include <nlohmann/json.hpp>
@@ -43,9 +44,10 @@ class MatchView {
 
  private:
   struct Published;
+  struct Timelines;
   std::uintmax_t logBytes() const;  // the database and its write-ahead log
   void reloadIfGrown();
-  void index();
+  void index();  // reads what was logged since the last call
   DepthFrame depthFrame(std::size_t frame) const;
 
   std::string folder_;
@@ -55,8 +57,11 @@ class MatchView {
   std::unique_ptr<BallDetector> detector_;
   std::string depth_source_;
   std::vector<MatchLogReader::DepthFrameStamp> frames_;
-  double t0_ = 0.0;  // the first depth frame's source time: the page's zero
+  double t0_ = 0.0;                // the first depth frame's source time: the page's zero
+  double wall_to_source_s_ = 0.0;  // the depth sensor's clock minus the host's
   std::unique_ptr<Published> published_;
+  std::unique_ptr<Timelines> timelines_;
+  std::int64_t last_seq_ = 0;  // the log read up to here
   nlohmann::json run_;
   std::uintmax_t log_bytes_ = 0;
   std::mutex mutex_;  // the HTTP server asks from several threads

@@ -1,5 +1,7 @@
-// vision_host: runs the plugins a robot configuration enables until SIGINT/SIGTERM, the
-// configured duration, or the end of every plugin's source; then prints a per-plugin summary.
+// vision_host: runs the plugins a robot configuration enables until a stop signal (SIGINT, SIGTERM,
+// SIGHUP, SIGQUIT), the configured duration, or the end of every plugin's source; then prints a
+// per-plugin summary. Exit codes (docs/architecture.md): 0 a clean stop, 1 a plugin gave up,
+// 2 the configuration or a plugin could not be loaded, 3 a plugin was stuck and left behind.
 #include <CLI/CLI.hpp>
 
 #include <unistd.h>
@@ -20,6 +22,8 @@ int main(int argc, char** argv) {
   // Whatever reads our output may go away (tee, an ssh session): a write then fails with EPIPE
   // instead of killing the host mid-match.
   std::signal(SIGPIPE, SIG_IGN);
+  // Likewise a file-size limit: the write fails (the logger says so and goes on), the robot plays.
+  std::signal(SIGXFSZ, SIG_IGN);
   const sigset_t stop_signals = fw::blockStopSignals();
 
   CLI::App app{"Runs the vision plugins a robot configuration enables."};
@@ -65,7 +69,7 @@ int main(int argc, char** argv) {
     while (reason.empty()) {
       const int signal_number = sigtimedwait(&stop_signals, nullptr, &poll);
       if (signal_number > 0) {
-        reason = signal_number == SIGINT ? "SIGINT" : "SIGTERM";
+        reason = fw::stopSignalName(signal_number);
       } else if (host.watch(); host.sourcesFinished()) {
         reason = "every source ended";
       } else if (duration_s > 0.0 &&

@@ -19,9 +19,6 @@ Clock::duration errorBackoff(int consecutive_errors) {
   return std::min<Clock::duration>(std::chrono::milliseconds(10) * (1 << doublings), std::chrono::seconds(1));
 }
 
-// Log the first few errors of a plugin, then one in a hundred, so a failing camera cannot flood
-// the log during a match.
-bool shouldLogError(std::uint64_t error_count) { return error_count <= 5 || error_count % 100 == 0; }
 }  // namespace
 
 struct Host::Running {
@@ -225,7 +222,7 @@ void Host::run(Running& plugin) {
       }
       ++summary.errors;
       summary.last_error = error;
-      if (shouldLogError(summary.errors)) {
+      if (worthLogging(summary.errors)) {
         logError(summary.name, "step failed (" + std::to_string(summary.errors) + "): " + error);
       }
       if (++consecutive_errors >= max_consecutive_errors_) {
@@ -266,10 +263,24 @@ std::string formatSummary(const PluginSummary& summary) {
 sigset_t blockStopSignals() {
   sigset_t signals;
   sigemptyset(&signals);
-  sigaddset(&signals, SIGINT);
-  sigaddset(&signals, SIGTERM);
+  for (const int signal_number : {SIGINT, SIGTERM, SIGHUP, SIGQUIT}) sigaddset(&signals, signal_number);
   pthread_sigmask(SIG_BLOCK, &signals, nullptr);
   return signals;
+}
+
+std::string stopSignalName(int signal_number) {
+  switch (signal_number) {
+    case SIGINT:
+      return "SIGINT";
+    case SIGTERM:
+      return "SIGTERM";
+    case SIGHUP:
+      return "SIGHUP";
+    case SIGQUIT:
+      return "SIGQUIT";
+    default:
+      return "signal " + std::to_string(signal_number);
+  }
 }
 
 }  // namespace fw

@@ -82,9 +82,13 @@ class Host {
 // One summary line per plugin: "kinect3d 1.0.0: 301 frames in 10.0 s (30.1 Hz), 0 errors".
 std::string formatSummary(const PluginSummary& summary);
 
-// For a program that runs a host: blocks SIGINT and SIGTERM in the calling thread and, by
-// inheritance, in every plugin thread started after it, so that no handler runs inside a plugin;
-// its main loop collects them with sigtimedwait(returned set, ...) between Host::watch() calls.
+// For a program that runs a host: blocks every signal that asks a robot's program to end (SIGINT
+// from Ctrl-C, SIGTERM from a service manager, SIGHUP from an ssh session that drops, SIGQUIT from
+// Ctrl-\) in the calling thread and, by inheritance, in every plugin thread started after it, so
+// that no handler runs inside a plugin and none kills the process mid-write; its main loop collects
+// them with sigtimedwait(returned set, ...) between Host::watch() calls and stops the same clean way.
 sigset_t blockStopSignals();
+// "SIGHUP" and the like, for the summary line.
+std::string stopSignalName(int signal_number);
 
 }  // namespace fw

@@ -2,6 +2,7 @@
 // Standard output is left to a program's data (JSON lines, summaries).
 #pragma once
 
+#include <cstdint>
 #include <string>
 
 namespace fw {
@@ -18,5 +19,9 @@ inline void logWarn(const std::string& component, const std::string& message) {
 inline void logError(const std::string& component, const std::string& message) {
   log(LogLevel::kError, component, message);
 }
+
+// Whether the count-th occurrence (from 1) of one kind of message is worth a line: the first five,
+// then one in a hundred, so a failing camera or a broken clock cannot flood the log during a match.
+inline bool worthLogging(std::uint64_t count) { return count <= 5 || count % 100 == 0; }
 
 }  // namespace fw

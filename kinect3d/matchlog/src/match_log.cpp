@@ -4,6 +4,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 #include <ctime>
 #include <filesystem>
 #include <map>
@@ -155,13 +157,24 @@ Eigen::Matrix3d symmetric(const Statement& q, int first) {
 
 }  // namespace
 
-std::string runFolderName(const std::string& base, const std::string& robot, double wall_time_s) {
+std::string claimRunFolder(const std::string& base, const std::string& robot, double wall_time_s) {
   const std::time_t seconds = static_cast<std::time_t>(wall_time_s);
   std::tm local{};
   localtime_r(&seconds, &local);
   char stamp[32];
   std::strftime(stamp, sizeof stamp, "%Y-%m-%d_%H-%M-%S", &local);
-  return (fs::path(base) / (std::string(stamp) + "_" + robot)).string();
+  const fs::path name = fs::path(base) / (std::string(stamp) + "_" + robot);
+  std::error_code error;
+  fs::create_directories(base, error);
+  if (error) throw MatchLogError(base + ": cannot create the log folder: " + error.message());
+  // create_directory is atomic: of two runs asking for one name, exactly one gets it.
+  constexpr int kMaxTries = 1000;
+  for (int n = 1; n <= kMaxTries; ++n) {
+    const fs::path folder = n == 1 ? name : fs::path(name.string() + "-" + std::to_string(n));
+    if (fs::create_directory(folder, error)) return folder.string();
+    if (error) throw MatchLogError(folder.string() + ": cannot create the run's folder: " + error.message());
+  }
+  throw MatchLogError(base + ": " + std::to_string(kMaxTries) + " runs of '" + robot + "' started within one second");
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -249,6 +262,11 @@ std::uint64_t MatchLogWriter::bytesOnDisk() const {
     if (!error) bytes += size;
   }
   return bytes;
+}
+
+bool MatchLogWriter::fileGone() const {
+  std::error_code error;
+  return !fs::exists(path_, error) && !error;
 }
 
 void MatchLogWriter::write(const fw::JournalEntry& entry) {
@@ -346,15 +364,8 @@ MatchLogReader::MatchLogReader(const std::string& folder)
         (fs::is_directory(folder) ? "the folder has no " + std::string(kMatchLogFile) : std::string("no such folder")) +
         ")");
   }
-  // Read-only, but a WAL database left by a killed writer still needs its -shm file: opened read-write
-  // by SQLite itself if need be, never changing the data.
-  if (sqlite3_open_v2(path_.c_str(), &db_, SQLITE_OPEN_READONLY, nullptr) != SQLITE_OK) {
-    const std::string reason = db_ != nullptr ? sqlite3_errmsg(db_) : "out of memory";
-    sqlite3_close(db_);
-    db_ = nullptr;
-    throw MatchLogError(path_ + ": " + reason);
-  }
   try {
+    open();
     Statement version(db_, "PRAGMA user_version", path_);
     version.row();
     const std::int64_t schema = version.integer(0);
@@ -380,24 +391,110 @@ MatchLogReader::MatchLogReader(const std::string& folder)
   } catch (const MatchLogError& e) {
     sqlite3_close(db_);
     db_ = nullptr;
+    if (!private_copy_.empty()) {
+      std::error_code ignored;
+      fs::remove_all(private_copy_, ignored);
+    }
     const std::string what = e.what();
     // SQLite's own messages ("file is not a database") get the file in front, ours have it already.
     throw MatchLogError(what.rfind(path_, 0) == 0 ? what : path_ + ": " + what);
   }
 }
 
-MatchLogReader::~MatchLogReader() { sqlite3_close(db_); }
+namespace {
+
+bool nonEmptyFile(const fs::path& path) {
+  std::error_code error;
+  return fs::file_size(path, error) > 0 && !error;
+}
+
+// path as an SQLite URI ("file:/logs/a%3Fb/match.sqlite").
+std::string fileUri(const std::string& path) {
+  std::string uri = "file:";
+  for (const char c : path) {
+    if (c == '%' || c == '?' || c == '#') {
+      char escaped[4];
+      std::snprintf(escaped, sizeof escaped, "%%%02X", static_cast<unsigned char>(c));
+      uri += escaped;
+    } else {
+      uri += c;
+    }
+  }
+  return uri;
+}
+
+}  // namespace
+
+void MatchLogReader::open() {
+  const auto tryOpen = [&](const std::string& name, int flags) {
+    if (sqlite3_open_v2(name.c_str(), &db_, flags, nullptr) == SQLITE_OK &&
+        sqlite3_exec(db_, "SELECT count(*) FROM sqlite_master", nullptr, nullptr, nullptr) == SQLITE_OK) {
+      return std::string();
+    }
+    const std::string reason = db_ != nullptr ? sqlite3_errmsg(db_) : "out of memory";
+    sqlite3_close(db_);
+    db_ = nullptr;
+    return reason;
+  };
+  // A log closed cleanly has no write-ahead file: read as immutable, SQLite writes nothing anywhere
+  // (a read-only medium, another user's folder, a folder the reader must leave as it found it).
+  const fs::path wal = path_ + "-wal", shm = path_ + "-shm";
+  std::string reason;
+  if (!nonEmptyFile(wal)) {
+    reason = tryOpen(fileUri(path_) + "?immutable=1", SQLITE_OPEN_READONLY | SQLITE_OPEN_URI);
+    if (reason.empty()) return;
+    throw MatchLogError(path_ + ": " + reason);
+  }
+  // Being written (a robot running), or left by a writer that was killed: with both of its files
+  // there, a read-only reader shares them and adds none.
+  if (fs::exists(shm)) {
+    reason = tryOpen(path_, SQLITE_OPEN_READONLY);
+    if (reason.empty()) return;
+  }
+  // Else (a -shm missing, or not to be read here) a private copy of the database and its
+  // write-ahead file, in which SQLite may recover what the writer committed.
+  std::string folder = (fs::temp_directory_path() / "kinect3d_log_XXXXXX").string();
+  if (mkdtemp(folder.data()) == nullptr) throw MatchLogError(path_ + ": cannot make a private copy to read");
+  private_copy_ = folder;
+  std::error_code error;
+  const fs::path copy = fs::path(folder) / kMatchLogFile;
+  fs::copy_file(path_, copy, error);
+  if (!error) fs::copy_file(wal, copy.string() + "-wal", error);
+  if (error) throw MatchLogError(path_ + ": cannot make a private copy to read: " + error.message());
+  reason = tryOpen(copy.string(), SQLITE_OPEN_READWRITE);
+  if (!reason.empty()) throw MatchLogError(path_ + ": " + reason);
+}
+
+MatchLogReader::~MatchLogReader() {
+  sqlite3_close(db_);
+  if (!private_copy_.empty()) {
+    std::error_code ignored;
+    fs::remove_all(private_copy_, ignored);
+  }
+}
 
 void MatchLogReader::fail(const std::string& reason) const { throw MatchLogError(path_ + ": " + reason); }
 
-std::vector<fw::JournalEntry> MatchLogReader::entries() const {
+std::vector<fw::JournalEntry> MatchLogReader::entries(std::int64_t after_seq, std::int64_t* last_seq) const {
+  // One read transaction: every table as of one commit, however the writer goes on meanwhile.
+  struct Snapshot {
+    explicit Snapshot(sqlite3* db) : db(db) { sqlite3_exec(db, "BEGIN", nullptr, nullptr, nullptr); }
+    ~Snapshot() { sqlite3_exec(db, "COMMIT", nullptr, nullptr, nullptr); }
+    sqlite3* db;
+  } snapshot(db_);
+  // Each query, of the rows after after_seq.
+  const auto query = [&](const std::string& sql) {
+    auto q = std::make_unique<Statement>(db_, sql.c_str(), path_);
+    sqlite3_bind_int64(q->stmt, 1, after_seq);
+    return q;
+  };
   std::map<std::int64_t, fw::JournalEntry> by_seq;
   {
-    Statement q(db_,
-                "SELECT seq, wall_time_s, source, source_time_s, receive_time_s, frame, state, x_m, y_m, z_m, "
-                "cov_xx_m2, cov_xy_m2, cov_xz_m2, cov_yy_m2, cov_yz_m2, cov_zz_m2, support_points, is_static "
-                "FROM ball ORDER BY seq, ball_index",
-                path_);
+    const auto ball = query(
+        "SELECT seq, wall_time_s, source, source_time_s, receive_time_s, frame, state, x_m, y_m, z_m, "
+        "cov_xx_m2, cov_xy_m2, cov_xz_m2, cov_yy_m2, cov_yz_m2, cov_zz_m2, support_points, is_static "
+        "FROM ball WHERE seq > ? ORDER BY seq, ball_index");
+    Statement& q = *ball;
     while (q.row()) {
       fw::JournalEntry& entry = by_seq[q.integer(0)];
       if (!std::holds_alternative<fw::BallFrame>(entry.item)) entry.item = fw::BallFrame{};
@@ -417,12 +514,13 @@ std::vector<fw::JournalEntry> MatchLogReader::entries() const {
     }
   }
   {
-    Statement q(db_, "SELECT seq, wall_time_s, source_time_s, receive_time_s FROM omni_frame", path_);
+    const auto frames = query("SELECT seq, wall_time_s, source_time_s, receive_time_s FROM omni_frame WHERE seq > ?");
+    Statement& q = *frames;
     while (q.row()) by_seq[q.integer(0)] = {q.real(1), fw::OmniFrame{{q.real(2), q.real(3)}, {}}};
-    Statement balls(db_,
-                    "SELECT seq, source, bearing_rad, distance_m, bearing_sigma_rad, distance_sigma_m FROM omni_ball "
-                    "ORDER BY seq, ball_index",
-                    path_);
+    const auto omni_balls = query(
+        "SELECT seq, source, bearing_rad, distance_m, bearing_sigma_rad, distance_sigma_m FROM omni_ball "
+        "WHERE seq > ? ORDER BY seq, ball_index");
+    Statement& balls = *omni_balls;
     while (balls.row()) {
       auto found = by_seq.find(balls.integer(0));
       if (found == by_seq.end() || !std::holds_alternative<fw::OmniFrame>(found->second.item)) {
@@ -440,12 +538,12 @@ std::vector<fw::JournalEntry> MatchLogReader::entries() const {
     }
   }
   {
-    Statement q(db_,
-                "SELECT seq, wall_time_s, source, lost, time_s, state, x_m, y_m, z_m, vx_mps, vy_mps, vz_mps, "
-                "gravity_mps2, drag_per_m, curve_radps, rolling_decel_mps2, support, rms_m, touchdown_x_m, "
-                "touchdown_y_m, touchdown_time_s, touchdown_sigma_m, crossing_x_m, crossing_z_m, crossing_time_s "
-                "FROM trajectory",
-                path_);
+    const auto trajectories = query(
+        "SELECT seq, wall_time_s, source, lost, time_s, state, x_m, y_m, z_m, vx_mps, vy_mps, vz_mps, "
+        "gravity_mps2, drag_per_m, curve_radps, rolling_decel_mps2, support, rms_m, touchdown_x_m, "
+        "touchdown_y_m, touchdown_time_s, touchdown_sigma_m, crossing_x_m, crossing_z_m, crossing_time_s "
+        "FROM trajectory WHERE seq > ?");
+    Statement& q = *trajectories;
     while (q.row()) {
       fw::JournalEntry& entry = by_seq[q.integer(0)];
       entry.wall_time_s = q.real(1);
@@ -471,11 +569,12 @@ std::vector<fw::JournalEntry> MatchLogReader::entries() const {
     }
   }
   {
-    Statement q(db_,
-                "SELECT seq, wall_time_s, none, source_time_s, receive_time_s, state, air_probability, x_field_m, "
-                "y_field_m, z_field_m, vx_field_mps, vy_field_mps, vz_field_mps, x_robot_m, y_robot_m, z_robot_m, "
-                "cov_xx_m2, cov_xy_m2, cov_xz_m2, cov_yy_m2, cov_yz_m2, cov_zz_m2, sources, age_s FROM fused_ball",
-                path_);
+    const auto fused = query(
+        "SELECT seq, wall_time_s, none, source_time_s, receive_time_s, state, air_probability, x_field_m, "
+        "y_field_m, z_field_m, vx_field_mps, vy_field_mps, vz_field_mps, x_robot_m, y_robot_m, z_robot_m, "
+        "cov_xx_m2, cov_xy_m2, cov_xz_m2, cov_yy_m2, cov_yz_m2, cov_zz_m2, sources, age_s FROM fused_ball "
+        "WHERE seq > ?");
+    Statement& q = *fused;
     while (q.row()) {
       fw::JournalEntry& entry = by_seq[q.integer(0)];
       entry.wall_time_s = q.real(1);
@@ -497,23 +596,25 @@ std::vector<fw::JournalEntry> MatchLogReader::entries() const {
     }
   }
   {
-    Statement q(db_, "SELECT seq, wall_time_s, source_time_s, receive_time_s, x_m, y_m, theta_rad FROM robot_pose",
-                path_);
+    const auto poses = query(
+        "SELECT seq, wall_time_s, source_time_s, receive_time_s, x_m, y_m, theta_rad FROM robot_pose WHERE seq > ?");
+    Statement& q = *poses;
     while (q.row())
       by_seq[q.integer(0)] = {q.real(1), fw::RobotPose{q.real(4), q.real(5), q.real(6), {q.real(2), q.real(3)}}};
   }
   {
-    Statement q(db_, "SELECT seq, wall_time_s, source, kind, message, source_time_s, receive_time_s FROM event", path_);
+    const auto events =
+        query("SELECT seq, wall_time_s, source, kind, message, source_time_s, receive_time_s FROM event WHERE seq > ?");
+    Statement& q = *events;
     while (q.row()) {
       by_seq[q.integer(0)] = {q.real(1), fw::Event{q.text(2), q.text(3), q.text(4), {q.real(5), q.real(6)}}};
     }
   }
   {
-    Statement q(
-        db_,
+    const auto health = query(
         "SELECT seq, wall_time_s, plugin, frames, rate_hz, processing_p50_s, processing_p99_s, dropped_frames, errors, "
-        "stuck, second_end_wall_time_s FROM health",
-        path_);
+        "stuck, second_end_wall_time_s FROM health WHERE seq > ?");
+    Statement& q = *health;
     while (q.row()) {
       fw::PluginHealth h;
       h.plugin = q.text(2);
@@ -527,6 +628,15 @@ std::vector<fw::JournalEntry> MatchLogReader::entries() const {
       h.wall_time_s = q.real(10);
       by_seq[q.integer(0)] = {q.real(1), h};
     }
+  }
+  if (last_seq != nullptr) {
+    const auto latest = query(
+        "SELECT max(seq) FROM (SELECT seq FROM ball WHERE seq > ?1 UNION ALL "
+        "SELECT seq FROM omni_frame WHERE seq > ?1 UNION ALL SELECT seq FROM trajectory WHERE "
+        "seq > ?1 UNION ALL SELECT seq FROM fused_ball WHERE seq > ?1 UNION ALL SELECT seq FROM "
+        "robot_pose WHERE seq > ?1 UNION ALL SELECT seq FROM event WHERE seq > ?1 UNION ALL "
+        "SELECT seq FROM health WHERE seq > ?1 UNION ALL SELECT seq FROM depth_frame WHERE seq > ?1)");
+    *last_seq = latest->row() && !latest->isNull(0) ? latest->integer(0) : after_seq;
   }
   std::vector<fw::JournalEntry> entries;
   entries.reserve(by_seq.size());
@@ -548,6 +658,7 @@ constexpr const char* kDepthColumns =
 
 MatchLogReader::DepthFrames::DepthFrames(const MatchLogReader& log, const std::string& source)
     : log_(log),
+      source_(source),
       query_(std::make_unique<Statement>(
           log.db_, (std::string("SELECT ") + kDepthColumns + " FROM depth_frame WHERE source = ? ORDER BY seq").c_str(),
           log.path_)) {
@@ -559,13 +670,18 @@ MatchLogReader::DepthFrames::~DepthFrames() = default;
 bool MatchLogReader::DepthFrames::next(fw::DepthImage& image, double& wall_time_s) {
   if (!query_->row()) return false;
   log_.decodeDepthRow(*query_, image, wall_time_s);
+  image.source = source_;
   return true;
 }
 
-std::vector<MatchLogReader::DepthFrameStamp> MatchLogReader::depthFrameStamps(const std::string& source) const {
-  Statement q(db_, "SELECT seq, frame_index, source_time_s, wall_time_s FROM depth_frame WHERE source = ? ORDER BY seq",
+std::vector<MatchLogReader::DepthFrameStamp> MatchLogReader::depthFrameStamps(const std::string& source,
+                                                                              std::int64_t after_seq) const {
+  Statement q(db_,
+              "SELECT seq, frame_index, source_time_s, wall_time_s FROM depth_frame WHERE source = ? AND seq > ? "
+              "ORDER BY seq",
               path_);
   sqlite3_bind_text(q.stmt, 1, source.c_str(), -1, SQLITE_TRANSIENT);
+  sqlite3_bind_int64(q.stmt, 2, after_seq);
   std::vector<DepthFrameStamp> stamps;
   while (q.row()) stamps.push_back({q.integer(0), static_cast<std::uint64_t>(q.integer(1)), q.real(2), q.real(3)});
   return stamps;

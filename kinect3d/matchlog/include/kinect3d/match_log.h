@@ -40,8 +40,11 @@ struct RunInfo {
   std::string replayed_from;  // a replay: the log it re-ran; empty for a live run
 };
 
-// "<base>/2026-11-22_14-03-07_demo": where a run of robot started at wall_time_s logs (local time).
-std::string runFolderName(const std::string& base, const std::string& robot, double wall_time_s);
+// Creates and returns "<base>/2026-11-22_14-03-07_demo", the folder of a run of robot started at
+// wall_time_s (local time), or "..._demo-2", "-3", ... when another run took that name (a restart
+// within the same second, two robots sharing a base): the folder is created here, so no two callers
+// ever get the same one. Throws MatchLogError naming base and the reason when it cannot create it.
+std::string claimRunFolder(const std::string& base, const std::string& robot, double wall_time_s);
 
 // A prepared statement, finalised with its owner.
 struct Statement;
@@ -62,6 +65,9 @@ class MatchLogWriter {
   const std::string& folder() const { return folder_; }
   // The database and its write-ahead log, in bytes.
   std::uint64_t bytesOnDisk() const;
+  // The database file is no longer where it was created (its folder deleted or moved under the
+  // writer): whatever is written from now on is lost.
+  bool fileGone() const;
 
  private:
   void exec(const std::string& sql);
@@ -78,8 +84,11 @@ class MatchLogWriter {
 
 class MatchLogReader {
  public:
-  // Opens folder/match.sqlite read-only. Throws MatchLogError naming the file and what is wrong
-  // (missing, not a database, not a match log, another schema version, damaged).
+  // Opens folder/match.sqlite for reading, writing nothing beside it: a log closed cleanly is read
+  // as immutable (read-only media and other users' folders work); one being written, or left by a
+  // killed writer, is shared read-only with its write-ahead files, or read from a private copy
+  // (removed with the reader) when they cannot be shared. Throws MatchLogError naming the file and
+  // what is wrong (missing, not a database, not a match log, another schema version, damaged).
   explicit MatchLogReader(const std::string& folder);
   ~MatchLogReader();
   MatchLogReader(const MatchLogReader&) = delete;
@@ -87,8 +96,10 @@ class MatchLogReader {
 
   const std::string& folder() const { return folder_; }
   const RunInfo& run() const { return run_; }
-  // Everything but the depth, in the order it was logged.
-  std::vector<fw::JournalEntry> entries() const;
+  // Everything but the depth, in the order it was logged; with after_seq, only what was logged
+  // after that place (a reader following a log as it grows). last_seq: set to the newest place read
+  // (depth included), to pass as after_seq next time. One consistent snapshot of the log.
+  std::vector<fw::JournalEntry> entries(std::int64_t after_seq = 0, std::int64_t* last_seq = nullptr) const;
   // The depth plugins that recorded depth, and how many frames each.
   std::vector<std::pair<std::string, std::uint64_t>> depthSources() const;
 
@@ -99,7 +110,7 @@ class MatchLogReader {
     double source_time_s;
     double wall_time_s;
   };
-  std::vector<DepthFrameStamp> depthFrameStamps(const std::string& source) const;
+  std::vector<DepthFrameStamp> depthFrameStamps(const std::string& source, std::int64_t after_seq = 0) const;
   // One depth frame by its seq. Throws MatchLogError naming it when it is missing or undecodable.
   fw::DepthImage depthFrame(std::int64_t seq) const;
 
@@ -116,16 +127,19 @@ class MatchLogReader {
 
    private:
     const MatchLogReader& log_;
+    std::string source_;
     std::unique_ptr<Statement> query_;
   };
 
  private:
+  void open();
   [[noreturn]] void fail(const std::string& reason) const;
   // A depth_frame row's columns (seq, wall_time_s, frame_index, ... png) into image.
   void decodeDepthRow(Statement& row, fw::DepthImage& image, double& wall_time_s) const;
   std::string path_;
   std::string folder_;
   sqlite3* db_ = nullptr;
+  std::string private_copy_;  // a folder of ours to remove, when reading a copy
   RunInfo run_;
 };
 
