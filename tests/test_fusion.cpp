@@ -5,6 +5,7 @@
 
 #include <cmath>
 #include <functional>
+#include <limits>
 #include <random>
 
 #include "fusion/ball_fusion.h"
@@ -305,6 +306,69 @@ TEST(Fusion, ALostBallIsDroppedAfterTheConfiguredTimeAndReacquired) {
   EXPECT_FALSE(at(2.0 + 1.0 / 30).ball);
   EXPECT_TRUE(at(2.0 + 4.0 / 30).ball) << "confirmed again after three measurements";
   EXPECT_LT((at(2.9).ball->position_F - at(2.9).ball->position_F).norm(), 1e-12);
+  EXPECT_LT((run.updates.back().ball->position_F - run.truth.back()).norm(), 0.05);
+}
+
+namespace {
+
+// A ball rolling across the view of both sensors for 3 s, each stamping with its own clock
+// (true time -> stamp); the updates after each Kinect frame and the truth then.
+FedRun feedRollingWithClocks(fusion::BallFusion& fusion, const std::function<double(int, double)>& kinect_clock,
+                             const std::function<double(int, double)>& omni_clock) {
+  std::mt19937 random(11);
+  const Truth rolling = [](double t) { return Eigen::Vector3d(-1.0 + 0.8 * (t - kT0), 3.0, kRadius); };
+  FedRun run;
+  for (int i = 0; i < 90; ++i) {
+    const double t = kT0 + i / 30.0;
+    fusion.addPose(poseAt(0.0, 0.0, 0.0, kinect_clock(i, t)));
+    run.updates.push_back(
+        fusion.addKinectFrame(kinect_clock(i, t), {kinectView(rolling(t), poseAt(0, 0, 0, t), random)}));
+    run.truth.push_back(rolling(t));
+    const double t_omni = t + 0.5 / 30.0;
+    fusion.addOmniFrame(omni_clock(i, t_omni), {omniView(rolling(t_omni), poseAt(0, 0, 0, t_omni), 0.75)});
+  }
+  return run;
+}
+
+}  // namespace
+
+TEST(Fusion, AClockThatJumpsEitherWayStartsTheFusionAgainOnItsNewTimeLine) {
+  for (const double jump_s : {1e9, -1e6, 30.0, -5.0}) {
+    SCOPED_TRACE("every clock jumps by " + std::to_string(jump_s) + " s after one second");
+    fusion::BallFusion fusion(testConfig());
+    const auto jumping = [jump_s](int i, double t) { return i >= 30 ? t + jump_s : t; };
+    const FedRun run = feedRollingWithClocks(fusion, jumping, jumping);
+    EXPECT_EQ(fusion.timeLineRestarts(), 1);
+    ASSERT_TRUE(run.updates[29].ball);
+    EXPECT_FALSE(run.updates[30].ball) << "nothing carried across the jump";
+    ASSERT_TRUE(run.updates.back().ball) << "the ball is found again on the new time line";
+    EXPECT_LT((run.updates.back().ball->position_F - run.truth.back()).norm(), 0.05);
+    EXPECT_NEAR(run.updates.back().time_s, kT0 + 89 / 30.0 + jump_s, 1e-6);
+  }
+}
+
+TEST(Fusion, AnOmniClockThatAloneJumpsIsDroppedAndTheKinectCarriesTheBall) {
+  fusion::BallFusion fusion(testConfig());
+  const auto steady = [](int, double t) { return t; };
+  const auto jumping = [](int i, double t) { return i >= 30 ? t + 1e7 : t; };
+  const FedRun run = feedRollingWithClocks(fusion, steady, jumping);
+  EXPECT_EQ(fusion.timeLineRestarts(), 0) << "the Kinect's clock is the reference";
+  EXPECT_EQ(fusion.unusableFramesDropped(), 60);
+  ASSERT_TRUE(run.updates.back().ball);
+  EXPECT_EQ(run.updates.back().ball->sources, std::vector<std::string>{"kinect3d"});
+  EXPECT_LT((run.updates.back().ball->position_F - run.truth.back()).norm(), 0.05);
+}
+
+TEST(Fusion, StampsThatAreNotFiniteAreDroppedAndCounted) {
+  fusion::BallFusion fusion(testConfig());
+  const auto broken = [](int i, double t) {
+    return i % 10 == 5 ? (i % 20 == 5 ? std::numeric_limits<double>::quiet_NaN() : HUGE_VAL) : t;
+  };
+  const FedRun run = feedRollingWithClocks(fusion, broken, broken);
+  EXPECT_EQ(fusion.unusableFramesDropped(), 18);  // 9 frames of each sensor
+  EXPECT_EQ(fusion.timeLineRestarts(), 0);
+  ASSERT_TRUE(run.updates.back().ball);
+  EXPECT_TRUE(run.updates.back().ball->position_F.allFinite());
   EXPECT_LT((run.updates.back().ball->position_F - run.truth.back()).norm(), 0.05);
 }
 

@@ -1,5 +1,6 @@
 #include <gtest/gtest.h>
 
+#include <limits>
 #include <random>
 
 #include "framework_api/config.h"
@@ -367,6 +368,31 @@ TEST(Trajectory, RepeatedTimestampsNeverProduceNaN) {
     }
     EXPECT_GE(answers, 5) << "the flight is followed once time moves on";
     EXPECT_EQ(finite, answers);
+  }
+}
+
+TEST(Trajectory, AClockThatJumpsBackStartsTheTrackAgainInsteadOfFreezingIt) {
+  for (const auto mode : {TrajectoryConfig::Mode::kBallistic, TrajectoryConfig::Mode::kPaper}) {
+    TrajectoryConfig config;
+    config.mode = mode;
+    auto estimator = kinect3d::makeTrajectoryEstimator(config);
+    const Eigen::Vector3d p0(0.0, 2.0, 0.5), v0(0.0, 5.0, 4.0);
+    std::optional<fw::BallTrajectory> before, after;
+    for (int i = 0; i < 24; ++i) {
+      const double flight_s = i * kFrame_s;
+      // From the 12th frame on the stamps are a million seconds earlier (a clock set back).
+      const double stamp_s = 1000.0 + flight_s - (i >= 12 ? 1e6 : 0.0);
+      const auto trajectory = estimator->update(stamp_s, {observe(stamp_s, flight(p0, v0, flight_s), 0.01)});
+      (i < 12 ? before : after) = trajectory;
+    }
+    ASSERT_TRUE(before.has_value());
+    ASSERT_TRUE(after.has_value()) << "the flight is followed on the new time line";
+    EXPECT_LT(after->time_s, 0.0) << "its answer is on the new time line, not the frozen old one";
+    EXPECT_TRUE(after->position_m.allFinite());
+    // A stamp that is not finite changes nothing.
+    const auto unchanged = estimator->update(std::numeric_limits<double>::quiet_NaN(), {});
+    ASSERT_TRUE(unchanged.has_value());
+    EXPECT_DOUBLE_EQ(unchanged->time_s, after->time_s);
   }
 }
 

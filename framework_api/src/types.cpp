@@ -85,9 +85,18 @@ void BallTrajectory::propagate(double t_s, Eigen::Vector3d& p, Eigen::Vector3d& 
     return;
   }
   // Quadratic drag and the Magnus curve have no closed form: midpoint steps of at most 20 ms (0.1 mm off after a second
-  // of flight at 10 m/s with k = 0.024 /m, against steps a thousand times finer).
-  const int steps = std::max(1, static_cast<int>(std::ceil(std::abs(dt) / 0.02)));
-  const double h = dt / steps;
+  // of flight at 10 m/s with k = 0.024 /m, against steps a thousand times finer). No flight lasts
+  // kMaxFlight_s: past it the ball goes on at the speed it has (a time far off, or a stamp that jumped,
+  // costs no more than that), and a time that is not finite gives a position that is not either.
+  constexpr double kStep_s = 0.02, kMaxFlight_s = 10.0;
+  if (!std::isfinite(dt)) {
+    p.setConstant(NAN);
+    v.setConstant(NAN);
+    return;
+  }
+  const double flight_s = std::clamp(dt, -kMaxFlight_s, kMaxFlight_s);
+  const int steps = std::max(1, static_cast<int>(std::ceil(std::abs(flight_s) / kStep_s)));
+  const double h = flight_s / steps;
   auto acceleration = [&](const Eigen::Vector3d& velocity) -> Eigen::Vector3d {
     return g - drag_per_m * velocity.norm() * velocity +
            curve_radps * Eigen::Vector3d(-velocity.y(), velocity.x(), 0.0);
@@ -97,6 +106,7 @@ void BallTrajectory::propagate(double t_s, Eigen::Vector3d& p, Eigen::Vector3d& 
     p += h * v_mid;
     v += h * acceleration(v_mid);
   }
+  p += v * (dt - flight_s);
 }
 
 Eigen::Vector3d BallTrajectory::positionAt(double t_s) const {

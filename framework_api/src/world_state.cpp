@@ -1,11 +1,21 @@
 #include "framework_api/world_state.h"
 
+#include <algorithm>
+
 namespace fw {
 
 template <typename T>
-void WorldState::pushCapped(std::deque<T>& history, const T& value) {
-  history.push_front(value);
-  if (history.size() > kHistoryPerSource) history.pop_back();
+void WorldState::History<T>::push(T value) {
+  newest_first.push_front(std::move(value));
+  if (newest_first.size() > kHistoryPerSource) newest_first.pop_back();
+  ++published;
+}
+
+template <typename T>
+std::vector<T> WorldState::History<T>::since(std::uint64_t* cursor) const {
+  const std::uint64_t unseen = std::min<std::uint64_t>(published - std::min(*cursor, published), newest_first.size());
+  *cursor = published;
+  return {newest_first.rend() - static_cast<std::ptrdiff_t>(unseen), newest_first.rend()};
 }
 
 void WorldState::journal(WorldItem item) {
@@ -21,22 +31,24 @@ void WorldState::journal(WorldItem item) {
 
 void WorldState::publishBall(const BallObservation& observation) {
   std::lock_guard<std::mutex> lock(mutex_);
-  pushCapped(balls_[observation.source], observation);
-  journal(BallFrame{observation.stamp, {observation}});
+  BallFrame frame{observation.stamp, {observation}};
+  ball_frames_[observation.source].push(frame);
+  journal(std::move(frame));
   ++version_;
 }
 
 void WorldState::publishBalls(const std::vector<BallObservation>& observations) {
   if (observations.empty()) return;
   std::lock_guard<std::mutex> lock(mutex_);
-  for (const BallObservation& observation : observations) pushCapped(balls_[observation.source], observation);
-  journal(BallFrame{observations.front().stamp, observations});
+  BallFrame frame{observations.front().stamp, observations};
+  ball_frames_[observations.front().source].push(frame);
+  journal(std::move(frame));
   ++version_;
 }
 
 void WorldState::publishOmniFrame(const OmniFrame& frame) {
   std::lock_guard<std::mutex> lock(mutex_);
-  for (const OmniBallObservation& ball : frame.balls) pushCapped(omni_balls_[ball.source], ball);
+  if (!frame.balls.empty()) omni_frames_[frame.balls.front().source].push(frame);
   journal(frame);
   ++version_;
 }
@@ -81,7 +93,7 @@ void WorldState::publishFusedBall(const FusedBall& ball) {
 
 void WorldState::publishRobotPose(const RobotPose& pose) {
   std::lock_guard<std::mutex> lock(mutex_);
-  pushCapped(robot_poses_, pose);
+  robot_poses_.push(pose);
   journal(pose);
   ++version_;
 }
@@ -126,24 +138,55 @@ std::vector<double> WorldState::takeProcessingTimes(const std::string& plugin) {
   return times;
 }
 
+std::vector<BallFrame> WorldState::ballFramesSince(const std::string& source, std::uint64_t* cursor) const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  const auto found = ball_frames_.find(source);
+  return found == ball_frames_.end() ? std::vector<BallFrame>{} : found->second.since(cursor);
+}
+
+std::vector<OmniFrame> WorldState::omniFramesSince(const std::string& source, std::uint64_t* cursor) const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  const auto found = omni_frames_.find(source);
+  return found == omni_frames_.end() ? std::vector<OmniFrame>{} : found->second.since(cursor);
+}
+
+std::vector<RobotPose> WorldState::robotPosesSince(std::uint64_t* cursor) const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return robot_poses_.since(cursor);
+}
+
+namespace {
+// The observations of frames kept newest first, newest first, at most kHistoryPerSource of them.
+template <typename Observation, typename Frames>
+std::vector<Observation> newestObservations(const Frames& frames, std::size_t most) {
+  std::vector<Observation> observations;
+  for (const auto& frame : frames) {
+    for (auto ball = frame.balls.rbegin(); ball != frame.balls.rend() && observations.size() < most; ++ball) {
+      observations.push_back(*ball);
+    }
+  }
+  return observations;
+}
+}  // namespace
+
 std::vector<BallObservation> WorldState::recentBalls(const std::string& source) const {
   std::lock_guard<std::mutex> lock(mutex_);
-  const auto found = balls_.find(source);
-  if (found == balls_.end()) return {};
-  return {found->second.begin(), found->second.end()};
+  const auto found = ball_frames_.find(source);
+  if (found == ball_frames_.end()) return {};
+  return newestObservations<BallObservation>(found->second.newest_first, kHistoryPerSource);
 }
 
 std::vector<OmniBallObservation> WorldState::recentOmniBalls(const std::string& source) const {
   std::lock_guard<std::mutex> lock(mutex_);
-  const auto found = omni_balls_.find(source);
-  if (found == omni_balls_.end()) return {};
-  return {found->second.begin(), found->second.end()};
+  const auto found = omni_frames_.find(source);
+  if (found == omni_frames_.end()) return {};
+  return newestObservations<OmniBallObservation>(found->second.newest_first, kHistoryPerSource);
 }
 
 std::vector<std::string> WorldState::ballSources() const {
   std::lock_guard<std::mutex> lock(mutex_);
   std::vector<std::string> sources;
-  for (const auto& entry : balls_) sources.push_back(entry.first);
+  for (const auto& entry : ball_frames_) sources.push_back(entry.first);
   return sources;
 }
 
@@ -154,13 +197,8 @@ std::optional<FusedBall> WorldState::fusedBall() const {
 
 std::optional<RobotPose> WorldState::robotPose() const {
   std::lock_guard<std::mutex> lock(mutex_);
-  if (robot_poses_.empty()) return std::nullopt;
-  return robot_poses_.front();
-}
-
-std::vector<RobotPose> WorldState::recentRobotPoses() const {
-  std::lock_guard<std::mutex> lock(mutex_);
-  return {robot_poses_.begin(), robot_poses_.end()};
+  if (robot_poses_.newest_first.empty()) return std::nullopt;
+  return robot_poses_.newest_first.front();
 }
 
 std::uint64_t WorldState::version() const {

@@ -41,6 +41,16 @@ AlignmentCheck::AlignmentCheck(const FusionConfig& config, const Eigen::Vector2d
 
 void AlignmentCheck::addKinectFrame(double stamp_s, const std::vector<fw::BallObservation>& balls_R) {
   const double t_s = stamp_s - config_.kinect.latency_s;
+  switch (kinect_time_line_.next(t_s)) {
+    case fw::TimeLine::Step::kNotFinite:
+      return;
+    case fw::TimeLine::Step::kJump:  // the frames and images held belong to the old time line
+      kinect_.clear();
+      waiting_.clear();
+      break;
+    default:
+      break;
+  }
   KinectFrame frame{t_s, std::nullopt};
   if (balls_R.size() == 1 && balls_R.front().state == fw::BallState::kGround) frame.ball = balls_R.front();
   const auto later =
@@ -51,8 +61,11 @@ void AlignmentCheck::addKinectFrame(double stamp_s, const std::vector<fw::BallOb
 }
 
 void AlignmentCheck::addOmniFrame(double stamp_s, const std::vector<fw::OmniBallObservation>& balls) {
-  if (balls.empty()) return;
-  waiting_.push_back({stamp_s - config_.omni.latency_s, balls});
+  const double t_s = stamp_s - config_.omni.latency_s;
+  if (balls.empty() || !std::isfinite(t_s)) return;
+  // Only images the Kinect's frames can meet: one off their time line would wait for ever.
+  if (!kinect_.empty() && std::abs(t_s - kinect_.back().t_s) > kKinectHistory_s) return;
+  waiting_.push_back({t_s, balls});
   pairWaitingImages();
 }
 

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "framework_api/log.h"
+
 #include "fusion/measurements.h"
 
 namespace fusion {
@@ -64,7 +66,8 @@ struct BallFusion::Candidate {
   bool is_static = false;  // an air ball in space occupied for seconds
 };
 
-BallFusion::BallFusion(const FusionConfig& config) : config_(config) {}
+BallFusion::BallFusion(const FusionConfig& config)
+    : config_(config), kinect_time_line_(config.track.lost_after_s), omni_time_line_(config.track.lost_after_s) {}
 
 void BallFusion::addPose(const fw::RobotPose& pose) {
   fw::RobotPose corrected = pose;
@@ -73,10 +76,12 @@ void BallFusion::addPose(const fw::RobotPose& pose) {
 }
 
 const FusionUpdate& BallFusion::addKinectFrame(double stamp_s, const std::vector<fw::BallObservation>& balls_R) {
+  if (!onTimeLine(Source::kKinect, stamp_s, stamp_s - config_.kinect.latency_s)) return state_.update;
   return insert(Frame{Source::kKinect, stamp_s - config_.kinect.latency_s, 0.0, 0.0, balls_R, {}});
 }
 
 const FusionUpdate& BallFusion::addOmniFrame(double stamp_s, const std::vector<fw::OmniBallObservation>& balls) {
+  if (!onTimeLine(Source::kOmni, stamp_s, stamp_s - config_.omni.latency_s)) return state_.update;
   const std::optional<double> learnt = config_.omni.estimate_latency ? state_.latency.estimate() : std::nullopt;
   const double timing_sigma_s =
       learnt ? std::max(*state_.latency.standardError(), kMinTimingSigma_s) : config_.omni.timing_sigma_s;
@@ -86,6 +91,47 @@ const FusionUpdate& BallFusion::addOmniFrame(double stamp_s, const std::vector<f
                       timing_sigma_s,
                       {},
                       balls});
+}
+
+bool BallFusion::onTimeLine(Source source, double stamp_s, double time_s) {
+  fw::TimeLine& own = source == Source::kKinect ? kinect_time_line_ : omni_time_line_;
+  const fw::TimeLine::Step step = own.next(stamp_s);
+  const auto what = [&] { return nameOf(source) + "'s frame stamped " + fw::stampText(stamp_s) + " s"; };
+  if (step == fw::TimeLine::Step::kNotFinite) {
+    if (fw::worthLogging(++unusable_dropped_)) {
+      fw::logWarn("fusion", what() + ": " + own.describe(step, stamp_s) + "; dropped (" +
+                                std::to_string(unusable_dropped_) + " unusable frames so far)");
+    }
+    return false;
+  }
+  const double newest_s = recent_.empty() ? time_s : recent_.back().first.time_s;
+  if (std::abs(time_s - newest_s) <= config_.track.lost_after_s) {
+    reported_off_time_line_ = false;
+    return true;
+  }
+  // Far from the fusion's time. The Kinect's clock is the reference; the omni camera's leads only
+  // while the Kinect is silent.
+  const std::optional<double> kinect_s = kinect_time_line_.newest_s();
+  const bool leads = source == Source::kKinect || !kinect_s ||
+                     std::abs(*kinect_s - config_.kinect.latency_s - newest_s) > config_.track.lost_after_s;
+  if (step == fw::TimeLine::Step::kJump && leads) {
+    // The leading clock jumped: what the fusion holds belongs to the old time line.
+    fw::logWarn("fusion", what() + ": its clock " + own.describe(step, stamp_s) + "; the fusion starts again from it");
+    const LatencyEstimator latency = state_.latency;  // the omni camera's latency is the camera's, not the time's
+    state_ = State{};
+    state_.latency = latency;
+    recent_.clear();
+    ++restarts_;
+    return true;
+  }
+  ++unusable_dropped_;
+  if (!reported_off_time_line_) {
+    fw::logWarn("fusion", what() + " lies " + fw::stampText(time_s - newest_s) +
+                              " s from the fusion's newest frame: its clock and the reference's disagree; dropped "
+                              "until they agree again");
+    reported_off_time_line_ = true;
+  }
+  return false;
 }
 
 const FusionUpdate& BallFusion::insert(Frame frame) {

@@ -1,6 +1,7 @@
 #include "fusion/pose_history.h"
 
 #include <algorithm>
+#include <cmath>
 
 #include "fusion/measurements.h"
 
@@ -22,6 +23,9 @@ fw::RobotPose blend(const fw::RobotPose& a, const fw::RobotPose& b, double t_s) 
 }  // namespace
 
 void PoseHistory::add(const fw::RobotPose& pose) {
+  const fw::TimeLine::Step step = time_line_.next(timeOf(pose));
+  if (step == fw::TimeLine::Step::kNotFinite) return;
+  if (step == fw::TimeLine::Step::kJump) poses_.clear();
   const auto later = std::upper_bound(poses_.begin(), poses_.end(), timeOf(pose),
                                       [](double t, const fw::RobotPose& p) { return t < timeOf(p); });
   poses_.insert(later, pose);
@@ -34,6 +38,7 @@ fw::RobotPose PoseHistory::at(double t_s) const {
     origin.stamp.source_time_s = t_s;
     return origin;
   }
+  if (!std::isfinite(t_s)) return poses_.back();
   if (t_s <= timeOf(poses_.front())) return poses_.front();
   if (t_s >= timeOf(poses_.back())) {
     if (poses_.size() < 2) return poses_.back();

@@ -2,6 +2,7 @@
 // "log:<folder>" (a match log), and a list of stamped items played at their own pace.
 #pragma once
 
+#include <cmath>
 #include <functional>
 #include <optional>
 #include <stdexcept>
@@ -9,6 +10,7 @@
 #include <vector>
 
 #include "framework_api/config.h"
+#include "framework_api/log.h"
 #include "framework_api/replay_clock.h"
 #include "kinect3d/match_log.h"
 
@@ -38,22 +40,43 @@ std::vector<Item> load(const fw::ConfigView& block,
   }
 }
 
-// Hands out items in order, each once its source time is due on the replay clock.
+// Hands out items in order, each once its source time is due on the replay clock (the one pacing
+// rule: a jump in the recorded time re-bases the pace, with a warning naming the item). An item
+// whose time is not finite is skipped with a warning; one whose time goes back or jumps is handed
+// out all the same, since the stages after it apply the time-line rule (framework_api/time_line.h).
 template <typename Item>
 class Player {
  public:
-  Player(std::vector<Item> items, bool realtime, std::function<double(const Item&)> time_of)
-      : items_(std::move(items)), clock_(realtime), time_of_(std::move(time_of)) {}
+  Player(std::string name, std::vector<Item> items, bool realtime, std::function<double(const Item&)> time_of)
+      : name_(std::move(name)), items_(std::move(items)), clock_(realtime), time_of_(std::move(time_of)) {}
 
   bool finished() const { return next_ >= items_.size(); }
   std::size_t size() const { return items_.size(); }
   // The next item if it is due (waiting up to 0.1 s for it), else nothing yet.
   std::optional<Item> next() {
-    if (finished() || !clock_.waitFor(time_of_(items_[next_]))) return std::nullopt;
+    if (finished()) return std::nullopt;
+    const double t_s = time_of_(items_[next_]);
+    if (!std::isfinite(t_s)) {
+      fw::logWarn(name_, "item " + std::to_string(next_) + " of " + std::to_string(items_.size()) +
+                             " skipped: its time stamp is not finite");
+      ++next_;
+      return std::nullopt;
+    }
+    switch (clock_.waitFor(t_s)) {
+      case fw::ReplayClock::Pace::kNotYet:
+        return std::nullopt;
+      case fw::ReplayClock::Pace::kRebased:
+        fw::logWarn(name_, "item " + std::to_string(next_) + " at " + std::to_string(t_s) +
+                               " s is more than a second off the pace: pacing starts again from it");
+        break;
+      case fw::ReplayClock::Pace::kDue:
+        break;
+    }
     return items_[next_++];
   }
 
  private:
+  std::string name_;
   std::vector<Item> items_;
   fw::ReplayClock clock_;
   std::function<double(const Item&)> time_of_;

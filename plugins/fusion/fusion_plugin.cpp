@@ -7,7 +7,6 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <map>
 #include <optional>
 #include <string>
 #include <vector>
@@ -20,16 +19,6 @@
 #include "kinect3d/sensor_pose.h"
 
 namespace {
-
-// What arrived after `after_s` (source time), grouped into frames by stamp, oldest first.
-template <typename Observation>
-std::map<double, std::vector<Observation>> framesAfter(const std::vector<Observation>& newest_first, double after_s) {
-  std::map<double, std::vector<Observation>> frames;
-  for (const Observation& observation : newest_first) {
-    if (observation.stamp.source_time_s > after_s) frames[observation.stamp.source_time_s].push_back(observation);
-  }
-  return frames;
-}
 
 class FusionPlugin : public fw::Plugin {
  public:
@@ -50,25 +39,18 @@ class FusionPlugin : public fw::Plugin {
     if (version == seen_version_) return fw::StepResult::kIdle;
     seen_version_ = version;
 
-    std::vector<fw::RobotPose> poses = world_.recentRobotPoses();
-    std::reverse(poses.begin(), poses.end());
-    for (const fw::RobotPose& pose : poses) {
-      if (pose.stamp.source_time_s <= last_pose_s_) continue;
-      fusion_.addPose(pose);
-      last_pose_s_ = pose.stamp.source_time_s;
-    }
-    // Both sources' new frames in stamp order (roughly: each source's own clock).
+    // What arrived since the last step, in the order it was published: a source whose time stamps
+    // jump back is still read (the fusion applies the time-line rule to it).
+    for (const fw::RobotPose& pose : world_.robotPosesSince(&pose_cursor_)) fusion_.addPose(pose);
     bool updated = false;
-    for (const auto& [t, balls] : framesAfter(world_.recentBalls(config_.kinect.source), last_kinect_s_)) {
-      fusion_.addKinectFrame(t, balls);
-      if (alignment_) alignment_->addKinectFrame(t, balls);
-      last_kinect_s_ = t;
+    for (const fw::BallFrame& frame : world_.ballFramesSince(config_.kinect.source, &kinect_cursor_)) {
+      fusion_.addKinectFrame(frame.stamp.source_time_s, frame.balls);
+      if (alignment_) alignment_->addKinectFrame(frame.stamp.source_time_s, frame.balls);
       updated = true;
     }
-    for (const auto& [t, balls] : framesAfter(world_.recentOmniBalls(config_.omni.source), last_omni_s_)) {
-      fusion_.addOmniFrame(t, balls);
-      if (alignment_) alignment_->addOmniFrame(t, balls);
-      last_omni_s_ = t;
+    for (const fw::OmniFrame& frame : world_.omniFramesSince(config_.omni.source, &omni_cursor_)) {
+      fusion_.addOmniFrame(frame.stamp.source_time_s, frame.balls);
+      if (alignment_) alignment_->addOmniFrame(frame.stamp.source_time_s, frame.balls);
       updated = true;
     }
     if (!updated) return fw::StepResult::kIdle;
@@ -139,7 +121,7 @@ class FusionPlugin : public fw::Plugin {
   std::optional<kinect3d::SensorPose> kinect_pose_;  // the Kinect's pose_in_robot, when configured
   std::optional<fusion::AlignmentCheck> alignment_;  // unless fusion.alignment_check.enabled is false
   std::uint64_t seen_version_ = 0;
-  double last_pose_s_ = -1.0, last_kinect_s_ = -1.0, last_omni_s_ = -1.0;
+  std::uint64_t pose_cursor_ = 0, kinect_cursor_ = 0, omni_cursor_ = 0;  // what was read (fw::WorldState)
   bool latency_reported_ = false;
 };
 

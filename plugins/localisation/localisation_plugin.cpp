@@ -29,6 +29,7 @@ class LocalisationPlugin : public fw::Plugin {
       : world_(*context.world),
         name_(context.config.path()),
         player_(
+            name_,
             replay::load<fw::RobotPose>(
                 context.config, [&](const std::string& scene) { return simulate(context.config.child("sim"), scene); },
                 fusion::readPoseFile),

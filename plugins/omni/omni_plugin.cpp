@@ -32,6 +32,7 @@ class OmniPlugin : public fw::Plugin {
       : world_(*context.world),
         name_(context.config.path()),
         player_(
+            name_,
             replay::load<fw::OmniFrame>(
                 context.config, [&](const std::string& scene) { return simulate(context.config.child("sim"), scene); },
                 [&](const std::string& path) { return fusion::readOmniFile(path, name_); }),

@@ -1,6 +1,9 @@
-// Plays recorded or simulated measurements at their own pace: the first source time is anchored
-// to the wall clock, and a later one is due when as much wall time has passed. Without realtime
-// everything is due at once.
+// The one pacing rule for everything that replays recorded or simulated time in real time (depth
+// sources, the omni camera's and localisation's players): the first source time is anchored to the
+// wall clock, and a later one is due when as much wall time has passed. A source time more than
+// fw::kMaxStampJump_s off that pace, either way (the recording's clock jumped, or this host stalled),
+// re-bases the pacing on it: it is due at once and the pace goes on from there, never a sleep through
+// the jump nor a burst to catch up. Without realtime everything is due at once.
 #pragma once
 
 #include <optional>
@@ -9,10 +12,17 @@ namespace fw {
 
 class ReplayClock {
  public:
+  enum class Pace {
+    kDue,      // its moment has come
+    kNotYet,   // waited max_wait_s towards it; ask again
+    kRebased,  // it was more than kMaxStampJump_s off the pace: due now, the pace starts again from it
+  };
+
   explicit ReplayClock(bool realtime) : realtime_(realtime) {}
 
-  // Waits at most max_wait_s for source_time_s to come due; true once it has.
-  bool waitFor(double source_time_s, double max_wait_s = 0.1);
+  // Waits at most max_wait_s for source_time_s to come due. A time that is not finite is due at
+  // once and leaves the pace as it was (the caller reports and skips such an item).
+  Pace waitFor(double source_time_s, double max_wait_s = 0.1);
 
  private:
   bool realtime_;

@@ -59,14 +59,20 @@ class WorldState {
   // The processing times reported since the last call (none: the plugin reports none).
   std::vector<double> takeProcessingTimes(const std::string& plugin);
 
+  // What one reader has not seen yet, in the order it was published (not by time stamp, which may
+  // jump): the items published after *cursor (a count the reader keeps, 0 at first), at most the
+  // kHistoryPerSource newest; *cursor moves past them.
+  std::vector<BallFrame> ballFramesSince(const std::string& source, std::uint64_t* cursor) const;
+  std::vector<OmniFrame> omniFramesSince(const std::string& source, std::uint64_t* cursor) const;
+  std::vector<RobotPose> robotPosesSince(std::uint64_t* cursor) const;
+
   // Newest first.
   std::vector<BallObservation> recentBalls(const std::string& source) const;
   std::vector<OmniBallObservation> recentOmniBalls(const std::string& source) const;
   std::vector<std::string> ballSources() const;
   std::optional<BallTrajectory> trajectory(const std::string& source) const;
   std::optional<FusedBall> fusedBall() const;
-  std::optional<RobotPose> robotPose() const;       // the newest
-  std::vector<RobotPose> recentRobotPoses() const;  // newest first, kHistoryPerSource of them
+  std::optional<RobotPose> robotPose() const;  // the newest
 
   // Increases with every publish; a reader that saw version v has nothing new while it is still v.
   std::uint64_t version() const;
@@ -86,16 +92,22 @@ class WorldState {
   std::vector<JournalEntry> takeJournal(std::uint64_t* refused);
 
  private:
+  // The newest publications of one kind, and how many there were in all (readers' cursors).
   template <typename T>
-  static void pushCapped(std::deque<T>& history, const T& value);
+  struct History {
+    std::deque<T> newest_first;
+    std::uint64_t published = 0;
+    void push(T value);
+    std::vector<T> since(std::uint64_t* cursor) const;
+  };
   void journal(WorldItem item);  // under mutex_
 
   mutable std::mutex mutex_;
-  std::map<std::string, std::deque<BallObservation>> balls_;
-  std::map<std::string, std::deque<OmniBallObservation>> omni_balls_;
+  std::map<std::string, History<BallFrame>> ball_frames_;
+  std::map<std::string, History<OmniFrame>> omni_frames_;  // frames with balls, by the balls' source
   std::map<std::string, BallTrajectory> trajectories_;
   std::optional<FusedBall> fused_ball_;
-  std::deque<RobotPose> robot_poses_;
+  History<RobotPose> robot_poses_;
   std::map<std::string, std::uint64_t> dropped_frames_;
   std::map<std::string, std::vector<double>> processing_times_s_;
   std::uint64_t version_ = 0;

@@ -15,6 +15,7 @@
 #include <optional>
 #include <vector>
 
+#include "framework_api/time_line.h"
 #include "framework_api/types.h"
 #include "fusion/fusion_config.h"
 
@@ -78,6 +79,7 @@ class AlignmentCheck {
   FusionConfig config_;
   Eigen::Vector2d kinect_xy_R_;
   std::deque<KinectFrame> kinect_;  // the last second
+  fw::TimeLine kinect_time_line_;   // a jump in the Kinect's clock drops what is held
   std::deque<OmniImage> waiting_;   // omni images no later Kinect frame has bracketed yet
   std::deque<Pair> pairs_;          // the last window
   int new_pairs_ = 0;               // since the last fit

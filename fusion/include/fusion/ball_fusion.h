@@ -5,8 +5,14 @@
 // from balls both see rolling, and measurements up to max_delay_s late put back in time order.
 //
 // Times: every source's stamps are moved onto the Kinect's clock (the reference) by its configured
-// latency, and the omni's also by the estimated one. The same code runs live (plugins/fusion) and
-// offline (`kinect3d fuse`).
+// latency, and the omni's also by the estimated one. Each source's stamps follow the time-line rule
+// (framework_api/time_line.h): a frame whose time is not finite is dropped; when the reference
+// clock jumps by more than track.lost_after_s (the omni camera's, while the Kinect is silent) the
+// fusion starts again on its new time line (no track would survive the gap, and no filter is
+// carried across it); any other frame that far from the fusion's time (its clock and the
+// reference's disagree) is dropped.
+// Each is counted and said once per episode, naming the source and the stamp. The same code runs
+// live (plugins/fusion) and offline (`kinect3d fuse`).
 #pragma once
 
 #include <deque>
@@ -15,6 +21,7 @@
 #include <string>
 #include <vector>
 
+#include "framework_api/time_line.h"
 #include "framework_api/types.h"
 #include "fusion/ball_filter.h"
 #include "fusion/fusion_config.h"
@@ -81,6 +88,10 @@ class BallFusion {
   int omniLatencyExamples() const { return state_.latency.examples(); }
   // Frames that arrived more than max_delay_s behind the newest and were not used.
   int lateFramesDropped() const { return late_dropped_; }
+  // Frames not used because their time was not finite, or off the fusion's time line.
+  int unusableFramesDropped() const { return unusable_dropped_; }
+  // How often a source's clock jumped and the fusion started again.
+  int timeLineRestarts() const { return restarts_; }
 
  private:
   struct Track {
@@ -114,6 +125,8 @@ class BallFusion {
 
   struct Candidate;
 
+  // The time-line rule for a frame of source stamped stamp_s (its own clock): true to use it.
+  bool onTimeLine(Source source, double stamp_s, double time_s);
   const FusionUpdate& insert(Frame frame);
   void process(const Frame& frame);
   std::vector<Candidate> candidatesOf(const Frame& frame, const fw::RobotPose& pose) const;
@@ -127,7 +140,11 @@ class BallFusion {
   State state_;
   // Frames of the last max_delay_s with the state before each, to re-process after a late one.
   std::deque<std::pair<Frame, State>> recent_;
+  fw::TimeLine kinect_time_line_, omni_time_line_;  // each source's own stamps
+  bool reported_off_time_line_ = false;             // said once per episode
   int late_dropped_ = 0;
+  int unusable_dropped_ = 0;
+  int restarts_ = 0;
 };
 
 }  // namespace fusion

@@ -1,9 +1,9 @@
 #include "kinect3d/depth_source.h"
 
 #include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <stdexcept>
-#include <thread>
 
 #include "framework_api/log.h"
 #include "framework_api/types.h"
@@ -15,23 +15,39 @@ ReadResult DepthSource::read(DepthFrame& frame) {
   if (!has_pending_) {
     const ReadResult result = readFrame(pending_);
     if (result != ReadResult::kFrame) return result;
-    accept(pending_);
+    if (!accept(pending_)) return ReadResult::kNoFrameYet;  // skipped: the next call reads on
     has_pending_ = true;
   }
   // In real time a frame waits for its moment in slices of at most max_wait_s, so a caller (a
   // plugin's step) is never blocked longer and can be stopped meanwhile.
-  if (options_.realtime && !dueNow(pending_)) return ReadResult::kNoFrameYet;
+  if (options_.realtime) {
+    switch (pacing_.waitFor(pending_.source_time_s, options_.max_wait_s)) {
+      case fw::ReplayClock::Pace::kNotYet:
+        return ReadResult::kNoFrameYet;
+      case fw::ReplayClock::Pace::kRebased:
+        fw::logWarn("depth", describe() + ": frame " + std::to_string(pending_.index) +
+                                 " is more than a second off the pace; pacing starts again from it");
+        break;
+      case fw::ReplayClock::Pace::kDue:
+        break;
+    }
+  }
   std::swap(frame, pending_);  // buffers change hands: nothing is allocated once warm
   has_pending_ = false;
   frame.receive_time_s = fw::wallClockNow_s();
   return ReadResult::kFrame;
 }
 
-void DepthSource::accept(const DepthFrame& frame) {
+bool DepthSource::accept(const DepthFrame& frame) {
   const std::size_t expected = static_cast<std::size_t>(frame.intrinsics.width) * frame.intrinsics.height;
   if (frame.depth_mm.size() != expected) {
     throw DepthSourceError(describe() + ": frame " + std::to_string(frame.index) + " has " +
                            std::to_string(frame.depth_mm.size()) + " pixels, expected " + std::to_string(expected));
+  }
+  if (!std::isfinite(frame.source_time_s)) {
+    reportSkipped(describe() + ": frame " + std::to_string(frame.index) + "'s time stamp " +
+                  time_line_.describe(fw::TimeLine::Step::kNotFinite, frame.source_time_s));
+    return false;
   }
   if (has_last_index_ && frame.index > last_index_ + 1) {
     // A gap the source skipped itself (an unreadable file) is counted as skipped, not dropped.
@@ -43,57 +59,28 @@ void DepthSource::accept(const DepthFrame& frame) {
   last_index_ = frame.index;
   ++counters_.frames;
   checkSanity(frame);
-}
-
-bool DepthSource::dueNow(const DepthFrame& frame) {
-  const double now_s = fw::wallClockNow_s();
-  if (!paced_) {
-    paced_ = true;
-    first_source_time_s_ = frame.source_time_s;
-    first_wall_time_s_ = now_s;
-    return true;
-  }
-  const double wait_s = (frame.source_time_s - first_source_time_s_) - (now_s - first_wall_time_s_);
-  if (wait_s > kMaxPacingWait_s || wait_s < -kMaxPacingWait_s) {
-    // A jump in the recording's clock (or a stall here): pace from this frame on instead of
-    // sleeping through the jump or racing to catch up.
-    fw::logWarn("depth", describe() + ": frame " + std::to_string(frame.index) + " is " + std::to_string(wait_s) +
-                             " s off the pace; pacing starts again from it");
-    first_source_time_s_ = frame.source_time_s;
-    first_wall_time_s_ = now_s;
-    return true;
-  }
-  if (wait_s > options_.max_wait_s) {
-    std::this_thread::sleep_for(std::chrono::duration<double>(options_.max_wait_s));
-    return false;
-  }
-  if (wait_s > 0.0) std::this_thread::sleep_for(std::chrono::duration<double>(wait_s));
   return true;
 }
 
-namespace {
-// The first few of a kind, then one in a hundred: a covered sensor must not flood the log.
-bool worthLogging(std::uint64_t count) { return count <= 5 || count % 100 == 0; }
-}  // namespace
-
 void DepthSource::checkSanity(const DepthFrame& frame) {
-  if (counters_.frames > 1 && frame.source_time_s <= last_source_time_s_) {
-    ++counters_.stale_stamps;
-    if (worthLogging(counters_.stale_stamps)) {
-      fw::logWarn("depth", describe() + ": frame " + std::to_string(frame.index) + " is stamped " +
-                               std::to_string(frame.source_time_s) + " s, not after the previous frame's " +
-                               std::to_string(last_source_time_s_) + " s (" + std::to_string(counters_.stale_stamps) +
-                               " so far); the trajectory will not use it");
+  const fw::TimeLine::Step step = time_line_.next(frame.source_time_s);
+  if (step == fw::TimeLine::Step::kLate || step == fw::TimeLine::Step::kJump) {
+    std::uint64_t& count = step == fw::TimeLine::Step::kLate ? counters_.stale_stamps : counters_.time_jumps;
+    ++count;
+    if (fw::worthLogging(count)) {
+      fw::logWarn("depth", describe() + ": frame " + std::to_string(frame.index) + "'s time stamp " +
+                               time_line_.describe(step, frame.source_time_s) + " (" + std::to_string(count) +
+                               " such frames so far); " +
+                               (step == fw::TimeLine::Step::kLate ? "the trajectory will not use it"
+                                                                  : "what follows starts again from it"));
     }
-  } else {
-    last_source_time_s_ = frame.source_time_s;
   }
   // Searched from the last row up, where the floor usually is: a normal frame stops at once.
   const bool blank =
       std::all_of(frame.depth_mm.rbegin(), frame.depth_mm.rend(), [](std::uint16_t d) { return d == 0; });
   if (blank) {
     ++counters_.blank;
-    if (worthLogging(counters_.blank)) {
+    if (fw::worthLogging(counters_.blank)) {
       fw::logWarn("depth", describe() + ": frame " + std::to_string(frame.index) +
                                " has no valid depth at all: is the sensor covered or blinded? (" +
                                std::to_string(counters_.blank) + " such frames so far)");

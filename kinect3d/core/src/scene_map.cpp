@@ -46,12 +46,14 @@ struct SceneMap::Worker {
     thread.join();
   }
 
-  // Starts casting `cloud` from `origin`, taken at t_s.
-  void castRays(const octomap::point3d& ray_origin, double ray_time_s) {
+  // Starts casting `cloud` from `origin`, taken at t_s; new_time_line: t_s is on another clock than
+  // the frames before (fw::TimeLine), so how long a voxel has been occupied starts again.
+  void castRays(const octomap::point3d& ray_origin, double ray_time_s, bool new_time_line) {
     {
       std::lock_guard<std::mutex> lock(mutex);
       origin = ray_origin;
       t_s = ray_time_s;
+      forget_times = forget_times || new_time_line;
       in_flight = true;
     }
     wake.notify_all();
@@ -81,6 +83,8 @@ struct SceneMap::Worker {
   // updates are lazy (nothing is pruned), so each leaf is one voxel. Returns the wall time it took.
   double integrate() {
     const auto start = std::chrono::steady_clock::now();
+    if (forget_times) occupied_since_s.clear();
+    forget_times = false;
     tree.insertPointCloud(cloud, origin, max_range_m, /*lazy_eval=*/true, /*discretize=*/true);
     labelling.clear();
     for (auto leaf = tree.begin_leafs(), end = tree.end_leafs(); leaf != end; ++leaf) {
@@ -105,6 +109,7 @@ struct SceneMap::Worker {
   octomap::Pointcloud cloud;  // the rays' ends, in the map frame
   octomap::point3d origin;
   double t_s = 0.0;
+  bool forget_times = false;
   std::vector<Label> labelling, published;
 
   std::mutex mutex;  // guards the flags below and the hand-over of the fields above
@@ -134,6 +139,9 @@ void SceneMap::publish() {
 }
 
 void SceneMap::update(const DepthFrame& frame, const Eigen::Isometry3d& T_M_S, double t_s) {
+  const fw::TimeLine::Step step = time_line_.next(t_s);
+  if (step == fw::TimeLine::Step::kNotFinite || !T_M_S.matrix().allFinite()) return;  // cannot be placed
+  if (step == fw::TimeLine::Step::kJump) new_time_line_ = true;
   if (frames_seen_++ % config_.update_interval_frames != 0) return;
   publish();
   const Intrinsics& in = frame.intrinsics;
@@ -151,7 +159,8 @@ void SceneMap::update(const DepthFrame& frame, const Eigen::Isometry3d& T_M_S, d
   const Eigen::Vector3d origin_M = T_M_S.translation();
   worker_->castRays(octomap::point3d(static_cast<float>(origin_M.x()), static_cast<float>(origin_M.y()),
                                      static_cast<float>(origin_M.z())),
-                    t_s);
+                    t_s, new_time_line_);
+  new_time_line_ = false;
 }
 
 void SceneMap::clear() {

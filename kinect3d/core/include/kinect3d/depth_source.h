@@ -17,6 +17,8 @@
 #include <string>
 #include <vector>
 
+#include "framework_api/replay_clock.h"
+#include "framework_api/time_line.h"
 #include "kinect3d/depth_frame.h"
 
 namespace kinect3d {
@@ -50,6 +52,7 @@ struct SourceCounters {
   std::uint64_t skipped = 0;       // unreadable frames reported and skipped
   std::uint64_t reconnects = 0;    // a live device lost and opened again
   std::uint64_t stale_stamps = 0;  // frames whose time stamp did not move on (repeated or backwards)
+  std::uint64_t time_jumps = 0;    // frames whose time stamp jumped by more than fw::kMaxStampJump_s
   std::uint64_t blank = 0;         // frames without one valid pixel (a covered or blinded sensor)
 };
 
@@ -59,8 +62,9 @@ class DepthSource {
 
   // Fills frame with the next depth image. Checks what every source must deliver (size against
   // intrinsics), stamps receive time, counts dropped frames, and reports (counted, logged with the
-  // frame) time stamps that do not move on and frames without any valid depth. Throws DepthSourceError when the
-  // source cannot go on.
+  // frame) time stamps that do not move on or jump (framework_api/time_line.h) and frames without
+  // any valid depth; a frame whose time stamp is not finite is skipped. In real time, paces frames
+  // by fw::ReplayClock. Throws DepthSourceError when the source cannot go on.
   ReadResult read(DepthFrame& frame);
 
   const SourceCounters& counters() const { return counters_; }
@@ -81,14 +85,10 @@ class DepthSource {
  private:
   virtual ReadResult readFrame(DepthFrame& frame) = 0;
 
-  // Size check, dropped-frame and sanity counts for a frame the source delivered.
-  void accept(const DepthFrame& frame);
-  // Real time: whether the frame's source time, relative to the first frame, has passed on the
-  // wall clock, sleeping at most max_wait_s towards it. A frame more than kMaxPacingWait_s off that
-  // pace (a time stamp that jumps) restarts the pacing.
-  bool dueNow(const DepthFrame& frame);
+  // Size check, dropped-frame and sanity counts for a frame the source delivered; false when the
+  // frame is skipped (its time stamp is not finite).
+  bool accept(const DepthFrame& frame);
   void checkSanity(const DepthFrame& frame);
-  static constexpr double kMaxPacingWait_s = 1.0;
 
   SourceOptions options_;
   SourceCounters counters_;
@@ -97,10 +97,8 @@ class DepthSource {
   std::uint64_t skipped_since_last_frame_ = 0;
   DepthFrame pending_;  // read from the source, waiting for its moment in real time
   bool has_pending_ = false;
-  bool paced_ = false;  // the first frame has anchored the pacing
-  double first_source_time_s_ = 0.0;
-  double last_source_time_s_ = 0.0;
-  double first_wall_time_s_ = 0.0;
+  fw::ReplayClock pacing_{options_.realtime};
+  fw::TimeLine time_line_;
 };
 
 // The URI schemes an application can open, each with the function that opens it. An application

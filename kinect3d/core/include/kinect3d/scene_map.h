@@ -18,6 +18,7 @@
 
 #include <Eigen/Geometry>
 
+#include "framework_api/time_line.h"
 #include "kinect3d/depth_frame.h"
 
 namespace kinect3d {
@@ -40,6 +41,8 @@ class SceneMap {
   SceneMap& operator=(const SceneMap&) = delete;
 
   // One frame, seen from T_M_S (sensor optical frame to map frame), at t_s on the source clock.
+  // A frame whose time or pose is not finite is left out; a time that jumps (fw::TimeLine) starts
+  // the voxels' occupied-since times again (the free and occupied space stays).
   void update(const DepthFrame& frame, const Eigen::Isometry3d& T_M_S, double t_s);
   // Forgets everything (the map's frame changed).
   void clear();
@@ -63,6 +66,8 @@ class SceneMap {
   double min_range_m_, max_range_m_;
   std::unique_ptr<Worker> worker_;
   int frames_seen_ = 0;  // frames since the map was made or cleared
+  fw::TimeLine time_line_;
+  bool new_time_line_ = false;  // a jump seen since the last rays were cast
   int integrations_ = 0;
   double last_integration_s_ = 0.0;
 };

@@ -15,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "framework_api/time_line.h"
 #include "framework_api/types.h"
 
 namespace kinect3d {
@@ -45,8 +46,9 @@ class TrajectoryEstimator {
 
   // Feeds one frame: its source time and the balls detected in it (none is fine). Returns the
   // trajectory at t_s with touchdown and line crossing, or nothing while there is no track.
-  // The checks every estimator needs live here, once: a frame whose time does not move on is not
-  // used (the previous answer stands); balls in the air inside static space (a lamp, a ball on a
+  // The checks every estimator needs live here, once: a frame whose time does not move on or is
+  // not finite is not used (the previous answer stands), one whose time jumps (fw::TimeLine) drops
+  // the track and starts again from it; balls in the air inside static space (a lamp, a ball on a
   // wire) are not followed; the track is dropped after max_gap_s without a detection.
   std::optional<fw::BallTrajectory> update(double t_s, const std::vector<fw::BallObservation>& balls);
   // How often the track was thrown away and restarted (bounces and lost balls excluded).
@@ -67,7 +69,7 @@ class TrajectoryEstimator {
 
   TrajectoryConfig config_;
   int resets_ = 0;
-  std::optional<double> last_frame_time_s_;
+  fw::TimeLine time_line_;
   std::optional<fw::BallTrajectory> last_answer_;
   std::vector<fw::BallObservation> followed_;  // this frame's balls the estimator may follow
 };

@@ -12,9 +12,18 @@ TrajectoryConfig::Mode trajectoryModeFromString(const std::string& name) {
 
 std::optional<fw::BallTrajectory> TrajectoryEstimator::update(double t_s,
                                                               const std::vector<fw::BallObservation>& balls) {
-  if (last_frame_time_s_ && t_s <= *last_frame_time_s_) return last_answer_;
-  last_frame_time_s_ = t_s;
-  if (const auto last_s = lastDetectionTime(); last_s && t_s - *last_s > config_.max_gap_s) lose();
+  switch (time_line_.next(t_s)) {
+    case fw::TimeLine::Step::kNotFinite:
+    case fw::TimeLine::Step::kLate:
+      return last_answer_;  // not used: the previous answer stands
+    case fw::TimeLine::Step::kJump:
+      lose();  // a new time line: the track's detections belong to another
+      break;
+    case fw::TimeLine::Step::kFirst:
+    case fw::TimeLine::Step::kOnward:
+      if (const auto last_s = lastDetectionTime(); last_s && t_s - *last_s > config_.max_gap_s) lose();
+      break;
+  }
   followed_.clear();
   for (const fw::BallObservation& ball : balls) {
     if (!(ball.is_static && ball.state == fw::BallState::kAir)) followed_.push_back(ball);
