@@ -167,6 +167,43 @@ TEST_F(ConfigTest, ChoicesAndLists) {
       << error;
 }
 
+TEST_F(ConfigTest, AFileTooLargeToBeAConfigurationIsRefusedBeforeItIsRead) {
+  // A 2 MB file (a log or an image given as --robot by mistake): refused at once, naming it.
+  const std::string message = errorOf([&] { load("# " + std::string(2 * 1024 * 1024, 'x') + "\n"); });
+  EXPECT_NE(message.find(robotPath() + ": 2048 KB is not a configuration file (at most 1024 KB)"), std::string::npos)
+      << message;
+}
+
+TEST_F(ConfigTest, AnAliasBombIsRefusedWithItsLine) {
+  // Nine levels of ten aliases each: a billion values once expanded, from a few hundred bytes.
+  std::string bomb = "sensor:\n  a0: &a0 [x, x, x, x, x, x, x, x, x, x]\n";
+  for (int level = 1; level <= 9; ++level) {
+    const std::string previous = "*a" + std::to_string(level - 1);
+    bomb += "  a" + std::to_string(level) + ": &a" + std::to_string(level) + " [";
+    for (int i = 0; i < 10; ++i) bomb += (i == 0 ? "" : ", ") + previous;
+    bomb += "]\n";
+  }
+  ASSERT_LT(bomb.size(), 600u);
+  const std::string message = errorOf([&] { load(bomb); });
+  EXPECT_NE(message.find(robotPath() + ":"), std::string::npos) << message;
+  EXPECT_NE(message.find("more than 100000 values once its aliases are expanded"), std::string::npos) << message;
+}
+
+TEST_F(ConfigTest, DeepNestingIsRefusedWithItsLine) {
+  for (const int depth : {40, 5000}) {
+    SCOPED_TRACE(depth);
+    std::string nested = "sensor: ";
+    for (int i = 0; i < depth; ++i) nested += "[";
+    for (int i = 0; i < depth; ++i) nested += "]";
+    const std::string message = errorOf([&] { load(nested + "\n"); });
+    EXPECT_NE(message.find(robotPath() + ":1: nested more than 32 levels deep"), std::string::npos) << message;
+  }
+  EXPECT_NE(errorOf([&] {
+              load("", {"sensor.grid=" + std::string(50, '[') + std::string(50, ']')});
+            }).find("nested more than 32 levels deep"),
+            std::string::npos);
+}
+
 TEST(ProjectConfig, EveryShippedRobotFileLoads) {
   for (const auto& entry : fs::directory_iterator(std::string(PROJECT_CONFIG_DIR) + "/robots")) {
     SCOPED_TRACE(entry.path().string());

@@ -3,6 +3,9 @@
 // second), stops the same clean way on every terminating signal, and replays a log whose clocks
 // jump, through the host and `kinect3d replay`, without a stall.
 #include <gtest/gtest.h>
+#include <sched.h>
+#include <sys/mount.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <chrono>
@@ -15,6 +18,7 @@
 #include "framework_api/host.h"
 #include "host_process.h"
 #include "kinect3d/match_log.h"
+#include "match_view.h"
 #include "run_command.h"
 #include "scoped_temp_dir.h"
 
@@ -269,6 +273,102 @@ TEST(MatchDay, ALogWhoseClocksJumpReplaysInTheHostAndInReplayWithoutAStall) {
     EXPECT_NE(out.find("the fusion starts again from it"), std::string::npos) << out;
     EXPECT_GT(after_jump(kinect3d::MatchLogReader(replayed).entries()), 10u);
   }
+}
+
+// The files in folder, by name.
+std::vector<std::string> filesIn(const fs::path& folder) {
+  std::vector<std::string> names;
+  for (const auto& entry : fs::directory_iterator(folder)) names.push_back(entry.path().filename().string());
+  std::sort(names.begin(), names.end());
+  return names;
+}
+
+// A log left by a writer that was killed: its write-ahead files still there, holding the last batches.
+std::string crashedLog(const fs::path& base, const std::string& from) {
+  const std::string folder = (base / "crashed").string();
+  const pid_t child = fork();
+  if (child == 0) {
+    const kinect3d::MatchLogReader log(from);
+    kinect3d::MatchLogWriter writer(folder, log.run());
+    for (const fw::JournalEntry& entry : log.entries()) writer.write(entry);
+    kinect3d::MatchLogReader::DepthFrames frames(log, "kinect3d");
+    fw::DepthImage image;
+    double wall_s = 0.0;
+    for (int i = 0; i < 5 && frames.next(image, wall_s); ++i) writer.write({wall_s, image});
+    writer.commit();
+    _exit(0);  // no destructor: the database is never closed
+  }
+  waitpid(child, nullptr, 0);
+  return folder;
+}
+
+// Every command that opens a log, on log (output under out); "" when each succeeded, else what failed.
+std::string readWithEveryCommand(const std::string& prefix, const std::string& log, const fs::path& out) {
+  const std::string exe = std::string(KINECT3D_EXE);
+  std::string failed;
+  for (const std::string& command :
+       {exe + " info log:" + log, exe + " export " + log + " --omni " + (out / "omni.jsonl").string(),
+        exe + " replay " + log + " --output " + (out / "replayed").string(),
+        exe + " report match " + log + " --out " + (out / "report").string()}) {
+    const auto [status, output] = runCommand(prefix + command + " 2>&1");
+    if (status != 0) failed += "'" + command + "' exited " + std::to_string(status) + ":\n" + output + "\n";
+  }
+  return failed;
+}
+
+TEST(MatchDay, LogsOpenReadOnlyOnAReadOnlyMountAndAsAnotherUserAndNothingIsWrittenBesideThem) {
+  ScopedTempDir dir;
+  runDemo((dir.path() / "live").string());
+  const std::string clean = onlySubfolder(dir.path() / "live");
+  const std::string crashed = crashedLog(dir.path(), clean);
+  ASSERT_TRUE(fs::exists(crashed + "/match.sqlite-wal"));
+  const std::vector<std::string> clean_files = filesIn(clean), crashed_files = filesIn(crashed);
+
+  // Another user, who may read the logs but not write beside them (as root: nobody; else the
+  // folders are made read-only for their owner).
+  const fs::path out = dir.path() / "out";
+  fs::create_directories(out);
+  std::string as_other;
+  fs::permissions(dir.path(), fs::perms::owner_all | fs::perms::group_read | fs::perms::group_exec |
+                                  fs::perms::others_read | fs::perms::others_exec);
+  fs::permissions(out, fs::perms::all);
+  for (const std::string& log : {clean, crashed}) {
+    for (const auto& entry : fs::recursive_directory_iterator(fs::path(log).parent_path())) {
+      fs::permissions(entry.path(), fs::perms::others_read | fs::perms::group_read, fs::perm_options::add);
+      if (entry.is_directory()) fs::permissions(entry.path(), fs::perms::others_exec, fs::perm_options::add);
+    }
+    if (geteuid() != 0) fs::permissions(log, fs::perms::owner_write, fs::perm_options::remove);
+  }
+  const std::string prefix = geteuid() == 0 ? "setpriv --reuid=65534 --regid=65534 --clear-groups " : "";
+  EXPECT_EQ(readWithEveryCommand(prefix, clean, out / "clean"), "");
+  EXPECT_EQ(readWithEveryCommand(prefix, crashed, out / "crashed"), "");
+  EXPECT_EQ(filesIn(clean), clean_files);
+  EXPECT_EQ(filesIn(crashed), crashed_files);
+  for (const std::string& log : {clean, crashed}) fs::permissions(log, fs::perms::owner_write, fs::perm_options::add);
+
+  // A read-only mount, in a mount namespace of this test's own.
+  if (unshare(CLONE_NEWNS) != 0 || mount(nullptr, "/", nullptr, MS_REC | MS_PRIVATE, nullptr) != 0 ||
+      mount(dir.path().c_str(), dir.path().c_str(), nullptr, MS_BIND | MS_REC, nullptr) != 0 ||
+      mount(nullptr, dir.path().c_str(), nullptr, MS_REMOUNT | MS_BIND | MS_RDONLY, nullptr) != 0) {
+    GTEST_SKIP() << "the read-only mount needs root (a mount namespace); the other-user part ran";
+  }
+  // Unmounted before the temporary folder is removed (the mount is this process's alone).
+  const struct Unmount {
+    std::string path;
+    ~Unmount() { umount2(path.c_str(), MNT_DETACH); }
+  } unmount{dir.path().string()};
+  ASSERT_NE(access(clean.c_str(), W_OK), 0) << "the mount is read-only";
+  ScopedTempDir writable;
+  for (const std::string& log : {clean, crashed}) {
+    SCOPED_TRACE(log);
+    EXPECT_EQ(readWithEveryCommand("", log, writable.path() / fs::path(log).filename()), "");
+    kinect3d::MatchView view(log);  // what `kinect3d view` serves
+    EXPECT_FALSE(view.run()["frames_t_s"].empty());
+    EXPECT_TRUE(view.frame(0).has_value());
+    EXPECT_TRUE(view.depthPng(0).has_value());
+  }
+  EXPECT_EQ(filesIn(clean), clean_files);
+  EXPECT_EQ(filesIn(crashed), crashed_files);
 }
 
 }  // namespace

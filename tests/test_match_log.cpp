@@ -333,6 +333,48 @@ TEST_F(LoggedDemo, MatchReportShowsTheLobToAPersonOpeningIt) {
   EXPECT_GT(cv::countNonZero(red), 2000);
 }
 
+TEST(MatchLog, ADepthFrameOfNoSensorsSizeIsRefusedBeforeItIsDecoded) {
+  ScopedTempDir dir;
+  const std::string folder = (dir.path() / "run").string();
+  {
+    kinect3d::MatchLogWriter writer(folder, {});
+    for (std::uint64_t i = 0; i < 3; ++i) writer.write({1.0 + i, smallDepthImage(i)});
+  }
+  sqlite3* db = nullptr;
+  ASSERT_EQ(sqlite3_open((folder + "/match.sqlite").c_str(), &db), SQLITE_OK);
+  // Frame 1 claims 10000x10000 (880 MB to decode, were it believed); frame 2's image is not the size
+  // its row says.
+  ASSERT_EQ(sqlite3_exec(db,
+                         "UPDATE depth_frame SET width = 10000, height = 10000 WHERE frame_index = 1;"
+                         "UPDATE depth_frame SET width = 32 WHERE frame_index = 2;",
+                         nullptr, nullptr, nullptr),
+            SQLITE_OK);
+  sqlite3_close(db);
+  const kinect3d::MatchLogReader log(folder);
+  kinect3d::MatchLogReader::DepthFrames frames(log, "kinect3d");
+  fw::DepthImage image;
+  double wall_s = 0.0;
+  ASSERT_TRUE(frames.next(image, wall_s));
+  try {
+    frames.next(image, wall_s);
+    ADD_FAILURE() << "a 10000x10000 frame was read";
+  } catch (const kinect3d::MatchLogError& e) {
+    EXPECT_NE(std::string(e.what()).find("depth frame 1 (seq 2): 10000x10000 is no depth sensor's size (each side 8 "
+                                         "to 4096 pixels)"),
+              std::string::npos)
+        << e.what();
+  }
+  const auto frame2 = log.depthFrameStamps("kinect3d").at(2).seq;
+  try {
+    log.depthFrame(frame2);
+    ADD_FAILURE() << "a frame whose image is not its row's size was read";
+  } catch (const kinect3d::MatchLogError& e) {
+    EXPECT_NE(std::string(e.what()).find("depth frame 2 (seq 3): the image is not a 32x48 16-bit PNG"),
+              std::string::npos)
+        << e.what();
+  }
+}
+
 TEST(Logger, StopsAtItsBudgetLoudlyAndDetectionGoesOn) {
   ScopedTempDir dir;
   const auto summaries = runDemo(dir.path().string(), {"logger.budget_mb=1"});

@@ -5,12 +5,14 @@
 #include <netinet/in.h>
 #include <signal.h>
 #include <spawn.h>
+#include <sqlite3.h>
 #include <sys/socket.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
 #include <fcntl.h>
 
+#include <atomic>
 #include <chrono>
 #include <filesystem>
 #include <fstream>
@@ -25,6 +27,7 @@
 #include "demo_log.h"
 #include "framework_api/config.h"
 #include "framework_api/world_state.h"
+#include "host_process.h"
 #include "kinect3d/match_log.h"
 #include "run_command.h"
 #include "scoped_temp_dir.h"
@@ -85,7 +88,8 @@ class ServedView {
 };
 
 // One GET with the path sent exactly as written (no client normalises it): the whole response.
-std::string rawGet(int port, const std::string& path) {
+// A connection to the viewer on 127.0.0.1:port; -1 when it cannot connect.
+int connectTo(int port) {
   const int sock = socket(AF_INET, SOCK_STREAM, 0);
   sockaddr_in address{};
   address.sin_family = AF_INET;
@@ -93,8 +97,17 @@ std::string rawGet(int port, const std::string& path) {
   address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
   if (connect(sock, reinterpret_cast<sockaddr*>(&address), sizeof address) != 0) {
     close(sock);
-    throw std::runtime_error("cannot connect to port " + std::to_string(port));
+    return -1;
   }
+  return sock;
+}
+
+// GET path; what came back within the time limit (the whole response unless the server stalled).
+std::string rawGet(int port, const std::string& path, int limit_s = 60) {
+  const int sock = connectTo(port);
+  if (sock < 0) throw std::runtime_error("cannot connect to port " + std::to_string(port));
+  const timeval limit{limit_s, 0};
+  setsockopt(sock, SOL_SOCKET, SO_RCVTIMEO, &limit, sizeof limit);
   const std::string request = "GET " + path + " HTTP/1.1\r\nHost: 127.0.0.1\r\nConnection: close\r\n\r\n";
   if (send(sock, request.data(), request.size(), 0) != static_cast<ssize_t>(request.size())) {
     close(sock);
@@ -260,6 +273,80 @@ TEST(ViewedLog, TheFusedBallIsHeldUntilTheFusionClearsIt) {
   }
   EXPECT_TRUE(servedFrame(view, 21)["fused"].is_null()) << "after the fusion cleared it";
   EXPECT_EQ(view.stop(), 0);
+  // It wrote nothing beside the log (no write-ahead files from its reading).
+  std::vector<std::string> files;
+  for (const auto& entry : fs::directory_iterator(folder)) files.push_back(entry.path().filename().string());
+  EXPECT_EQ(files, std::vector<std::string>{"match.sqlite"});
+}
+
+// A log of 30 small depth frames (a wall 2 m ahead) written by hand, and nothing else.
+std::string smallLog(const fs::path& dir) {
+  const std::string folder = (dir / "run").string();
+  const fw::Config config = fw::Config::load(std::string(PROJECT_CONFIG_DIR) + "/defaults",
+                                             std::string(PROJECT_CONFIG_DIR) + "/robots/demo.yaml", {});
+  kinect3d::MatchLogWriter writer(folder, {"demo", "0.1.0", config.toYaml(), 2000.0, ""});
+  for (int i = 0; i < 30; ++i) {
+    fw::DepthImage image = smallDepthImage(static_cast<std::uint64_t>(i));
+    image.depth_mm.assign(image.depth_mm.size(), 2000);
+    writer.write({image.stamp.receive_time_s, image});
+  }
+  return folder;
+}
+
+TEST(ViewedLog, EightSlowClientsDoNotStopANinthFromGettingThePage) {
+  ScopedTempDir dir;
+  ServedView view({smallLog(dir.path())});
+  // Eight clients that start a request and send one more header line every 2 s, for as long as
+  // the test lasts: each would hold a worker for ever if a silent second did not end it.
+  std::atomic<bool> done{false};
+  std::vector<std::thread> slow;
+  for (int i = 0; i < 8; ++i) {
+    const int sock = connectTo(view.port());
+    ASSERT_GE(sock, 0);
+    slow.emplace_back([sock, &done] {
+      std::string line = "GET / HTTP/1.1\r\n";
+      while (!done) {
+        send(sock, line.data(), line.size(), MSG_NOSIGNAL);
+        line = "X-Slow: 1\r\n";
+        for (int waited_ms = 0; waited_ms < 2000 && !done; waited_ms += 10) {
+          std::this_thread::sleep_for(std::chrono::milliseconds(10));
+        }
+      }
+      close(sock);
+    });
+  }
+  // A ninth gets the page while they go on (within 30 s; it waits for ever without the limits).
+  const std::string page = rawGet(view.port(), "/", 30);
+  done = true;
+  for (std::thread& client : slow) client.join();
+  EXPECT_EQ(page.rfind("HTTP/1.1 200", 0), 0u) << page.substr(0, 200);
+  EXPECT_NE(page.find("<html"), std::string::npos);
+}
+
+TEST(ViewedLog, ADamagedFrameAnswers500WithItsReason) {
+  ScopedTempDir dir;
+  const std::string log = smallLog(dir.path());
+  sqlite3* db = nullptr;
+  ASSERT_EQ(sqlite3_open((log + "/match.sqlite").c_str(), &db), SQLITE_OK);
+  ASSERT_EQ(
+      sqlite3_exec(db, "UPDATE depth_frame SET png = x'0badc0de' WHERE frame_index = 4", nullptr, nullptr, nullptr),
+      SQLITE_OK);
+  sqlite3_close(db);
+  ServedView view({log});
+  const std::string response = rawGet(view.port(), "/api/depth/4.png");
+  EXPECT_EQ(response.rfind("HTTP/1.1 500", 0), 0u) << response.substr(0, 300);
+  EXPECT_NE(response.find("depth frame 4 (seq"), std::string::npos) << response;
+  EXPECT_NE(response.find("is not a 64x48 16-bit PNG"), std::string::npos) << response;
+  EXPECT_EQ(rawGet(view.port(), "/api/depth/5.png").rfind("HTTP/1.1 200", 0), 0u) << "the others are served";
+}
+
+TEST(ViewedLog, ListensOnThisMachineOnlyUnlessToldOtherwise) {
+  ScopedTempDir dir;
+  HostProcess view({"view", smallLog(dir.path()), "--port", "0"}, "", KINECT3D_EXE);
+  ASSERT_TRUE(view.waitForOutput("(Ctrl-C stops)"));
+  view.signal(SIGTERM);
+  EXPECT_EQ(view.waitExit(std::chrono::seconds(30)), 0);
+  EXPECT_NE(view.readAll().find("on http://127.0.0.1:"), std::string::npos) << view.readAll();
 }
 
 TEST(LiveView, FollowsARobotAsItRunsAndStopsOnSigterm) {

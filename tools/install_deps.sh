@@ -20,6 +20,7 @@ PACKAGES=(
   libjs-chart.js                # the match report's and the viewer's charts
   libjs-three                   # the viewer's 3D view (three.js and its orbit controls)
   libcpp-httplib-dev            # the viewer's web server
+  sqlite3 curl                  # bench/viewer_live_load.sh reads the logs' health and polls the viewer as a page does
   chromium                      # the page tests open the pages as a person would
 )
 

@@ -547,7 +547,10 @@ void addView(CLI::App& app) {
   command->add_option("--port", options->server.port, "TCP port (0: any free one)")
       ->check(CLI::Range(0, 65535))
       ->capture_default_str();
-  command->add_option("--bind", options->server.bind, "Address to listen on (127.0.0.1: this machine only)")
+  command
+      ->add_option("--bind", options->server.bind,
+                   "Address to listen on: 127.0.0.1, this machine only; 0.0.0.0, every interface (anyone on the "
+                   "robot's network can then read the log: the viewer has no password)")
       ->capture_default_str();
   command->callback([options] {
     if (options->log.empty() == options->live.empty()) {

@@ -1,8 +1,12 @@
 #include "view_server.h"
 
 #include <httplib.h>
+#include <sys/resource.h>
+#include <sys/syscall.h>
 #include <unistd.h>
 
+#include <atomic>
+#include <chrono>
 #include <fstream>
 #include <map>
 #include <optional>
@@ -35,12 +39,30 @@ std::optional<std::size_t> frameNumber(const httplib::Request& request) {
   }
 }
 
+// httplib's pool of workers, each request run at a lower priority than the robot's threads.
+class LowPriorityWorkers : public httplib::TaskQueue {
+ public:
+  explicit LowPriorityWorkers(int workers) : pool_(static_cast<std::size_t>(workers)) {}
+  void enqueue(std::function<void()> request) override {
+    pool_.enqueue([request = std::move(request)] {
+      // Linux keeps a nice value per thread: this worker only (a no-op once set).
+      setpriority(PRIO_PROCESS, static_cast<id_t>(syscall(SYS_gettid)), 10);
+      request();
+    });
+  }
+  void shutdown() override { pool_.shutdown(); }
+
+ private:
+  httplib::ThreadPool pool_;
+};
+
 }  // namespace
 
 struct ViewServer::Impl {
   std::map<std::string, std::string> scripts;
   httplib::Server server;
   std::thread listener;
+  std::atomic<bool> listening_ended{false};
 };
 
 ViewServer::ViewServer(MatchView& view, const ViewServerOptions& options)
@@ -83,13 +105,21 @@ ViewServer::ViewServer(MatchView& view, const ViewServerOptions& options)
     try {
       std::rethrow_exception(error);
     } catch (const std::exception& e) {
-      response.set_content(e.what(), "text/plain");
+      response.set_content(std::string(e.what()) + "\n", "text/plain");
     }
     response.status = 500;
   });
+  // Every other error names itself, unless a handler already said why.
   server.set_error_handler([](const httplib::Request& request, httplib::Response& response) {
-    response.set_content(std::to_string(response.status) + ": " + request.path + "\n", "text/plain");
+    if (response.body.empty()) {
+      response.set_content(std::to_string(response.status) + ": " + request.path + "\n", "text/plain");
+    }
   });
+  server.new_task_queue = [] { return new LowPriorityWorkers(kWorkers); };
+  server.set_read_timeout(kReadTimeout_s, 0);
+  server.set_write_timeout(kWriteTimeout_s, 0);
+  server.set_keep_alive_max_count(kRequestsPerConnection);
+  server.set_keep_alive_timeout(kReadTimeout_s);
 
   // Quick restarts yes (SO_REUSEADDR), but not httplib's SO_REUSEPORT: a second viewer on the same
   // port must fail, not share the port and answer every other request from another log.
@@ -103,7 +133,13 @@ ViewServer::ViewServer(MatchView& view, const ViewServerOptions& options)
     throw std::runtime_error("cannot listen on " + options.bind + ":" + std::to_string(options.port) +
                              " (in use, or not an address of this machine)");
   }
-  impl_->listener = std::thread([&server] { server.listen_after_bind(); });
+  impl_->listener = std::thread([this] {
+    impl_->server.listen_after_bind();
+    impl_->listening_ended = true;
+  });
+  // httplib's stop() does nothing before its loop runs, and the loop would then run for ever: a
+  // Ctrl-C right after the start must find it running.
+  while (!server.is_running() && !impl_->listening_ended) std::this_thread::sleep_for(std::chrono::milliseconds(1));
 }
 
 ViewServer::~ViewServer() {

@@ -1,5 +1,6 @@
 #include "framework_api/config.h"
 
+#include <yaml-cpp/depthguard.h>
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
@@ -197,19 +198,52 @@ void rejectDuplicateKeys(const YAML::Node& node, const std::string& label) {
   }
 }
 
+// A robot's configuration is a few kilobytes and a few hundred values, nested a few levels: these
+// bound what a bad file (a wrong file, an alias bomb) can cost before it is refused.
+constexpr std::uintmax_t kMaxFileBytes = 1024 * 1024;
+constexpr int kMaxDepth = 32;
+constexpr std::size_t kMaxValues = 100000;  // with every alias expanded
+
+// Refuses a document nested deeper than kMaxDepth, or that expands (through its aliases) to more
+// than kMaxValues values, naming the line where it went too far.
+void rejectOversized(const YAML::Node& node, const std::string& label, int depth, std::size_t& values) {
+  const std::string where = label + ":" + std::to_string(node.Mark().line + 1) + ": ";
+  if (++values > kMaxValues) {
+    throw ConfigError(where + "more than " + std::to_string(kMaxValues) +
+                      " values once its aliases are expanded; a robot configuration has a few hundred");
+  }
+  if (depth > kMaxDepth) throw ConfigError(where + "nested more than " + std::to_string(kMaxDepth) + " levels deep");
+  if (node.IsMap()) {
+    for (const auto& entry : node) rejectOversized(entry.second, label, depth + 1, values);
+  } else if (node.IsSequence()) {
+    for (const auto& item : node) rejectOversized(item, label, depth + 1, values);
+  }
+}
+
 YAML::Node parseYaml(const std::string& text, const std::string& label) {
   try {
     YAML::Node node = YAML::Load(text);
     if (node.IsNull() || !node.IsDefined()) return YAML::Node(YAML::NodeType::Map);
+    std::size_t values = 0;
+    rejectOversized(node, label, 0, values);
     if (!node.IsMap()) throw ConfigError(label + ": expected a map of keys at the top level");
     rejectDuplicateKeys(node, label);
     return node;
+  } catch (const YAML::DeepRecursion& e) {
+    throw ConfigError(label + ":" + std::to_string(e.mark.line + 1) + ": nested more than " +
+                      std::to_string(kMaxDepth) + " levels deep");
   } catch (const YAML::ParserException& e) {
     throw ConfigError(label + ":" + std::to_string(e.mark.line + 1) + ": YAML syntax error: " + e.msg);
   }
 }
 
 YAML::Node loadYamlFile(const std::string& path) {
+  std::error_code error;
+  const std::uintmax_t bytes = std::filesystem::file_size(path, error);
+  if (!error && bytes > kMaxFileBytes) {
+    throw ConfigError(path + ": " + std::to_string(bytes / 1024) + " KB is not a configuration file (at most " +
+                      std::to_string(kMaxFileBytes / 1024) + " KB); is it the right file?");
+  }
   std::ifstream in(path);
   if (!in) throw ConfigError("cannot read configuration file '" + path + "'");
   std::stringstream text;
@@ -226,6 +260,8 @@ YAML::Node overrideToYaml(const std::string& assignment) {
   YAML::Node value;
   try {
     value = YAML::Load(assignment.substr(eq + 1));
+    std::size_t values = 0;
+    rejectOversized(value, "--set '" + assignment + "'", 0, values);
   } catch (const YAML::ParserException& e) {
     throw ConfigError("--set '" + assignment + "': value is not valid YAML: " + e.msg);
   }

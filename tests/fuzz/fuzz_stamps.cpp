@@ -21,7 +21,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   kinect3d::TrajectoryConfig ballistic, paper;
   paper.mode = kinect3d::TrajectoryConfig::Mode::kPaper;
   const std::unique_ptr<kinect3d::TrajectoryEstimator> trajectories[] = {kinect3d::makeTrajectoryEstimator(ballistic),
-                                                                          kinect3d::makeTrajectoryEstimator(paper)};
+                                                                         kinect3d::makeTrajectoryEstimator(paper)};
   fw::ReplayClock pacing(/*realtime=*/false);
   constexpr std::size_t kRecord = 12;
   for (std::size_t at = 0; at + kRecord <= size; at += kRecord) {

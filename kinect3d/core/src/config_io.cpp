@@ -18,8 +18,8 @@ SensorPose readSensorPose(const fw::ConfigView& pose) {
 
 Intrinsics readIntrinsics(const fw::ConfigView& intrinsics) {
   Intrinsics result;
-  result.width = intrinsics.getInt("width", 8, 4096);
-  result.height = intrinsics.getInt("height", 8, 4096);
+  result.width = intrinsics.getInt("width", Intrinsics::kMinSide_px, Intrinsics::kMaxSide_px);
+  result.height = intrinsics.getInt("height", Intrinsics::kMinSide_px, Intrinsics::kMaxSide_px);
   result.fx = intrinsics.getDouble("fx", 10.0, 1e5);
   result.fy = intrinsics.getDouble("fy", 10.0, 1e5);
   result.cx = intrinsics.getDouble("cx", 0.0, result.width);

@@ -13,6 +13,8 @@
 #include <optional>
 #include <variant>
 
+#include "kinect3d/depth_frame.h"
+
 namespace kinect3d {
 
 namespace fs = std::filesystem;
@@ -710,11 +712,30 @@ void MatchLogReader::decodeDepthRow(Statement& q, fw::DepthImage& image, double&
   image.cy = q.real(10);
   const auto* bytes = static_cast<const unsigned char*>(sqlite3_column_blob(q.stmt, 11));
   const int size = sqlite3_column_bytes(q.stmt, 11);
+  const std::string frame =
+      "depth frame " + std::to_string(image.index) + " (seq " + std::to_string(q.integer(0)) + ")";
+  const auto within = [](int side) { return side >= Intrinsics::kMinSide_px && side <= Intrinsics::kMaxSide_px; };
+  if (!within(image.width) || !within(image.height)) {
+    fail(frame + ": " + std::to_string(image.width) + "x" + std::to_string(image.height) +
+         " is no depth sensor's size (each side " + std::to_string(Intrinsics::kMinSide_px) + " to " +
+         std::to_string(Intrinsics::kMaxSide_px) + " pixels)");
+  }
+  // What the PNG itself claims (its IHDR), checked before the decoder allocates it.
+  const auto bigEndian = [&](int at) {
+    return size >= at + 4 ? (std::uint32_t(bytes[at]) << 24 | std::uint32_t(bytes[at + 1]) << 16 |
+                             std::uint32_t(bytes[at + 2]) << 8 | bytes[at + 3])
+                          : 0u;
+  };
+  const std::string not_png = frame + ": the image is not a " + std::to_string(image.width) + "x" +
+                              std::to_string(image.height) + " 16-bit PNG";
+  if (bigEndian(16) != static_cast<std::uint32_t>(image.width) ||
+      bigEndian(20) != static_cast<std::uint32_t>(image.height)) {
+    fail(not_png);
+  }
   const cv::Mat png(1, size, CV_8UC1, const_cast<unsigned char*>(bytes));
   const cv::Mat depth = size > 0 ? cv::imdecode(png, cv::IMREAD_ANYDEPTH) : cv::Mat();
   if (depth.empty() || depth.type() != CV_16UC1 || depth.cols != image.width || depth.rows != image.height) {
-    fail("depth frame " + std::to_string(image.index) + " (seq " + std::to_string(q.integer(0)) +
-         "): the image is not a " + std::to_string(image.width) + "x" + std::to_string(image.height) + " 16-bit PNG");
+    fail(not_png);
   }
   image.depth_mm.assign(depth.ptr<std::uint16_t>(), depth.ptr<std::uint16_t>() + depth.total());
 }

@@ -12,6 +12,11 @@ namespace kinect3d {
 
 // Pinhole intrinsics of the depth camera, in pixels.
 struct Intrinsics {
+  // The image sizes any depth source may claim (a camera.yaml, a match log's frame): a bad file
+  // claiming more is refused before anything that size is allocated.
+  static constexpr int kMinSide_px = 8;
+  static constexpr int kMaxSide_px = 4096;
+
   int width = 640;
   int height = 480;
   double fx = 575.8;  // OpenNI's Kinect v1 default; units spread about +-3 %
