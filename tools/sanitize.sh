@@ -71,7 +71,9 @@ export UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
 heavy=(
   "LoggedDemo\..*" "LiveView\..*" "CalibrationAlarm\..*"
   "ViewedDemo\.(ThePageShowsTheLobInThreeDimensionsAndInTime|ASecondViewerOnTheSamePortIsRefusedNotShared)"
-  "Logger\.AHostKilledMidRunLeavesALogThatOpensWithAllButTheLastSecond"
+  "Logger\.AHostKilledMidRunLeavesALogThatOpensWithEveryCommittedBatch"
+  "MatchDay\.(ALogWhoseClocksJumpReplaysInTheHostAndInReplayWithoutAStall|ADiskThatRefusesWritesMidRunIsSaidWhereRecordingResumes)"
+  "MatchDay\.LogsOpenReadOnlyOnAReadOnlyMountAndAsAnotherUserAndNothingIsWrittenBesideThem"
   "FusionPlugins\.(TheDemoRobotFusesTheLobFlyingOverItWhileItDrives|TheAlignmentCheckFindsAKinectTurnedOnTheRobot)"
   "TrajectoryScenario\.GoalkeeperSeesWhereAShotCrossesItsLine"
   "BallDetector\.(FindsKicksAndShotsAndNothingElse|NoPhantomsInClutter)"
