@@ -16,6 +16,7 @@
 #include <chrono>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <regex>
 #include <sstream>
 #include <thread>
@@ -239,30 +240,38 @@ nlohmann::json servedFrame(const ServedView& view, int frame) {
   return nlohmann::json::parse(response.substr(response.find("\r\n\r\n") + 4));
 }
 
-TEST(ViewedLog, TheFusedBallIsHeldUntilTheFusionClearsIt) {
-  // A log written by hand: 30 depth frames at 30 Hz (a wall 2 m ahead); the world ball published
-  // with frame 3 and cleared at frame 20, nothing published between (no source saw the ball).
-  ScopedTempDir dir;
-  const std::string folder = (dir.path() / "run").string();
+// A log written by hand: 30 small depth frames at 30 Hz (a wall 2 m ahead), and after each what
+// also_logged writes.
+using AlsoLogged = std::function<void(kinect3d::MatchLogWriter&, const fw::DepthImage&)>;
+std::string smallLog(const fs::path& dir, const AlsoLogged& also_logged = {}) {
+  const std::string folder = (dir / "run").string();
   const fw::Config config = fw::Config::load(std::string(PROJECT_CONFIG_DIR) + "/defaults",
                                              std::string(PROJECT_CONFIG_DIR) + "/robots/demo.yaml", {});
-  {
-    kinect3d::MatchLogWriter writer(folder, {"demo", "0.1.0", config.toYaml(), 2000.0, ""});
-    for (int i = 0; i < 30; ++i) {
-      fw::DepthImage image = smallDepthImage(static_cast<std::uint64_t>(i));
-      image.depth_mm.assign(image.depth_mm.size(), 2000);
-      writer.write({image.stamp.receive_time_s, image});
-      if (i == 3) {
-        fw::FusedBall ball;
-        ball.position_R = {0.2, 1.5, 1.1};
-        ball.state = fw::BallState::kAir;
-        ball.sources = {"kinect3d"};
-        ball.stamp = image.stamp;
-        writer.write({image.stamp.receive_time_s, ball});
-      }
-      if (i == 20) writer.write({image.stamp.receive_time_s, fw::FusedBallCleared{}});
-    }
+  kinect3d::MatchLogWriter writer(folder, {"demo", "0.1.0", config.toYaml(), 2000.0, ""});
+  for (int i = 0; i < 30; ++i) {
+    fw::DepthImage image = smallDepthImage(static_cast<std::uint64_t>(i));
+    image.depth_mm.assign(image.depth_mm.size(), 2000);
+    writer.write({image.stamp.receive_time_s, image});
+    if (also_logged) also_logged(writer, image);
   }
+  return folder;
+}
+
+TEST(ViewedLog, TheFusedBallIsHeldUntilTheFusionClearsIt) {
+  // The world ball published with frame 3 and cleared at frame 20, nothing published between (no
+  // source saw the ball).
+  ScopedTempDir dir;
+  const std::string folder = smallLog(dir.path(), [](kinect3d::MatchLogWriter& writer, const fw::DepthImage& image) {
+    if (image.index == 3) {
+      fw::FusedBall ball;
+      ball.position_R = {0.2, 1.5, 1.1};
+      ball.state = fw::BallState::kAir;
+      ball.sources = {"kinect3d"};
+      ball.stamp = image.stamp;
+      writer.write({image.stamp.receive_time_s, ball});
+    }
+    if (image.index == 20) writer.write({image.stamp.receive_time_s, fw::FusedBallCleared{}});
+  });
   ServedView view({folder});
   EXPECT_TRUE(servedFrame(view, 2)["fused"].is_null()) << "before the fusion published it";
   for (const int frame : {3, 10, 19}) {
@@ -277,20 +286,6 @@ TEST(ViewedLog, TheFusedBallIsHeldUntilTheFusionClearsIt) {
   std::vector<std::string> files;
   for (const auto& entry : fs::directory_iterator(folder)) files.push_back(entry.path().filename().string());
   EXPECT_EQ(files, std::vector<std::string>{"match.sqlite"});
-}
-
-// A log of 30 small depth frames (a wall 2 m ahead) written by hand, and nothing else.
-std::string smallLog(const fs::path& dir) {
-  const std::string folder = (dir / "run").string();
-  const fw::Config config = fw::Config::load(std::string(PROJECT_CONFIG_DIR) + "/defaults",
-                                             std::string(PROJECT_CONFIG_DIR) + "/robots/demo.yaml", {});
-  kinect3d::MatchLogWriter writer(folder, {"demo", "0.1.0", config.toYaml(), 2000.0, ""});
-  for (int i = 0; i < 30; ++i) {
-    fw::DepthImage image = smallDepthImage(static_cast<std::uint64_t>(i));
-    image.depth_mm.assign(image.depth_mm.size(), 2000);
-    writer.write({image.stamp.receive_time_s, image});
-  }
-  return folder;
 }
 
 TEST(ViewedLog, EightSlowClientsDoNotStopANinthFromGettingThePage) {
