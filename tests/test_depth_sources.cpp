@@ -13,6 +13,7 @@
 #include "kinect3d/sim/sequence_writer.h"
 #include "kinect3d/sim/sim_sources.h"
 #include "scoped_temp_dir.h"
+#include "shared_data.h"
 
 namespace {
 
@@ -21,7 +22,19 @@ using kinect3d::DepthFrame;
 using kinect3d::DepthSourceError;
 using kinect3d::ReadResult;
 
-const std::string kRealTum = std::string(REAL_DEPTH_DIR) + "/tum_depth.png";
+// A TUM depth image of the project's own (tests/data is for generated data): 640x480 at TUM's
+// 5000 units per metre, a floor seen from 1.5 m at the top row to 9 m at the bottom, the left 64
+// columns without depth (a tenth of the pixels, as Kinect frames have).
+constexpr double kFrameNear_m = 1.5, kFrameFar_m = 9.0, kFrameInvalid = 0.1;
+std::string writeTumFrame(const fs::path& file) {
+  cv::Mat depth(480, 640, CV_16UC1, cv::Scalar(0));
+  for (int v = 0; v < depth.rows; ++v) {
+    const double z_m = kFrameNear_m + (kFrameFar_m - kFrameNear_m) * v / (depth.rows - 1);
+    depth.row(v).colRange(64, depth.cols).setTo(cv::Scalar(std::lround(5000.0 * z_m)));
+  }
+  cv::imwrite(file.string(), depth);
+  return file.string();
+}
 
 class TumDir : public ::testing::Test {
  protected:
@@ -40,9 +53,28 @@ class TumDir : public ::testing::Test {
   }
   ScopedTempDir temp_;
   const fs::path dir_ = temp_.path();
+  const std::string frame_ = writeTumFrame(dir_ / "frame.png");
 };
 
+TEST_F(TumDir, ReadsAFrameAtItsStampWithTumsDefaults) {
+  write("depth.txt", "# a frame\n1305031102.160407 " + frame_ + "\n");
+  auto source = kinect3d::sim::sourcesWithSimulator().open(dir_.string());  // a bare folder path works too
+  DepthFrame frame;
+  ASSERT_EQ(source->read(frame), ReadResult::kFrame);
+  EXPECT_EQ(frame.width(), 640);
+  EXPECT_EQ(frame.intrinsics.fx, 525.0) << "TUM default intrinsics without camera.yaml";
+  EXPECT_DOUBLE_EQ(frame.source_time_s, 1305031102.160407);
+  const kinect3d::DepthStats stats = kinect3d::computeStats(frame);
+  EXPECT_NEAR(stats.invalid_fraction, kFrameInvalid, 1e-9);
+  EXPECT_NEAR(stats.min_m, kFrameNear_m, 1e-3);
+  EXPECT_NEAR(stats.max_m, kFrameFar_m, 1e-3);
+  EXPECT_EQ(source->read(frame), ReadResult::kEnd);
+}
+
 TEST_F(TumDir, ReadsTheRealKinectFrame) {
+  const std::optional<std::string> real = sharedDataFile("real-depth/tum_depth.png");
+  if (!real) GTEST_SKIP() << noSharedData("real-depth/tum_depth.png");
+  const std::string kRealTum = *real;
   write("depth.txt", "# real frame\n1305031102.160407 " + kRealTum + "\n");
   auto source = kinect3d::sim::sourcesWithSimulator().open(dir_.string());  // a bare folder path works too
   DepthFrame frame;
@@ -60,13 +92,13 @@ TEST_F(TumDir, ReadsTheRealKinectFrame) {
 }
 
 TEST_F(TumDir, CameraFileSetsIntrinsicsAndScale) {
-  write("depth.txt", "0.0 " + kRealTum + "\n");
+  write("depth.txt", "0.0 " + frame_ + "\n");
   write("camera.yaml", "width: 640\nheight: 480\nfx: 591.1\nfy: 590.1\ncx: 331.0\ncy: 234.0\ndepth_scale: 2500\n");
   auto source = kinect3d::sim::sourcesWithSimulator().open("tum:" + dir_.string());
   DepthFrame frame;
   ASSERT_EQ(source->read(frame), ReadResult::kFrame);
   EXPECT_DOUBLE_EQ(frame.intrinsics.fx, 591.1);
-  EXPECT_NEAR(kinect3d::computeStats(frame).max_m, 2 * 9.33, 0.02);
+  EXPECT_NEAR(kinect3d::computeStats(frame).max_m, 2 * kFrameFar_m, 1e-3);
 }
 
 TEST_F(TumDir, BadInputNamesTheFileAndLine) {
@@ -76,7 +108,7 @@ TEST_F(TumDir, BadInputNamesTheFileAndLine) {
   EXPECT_NE(errorOpening().find("depth.txt:1:"), std::string::npos);
   write("depth.txt", "# nothing\n");
   EXPECT_NE(errorOpening().find("lists no frames"), std::string::npos);
-  write("depth.txt", "0.0 " + kRealTum + "\n");
+  write("depth.txt", "0.0 " + frame_ + "\n");
   write("camera.yaml", "width: 640\nheight: 480\nfx: 5\nfy: 500\ncx: 320\ncy: 240\ndepth_scale: 5000\n");
   EXPECT_NE(errorOpening().find("camera.yaml:3: fx = 5 is out of range"), std::string::npos);
   write("camera.yaml", "width: 640\nheigth: 480\n");
@@ -86,8 +118,7 @@ TEST_F(TumDir, BadInputNamesTheFileAndLine) {
 }
 
 TEST_F(TumDir, RealTimePacingDoesNotSleepThroughAJumpInTheTimeStamps) {
-  write("depth.txt",
-        "0.0 " + kRealTum + "\n0.033 " + kRealTum + "\n1000.066 " + kRealTum + "\n1000.1 " + kRealTum + "\n");
+  write("depth.txt", "0.0 " + frame_ + "\n0.033 " + frame_ + "\n1000.066 " + frame_ + "\n1000.1 " + frame_ + "\n");
   kinect3d::SourceOptions options;
   options.realtime = true;
   auto source = kinect3d::DepthSourceTable::core().open("tum:" + dir_.string(), options);
@@ -104,7 +135,7 @@ TEST_F(TumDir, RealTimePacingDoesNotSleepThroughAJumpInTheTimeStamps) {
 TEST_F(TumDir, RealTimeReadsNeverBlockLongerThanTheirWait) {
   // Half a second between two frames: the reader is handed back control every 0.1 s meanwhile
   // (kNoFrameYet), so a plugin's step stays short and a stop is never held up by pacing.
-  write("depth.txt", "0.0 " + kRealTum + "\n0.5 " + kRealTum + "\n");
+  write("depth.txt", "0.0 " + frame_ + "\n0.5 " + frame_ + "\n");
   kinect3d::SourceOptions options;
   options.realtime = true;
   auto source = kinect3d::DepthSourceTable::core().open("tum:" + dir_.string(), options);
@@ -129,8 +160,8 @@ TEST_F(TumDir, RealTimeReadsNeverBlockLongerThanTheirWait) {
 
 TEST_F(TumDir, StaleTimeStampsAndBlankFramesAreCounted) {
   cv::imwrite((dir_ / "covered.png").string(), cv::Mat(480, 640, CV_16UC1, cv::Scalar(0)));
-  write("depth.txt", "0.0 " + kRealTum + "\n0.033 covered.png\n0.033 " + kRealTum + "\n0.01 " + kRealTum + "\n0.1 " +
-                         kRealTum + "\n");
+  write("depth.txt",
+        "0.0 " + frame_ + "\n0.033 covered.png\n0.033 " + frame_ + "\n0.01 " + frame_ + "\n0.1 " + frame_ + "\n");
   auto source = kinect3d::DepthSourceTable::core().open("tum:" + dir_.string());
   DepthFrame frame;
   int frames = 0;
@@ -144,7 +175,7 @@ TEST_F(TumDir, UnreadableFramesAreReportedAndSkipped) {
   cv::imwrite((dir_ / "small.png").string(), cv::Mat(240, 320, CV_16UC1, cv::Scalar(1000)));
   cv::imwrite((dir_ / "eight_bit.png").string(), cv::Mat(480, 640, CV_8UC1, cv::Scalar(10)));
   write("depth.txt",
-        "0.0 " + kRealTum + "\n0.033 small.png\n0.066 missing.png\n0.1 eight_bit.png\n0.133 " + kRealTum + "\n");
+        "0.0 " + frame_ + "\n0.033 small.png\n0.066 missing.png\n0.1 eight_bit.png\n0.133 " + frame_ + "\n");
   auto source = kinect3d::sim::sourcesWithSimulator().open("tum:" + dir_.string());
   DepthFrame frame;
   int frames = 0;
@@ -190,12 +221,16 @@ TEST(DepthSourceTable, HoldsOnlyWhatTheApplicationAdds) {
 TEST(RawDisparity, ConvertsTheRealNyuFrame) {
   EXPECT_EQ(kinect3d::rawDisparityToMetres(2047), 0.0);
   EXPECT_NEAR(kinect3d::rawDisparityToMetres(700), 1.0 / (700 * -0.0030711016 + 3.3309495161), 1e-12);
-  const DepthFrame frame = kinect3d::loadRawDisparityPgm(std::string(REAL_DEPTH_DIR) + "/nyu_raw_disparity.pgm");
+  const ScopedTempDir temp;
+  EXPECT_THROW(kinect3d::loadRawDisparityPgm(writeTumFrame(temp.path() / "frame.png")), DepthSourceError)
+      << "a PNG is not a raw-disparity PGM";
+  const std::optional<std::string> nyu = sharedDataFile("real-depth/nyu_raw_disparity.pgm");
+  if (!nyu) GTEST_SKIP() << noSharedData("real-depth/nyu_raw_disparity.pgm");
+  const DepthFrame frame = kinect3d::loadRawDisparityPgm(*nyu);
   const kinect3d::DepthStats stats = kinect3d::computeStats(frame);
   EXPECT_NEAR(stats.invalid_fraction, 0.07, 0.02);
   EXPECT_GT(stats.min_m, 0.4);
   EXPECT_LT(stats.max_m, 10.0);
-  EXPECT_THROW(kinect3d::loadRawDisparityPgm(kRealTum), DepthSourceError);
 }
 
 TEST(SimSource, DeliversTheSceneThenEnds) {

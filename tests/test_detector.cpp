@@ -13,6 +13,7 @@
 #include "kinect3d/sim/evaluation.h"
 #include "kinect3d/sim/sim_sources.h"
 #include "scoped_temp_dir.h"
+#include "shared_data.h"
 #include "sim_test_scenes.h"
 
 namespace {
@@ -268,10 +269,13 @@ TEST(BallDetector, NoPhantomsInClutter) {
 }
 
 TEST(BallDetector, NoPhantomsOnRealKinectFrames) {
+  const std::optional<std::string> tum_file = sharedDataFile("real-depth/tum_depth.png"),
+                                   nyu_file = sharedDataFile("real-depth/nyu_raw_disparity.pgm");
+  if (!tum_file || !nyu_file) GTEST_SKIP() << noSharedData("real-depth");
   DetectorConfig config = kinect3d::readDetectorConfig(shippedConfig().block("kinect3d"));  // floor search
   const ScopedTempDir temp;
   const std::string dir = temp.path().string();
-  std::ofstream(dir + "/depth.txt") << "0 " << REAL_DEPTH_DIR << "/tum_depth.png\n";
+  std::ofstream(dir + "/depth.txt") << "0 " << *tum_file << "\n";
   auto source = kinect3d::sim::sourcesWithSimulator().open("tum:" + dir);
   DepthFrame frame;
   ASSERT_EQ(source->read(frame), kinect3d::ReadResult::kFrame);
@@ -281,7 +285,7 @@ TEST(BallDetector, NoPhantomsOnRealKinectFrames) {
   EXPECT_TRUE(detections.aligned) << "the office floor is found";
   EXPECT_TRUE(detections.balls.empty());
   kinect3d::BallDetector nyu(config, "kinect3d");
-  nyu.detect(kinect3d::loadRawDisparityPgm(std::string(REAL_DEPTH_DIR) + "/nyu_raw_disparity.pgm"), detections);
+  nyu.detect(kinect3d::loadRawDisparityPgm(*nyu_file), detections);
   EXPECT_TRUE(detections.aligned) << "the room's floor is found";
   EXPECT_TRUE(detections.balls.empty());
 }

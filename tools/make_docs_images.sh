@@ -1,12 +1,15 @@
 #!/usr/bin/env bash
 # Regenerates docs/images/: a real Kinect frame next to simulated ones, on one colour map, and the
 # match report of the demo robot's run, a calibration page, and the demo's lob in the viewer.
-# Needs a build (tools/build.sh) (the real frame comes from tests/data/real-depth).
+# Needs a build (tools/build.sh), and the real frame ../shared/data/real-depth/tum_depth.png
+# (third-party data kept beside the repository, never in it).
 set -euo pipefail
 cd "$(dirname "$0")/.."
+real_frame=../shared/data/real-depth/tum_depth.png
+[ -f "$real_frame" ] || { echo "make_docs_images: $real_frame is not here (third-party data beside the repository)" >&2; exit 2; }
 real_dir=$(mktemp -d)
 trap 'rm -rf "$real_dir"' EXIT
-echo "0 $(cd tests/data/real-depth && pwd)/tum_depth.png" > "$real_dir/depth.txt"
+echo "0 $(cd "$(dirname "$real_frame")" && pwd)/tum_depth.png" > "$real_dir/depth.txt"
 mkdir -p docs/images
 build/bin/kinect3d snapshot "tum:$real_dir" sim:kick_away --frame 0 --frame 16 --out docs/images/sim_vs_real.png
 build/bin/kinect3d snapshot sim:clutter sim:shot_goalkeeper --frame 20 --out docs/images/sim_scenes.png

@@ -411,7 +411,6 @@ void addReport(CLI::App& app) {
     ConfigOptions config;
   };
   auto options = std::make_shared<Options>();
-  options->report.real_depth_dir = KINECT3D_REAL_DEPTH_DIR;
   CLI::App* command = app.add_subcommand(
       "report", "Measure detection, trajectory or fusion on simulated scenes, or show a match log as a page");
   command
@@ -427,8 +426,11 @@ void addReport(CLI::App& app) {
       ->capture_default_str();
   command->add_option("--clutter-frames", options->report.clutter_frames, "detection: frames of the clutter scene")
       ->capture_default_str();
-  command->add_option("--real-depth", options->report.real_depth_dir, "detection: folder of the real Kinect frames")
-      ->capture_default_str();
+  command
+      ->add_option("--real-depth", options->report.real_depth_dir,
+                   "detection: the folder of the real Kinect frames tum_depth.png and nyu_raw_disparity.pgm "
+                   "(third-party data, not in the repository; without it that part of the report is left out)")
+      ->check(CLI::ExistingDirectory);
   command->add_option("--keep", options->keep,
                       "fusion: keep every case's input files and fused output here; calibration: every session");
   options->config.addTo(command, /*with_robot_file=*/false);

@@ -10,7 +10,7 @@ namespace kinect3d {
 struct ReportOptions {
   int seeds = 3;               // noise seeds per kick/shot scene
   int clutter_frames = 1500;   // frames of the clutter scene (for the phantom rate)
-  std::string real_depth_dir;  // tests/data/real-depth
+  std::string real_depth_dir;  // the real Kinect frames (tum_depth.png, nyu_raw_disparity.pgm); empty: left out
 };
 
 // Writes the markdown report to out_path; prints a summary on stderr.
