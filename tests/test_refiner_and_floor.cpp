@@ -2,13 +2,17 @@
 // awkwardly mounted sensor, and the detector after its camera's intrinsics change.
 #include <gtest/gtest.h>
 
+#include <fstream>
 #include <optional>
 #include <tuple>
 
 #include "framework_api/config.h"
 #include "kinect3d/ball_detector.h"
 #include "kinect3d/config_io.h"
+#include "kinect3d/depth_source.h"
 #include "kinect3d/sim/kinect_simulator.h"
+#include "scoped_temp_dir.h"
+#include "shared_data.h"
 
 namespace {
 
@@ -154,6 +158,51 @@ TEST(GroundAligner, FindsAPitchedAndRolledSensorOnItsFloor) {
     EXPECT_NEAR(tilted.found->pitch_rad, pitch_deg * kDeg, 0.01);
     EXPECT_NEAR(tilted.found->roll_rad, roll_deg * kDeg, 0.01);
   }
+}
+
+TEST(GroundAligner, TheFloorIsTheLowestPlaneNotATableTopAboveIt) {
+  // A level sensor 1.4 m up over a wide table (its top 0.75 m up, filling the lower middle of the
+  // view) with the floor beyond and beside it: the table's top holds more points, the floor lies
+  // below it.
+  sim::Scene scene = sim::loadScene("hung_4m");
+  scene.duration_s = 0.1;
+  scene.sensor_pose = kinect3d::SensorPose{0.0, 0.0, 1.4, 0.0, 0.0, 0.0};
+  scene.objects.push_back(box({0.0, 1.9, 0.375}, {1.6, 1.6, 0.75}));
+  DetectorConfig config = shippedDetector(scene);
+  config.ground.pose.reset();
+  kinect3d::GroundAligner aligner(config.ground);
+  sim::KinectSimulator simulator(scene);
+  DepthFrame frame;
+  sim::GroundTruth truth;
+  simulator.render(0, frame, truth);
+  const std::optional<Eigen::Isometry3d> T_R_S = aligner.fitFloor(frame);
+  ASSERT_TRUE(T_R_S.has_value());
+  const kinect3d::SensorPose found = kinect3d::SensorPose::fromTransform(*T_R_S);
+  EXPECT_NEAR(found.z_m, 1.4, 0.03) << "the table's top would put the sensor 0.65 m up";
+  EXPECT_NEAR(found.pitch_rad, 0.0, 0.01);
+  EXPECT_NEAR(found.roll_rad, 0.0, 0.01);
+}
+
+TEST(GroundAligner, FindsTheFloorOfARealOfficeThatFillsTheBottomFifthOfTheView) {
+  // PCL's office1: a level camera 1.38 m up, the floor seen from 3 m on, below desks and cupboards.
+  const std::optional<std::string> office = sharedDataFile("realdata/pcl_single_frames/office1_depth_mm.png");
+  if (!office) GTEST_SKIP() << noSharedData("realdata/pcl_single_frames/office1_depth_mm.png");
+  const ScopedTempDir dir;
+  std::ofstream(dir.path() / "depth.txt") << "0 " << *office << "\n";
+  std::ofstream(dir.path() / "camera.yaml")
+      << "width: 640\nheight: 480\nfx: 525\nfy: 525\ncx: 320\ncy: 240\ndepth_scale: 1000\n";
+  DepthFrame frame;
+  ASSERT_EQ(kinect3d::DepthSourceTable::core().open("tum:" + dir.path().string())->read(frame),
+            kinect3d::ReadResult::kFrame);
+  sim::Scene unused;
+  DetectorConfig config = shippedDetector(unused);
+  config.ground.pose.reset();
+  kinect3d::GroundAligner aligner(config.ground);
+  const std::optional<Eigen::Isometry3d> T_R_S = aligner.fitFloor(frame);
+  ASSERT_TRUE(T_R_S.has_value());
+  const kinect3d::SensorPose found = kinect3d::SensorPose::fromTransform(*T_R_S);
+  EXPECT_NEAR(found.z_m, 1.38, 0.05);
+  EXPECT_NEAR(found.pitch_rad, 0.0, 2.0 * kDeg);
 }
 
 TEST(GroundAligner, KeepsLookingWhenTheFloorItFindsIsImplausible) {

@@ -4,6 +4,7 @@
 #include <pcl/point_types.h>
 #include <pcl/segmentation/sac_segmentation.h>
 
+#include <algorithm>
 #include <cmath>
 
 #include "framework_api/log.h"
@@ -68,7 +69,9 @@ std::optional<Eigen::Isometry3d> GroundAligner::fitFloor(const DepthFrame& frame
   if (cloud->size() < 100) return std::nullopt;
 
   // A plane whose normal is near the image's up (-y in the optical frame): walls and robot sides
-  // are vertical and cannot win.
+  // are vertical and cannot win. The floor is the lowest such plane: a desk or a bench top can hold
+  // more points than a floor seen far off, but the floor's points lie below it. So the search goes
+  // on among the points below each plane found, while there are enough of them to be a floor.
   pcl::SACSegmentation<pcl::PointXYZ> segmentation;
   segmentation.setOptimizeCoefficients(true);
   segmentation.setModelType(pcl::SACMODEL_PERPENDICULAR_PLANE);
@@ -77,14 +80,38 @@ std::optional<Eigen::Isometry3d> GroundAligner::fitFloor(const DepthFrame& frame
   segmentation.setEpsAngle(config_.max_tilt_rad);
   segmentation.setDistanceThreshold(config_.distance_threshold_m);
   segmentation.setMaxIterations(200);
-  segmentation.setInputCloud(cloud);
+  const std::size_t enough = static_cast<std::size_t>(std::ceil(config_.min_inlier_fraction * cloud->size()));
+  constexpr int kMaxPlanes = 4;  // a floor, and at most three tops above it
   pcl::PointIndices inliers;
   pcl::ModelCoefficients coefficients;
-  segmentation.segment(inliers, coefficients);
-  const double fraction = double(inliers.indices.size()) / cloud->size();
-  if (coefficients.values.size() != 4 || fraction < config_.min_inlier_fraction) {
-    fw::logWarn("ground", "no floor found (" + std::to_string(inliers.indices.size()) + " of " +
-                              std::to_string(cloud->size()) + " points on the best plane)");
+  std::size_t most_found = 0;  // for the message when no plane is enough
+  pcl::PointCloud<pcl::PointXYZ>::Ptr searched = cloud;
+  for (int plane = 0; plane < kMaxPlanes; ++plane) {
+    pcl::PointIndices found;
+    pcl::ModelCoefficients found_coefficients;
+    segmentation.setInputCloud(searched);
+    segmentation.segment(found, found_coefficients);
+    most_found = std::max(most_found, found.indices.size());
+    if (found_coefficients.values.size() != 4 || found.indices.size() < enough) break;
+    inliers = found;
+    coefficients = found_coefficients;
+    // The side of the plane away from the sensor (the sensor at the origin is above any floor).
+    Eigen::Vector4f plane_S(coefficients.values[0], coefficients.values[1], coefficients.values[2],
+                            coefficients.values[3]);
+    if (plane_S[3] < 0.0f) plane_S = -plane_S;
+    plane_S /= plane_S.head<3>().norm();
+    pcl::PointCloud<pcl::PointXYZ>::Ptr below(new pcl::PointCloud<pcl::PointXYZ>);
+    for (const pcl::PointXYZ& point : *searched) {
+      if (plane_S.dot(Eigen::Vector4f(point.x, point.y, point.z, 1.0f)) < -config_.distance_threshold_m) {
+        below->push_back(point);
+      }
+    }
+    if (below->size() < enough) break;
+    searched = below;
+  }
+  if (coefficients.values.size() != 4 || inliers.indices.size() < enough) {
+    fw::logWarn("ground", "no floor found (" + std::to_string(most_found) + " of " + std::to_string(cloud->size()) +
+                              " points on the best plane)");
     return std::nullopt;
   }
   // Plane n.p + d = 0 in the sensor frame, with n pointing up (towards the sensor, d > 0).

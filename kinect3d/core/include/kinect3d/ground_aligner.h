@@ -18,10 +18,11 @@ class GroundAligner {
   struct Config {
     std::optional<SensorPose> pose;             // known mounting; when absent the floor is searched for
     double max_tilt_rad = 40.0 * M_PI / 180.0;  // the floor's normal is at most this far from the image's up
-    double distance_threshold_m = 0.04;         // inlier band around the plane (noise at 4-5 m)
-    double max_fit_range_m = 5.0;               // fit on points nearer than this, where depth is precise
+    double distance_threshold_m = 0.05;         // inlier band around the plane (a depth step at 5 m)
+    double max_fit_range_m = 6.0;               // fit on points nearer than this, where depth is precise
     int refit_interval_frames = 30;             // how often the floor fit is checked
-    double min_inlier_fraction = 0.1;           // of the sampled points; below it the fit has degraded
+    double min_inlier_fraction = 0.05;          // of the sampled points (a floor filling the bottom fifth
+                                                // of the view from 3 m on); below it the fit has degraded
     double min_height_m = 0.2;                  // a floor fit that puts the sensor lower or higher than these
     double max_height_m = 2.0;                  // is a plane found in noise or clutter: keep looking
   };
