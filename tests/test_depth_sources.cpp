@@ -51,44 +51,42 @@ class TumDir : public ::testing::Test {
     ADD_FAILURE() << "expected a DepthSourceError";
     return "";
   }
+  // A sequence of one image, opened by its bare folder path: its frame, at its stamp, with TUM's
+  // default intrinsics (no camera.yaml), and then the end.
+  DepthFrame readTheOnlyFrame(const std::string& image) {
+    write("depth.txt", "# one frame\n1305031102.160407 " + image + "\n");
+    auto source = kinect3d::sim::sourcesWithSimulator().open(dir_.string());
+    DepthFrame frame, after;
+    EXPECT_EQ(source->read(frame), ReadResult::kFrame);
+    EXPECT_EQ(frame.width(), 640);
+    EXPECT_EQ(frame.intrinsics.fx, 525.0) << "TUM default intrinsics without camera.yaml";
+    EXPECT_DOUBLE_EQ(frame.source_time_s, 1305031102.160407);
+    EXPECT_EQ(source->read(after), ReadResult::kEnd);
+    return frame;
+  }
+
   ScopedTempDir temp_;
   const fs::path dir_ = temp_.path();
   const std::string frame_ = writeTumFrame(dir_ / "frame.png");
 };
 
 TEST_F(TumDir, ReadsAFrameAtItsStampWithTumsDefaults) {
-  write("depth.txt", "# a frame\n1305031102.160407 " + frame_ + "\n");
-  auto source = kinect3d::sim::sourcesWithSimulator().open(dir_.string());  // a bare folder path works too
-  DepthFrame frame;
-  ASSERT_EQ(source->read(frame), ReadResult::kFrame);
-  EXPECT_EQ(frame.width(), 640);
-  EXPECT_EQ(frame.intrinsics.fx, 525.0) << "TUM default intrinsics without camera.yaml";
-  EXPECT_DOUBLE_EQ(frame.source_time_s, 1305031102.160407);
-  const kinect3d::DepthStats stats = kinect3d::computeStats(frame);
+  const kinect3d::DepthStats stats = kinect3d::computeStats(readTheOnlyFrame(frame_));
   EXPECT_NEAR(stats.invalid_fraction, kFrameInvalid, 1e-9);
   EXPECT_NEAR(stats.min_m, kFrameNear_m, 1e-3);
   EXPECT_NEAR(stats.max_m, kFrameFar_m, 1e-3);
-  EXPECT_EQ(source->read(frame), ReadResult::kEnd);
 }
 
 TEST_F(TumDir, ReadsTheRealKinectFrame) {
   const std::optional<std::string> real = sharedDataFile("real-depth/tum_depth.png");
   if (!real) GTEST_SKIP() << noSharedData("real-depth/tum_depth.png");
-  const std::string kRealTum = *real;
-  write("depth.txt", "# real frame\n1305031102.160407 " + kRealTum + "\n");
-  auto source = kinect3d::sim::sourcesWithSimulator().open(dir_.string());  // a bare folder path works too
-  DepthFrame frame;
-  ASSERT_EQ(source->read(frame), ReadResult::kFrame);
-  EXPECT_EQ(frame.width(), 640);
-  EXPECT_EQ(frame.intrinsics.fx, 525.0) << "TUM default intrinsics without camera.yaml";
-  EXPECT_DOUBLE_EQ(frame.source_time_s, 1305031102.160407);
+  const DepthFrame frame = readTheOnlyFrame(*real);
   const kinect3d::DepthStats stats = kinect3d::computeStats(frame);
   EXPECT_NEAR(stats.invalid_fraction, 0.19, 0.01);
   EXPECT_NEAR(stats.min_m, 1.46, 0.01);
   EXPECT_NEAR(stats.max_m, 9.33, 0.01);
-  const cv::Mat raw = cv::imread(kRealTum, cv::IMREAD_UNCHANGED);
+  const cv::Mat raw = cv::imread(*real, cv::IMREAD_UNCHANGED);
   EXPECT_EQ(frame.at(320, 240), std::lround(raw.at<std::uint16_t>(240, 320) / 5.0));
-  EXPECT_EQ(source->read(frame), ReadResult::kEnd);
 }
 
 TEST_F(TumDir, CameraFileSetsIntrinsicsAndScale) {
