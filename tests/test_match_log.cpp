@@ -5,8 +5,10 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <map>
 #include <thread>
 
@@ -17,6 +19,7 @@
 #include "framework_api/host.h"
 #include "fusion/json_lines.h"
 #include "host_process.h"
+#include "kinect3d/log_source.h"
 #include "kinect3d/match_log.h"
 #include "run_command.h"
 #include "scoped_temp_dir.h"
@@ -373,6 +376,35 @@ TEST(MatchLog, ADepthFrameOfNoSensorsSizeIsRefusedBeforeItIsDecoded) {
               std::string::npos)
         << e.what();
   }
+}
+
+TEST(MatchLog, StampsThatAreNotFiniteAreRefusedOneByOneOrSkippedByTheLogSource) {
+  ScopedTempDir dir;
+  const std::string folder = (dir.path() / "run").string();
+  {
+    kinect3d::MatchLogWriter writer(folder, {});
+    std::uint64_t index = 0;
+    for (const double stamp_s : {0.0, std::numeric_limits<double>::quiet_NaN(), HUGE_VAL, -HUGE_VAL, 0.1}) {
+      fw::DepthImage image = smallDepthImage(index++);
+      image.stamp.source_time_s = stamp_s;
+      if (std::isnan(stamp_s)) {
+        // SQLite keeps no NaN: this one publication is refused, the batch goes on.
+        EXPECT_THROW(writer.write({1.0, image}), kinect3d::MatchLogRefused);
+        continue;
+      }
+      writer.write({1.0, image});
+    }
+  }
+  kinect3d::DepthSourceTable sources = kinect3d::DepthSourceTable::core();
+  kinect3d::addLogSource(sources);
+  const auto source = sources.open("log:" + folder);
+  kinect3d::DepthFrame frame;
+  std::vector<double> stamps;
+  for (kinect3d::ReadResult result; (result = source->read(frame)) != kinect3d::ReadResult::kEnd;) {
+    if (result == kinect3d::ReadResult::kFrame) stamps.push_back(frame.source_time_s);
+  }
+  EXPECT_EQ(stamps, (std::vector<double>{0.0, 0.1})) << "the two frames that can be placed in time";
+  EXPECT_EQ(source->counters().skipped, 2u);
 }
 
 TEST(Logger, StopsAtItsBudgetLoudlyAndDetectionGoesOn) {

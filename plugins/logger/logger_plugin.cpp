@@ -105,7 +105,15 @@ class LoggerPlugin : public fw::Plugin {
   void record() {
     std::uint64_t refused = 0;
     const std::vector<fw::JournalEntry> entries = world_.takeJournal(&refused);
-    for (const fw::JournalEntry& entry : entries) writer_->write(entry);
+    for (const fw::JournalEntry& entry : entries) {
+      try {
+        writer_->write(entry);
+      } catch (const kinect3d::MatchLogRefused& e) {
+        if (fw::worthLogging(++unrecordable_)) {
+          fw::logWarn(name_, std::string(e.what()) + " (" + std::to_string(unrecordable_) + " so far)");
+        }
+      }
+    }
     if (refused > 0) {
       // The disk or this core could not keep up: say so in the log itself, where it is missed.
       writer_->write({fw::wallClockNow_s(),
@@ -260,7 +268,8 @@ class LoggerPlugin : public fw::Plugin {
   std::string last_why_not_;  // what the last NOT RECORDING said
   std::optional<Gap> gap_;    // since when and why nothing is recorded (before the first log, too)
   std::deque<fw::JournalEntry> memory_;
-  std::uint64_t forgotten_ = 0;  // publications neither recorded nor kept
+  std::uint64_t forgotten_ = 0;     // publications neither recorded nor kept
+  std::uint64_t unrecordable_ = 0;  // publications the log could not hold
   double next_try_s_ = 0.0;
 };
 

@@ -72,6 +72,10 @@ struct Statement {
     const int result = sqlite3_step(stmt);
     sqlite3_reset(stmt);
     sqlite3_clear_bindings(stmt);
+    if (result == SQLITE_CONSTRAINT) {
+      throw MatchLogRefused(path + ": a publication not recorded: " + sqlite3_errstr(result) +
+                            " (a time stamp that is not a number?)");
+    }
     if (result != SQLITE_DONE) throw MatchLogError(path + ": " + sqlite3_errstr(result));
   }
   // Steps a query: true while it has a row.

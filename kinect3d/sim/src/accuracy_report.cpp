@@ -143,7 +143,8 @@ int detectionsOn(DepthSource& source, const DetectorConfig& config, int& frames)
   DepthFrame frame;
   Detections detections;
   int balls = 0;
-  while (source.read(frame) == ReadResult::kFrame) {
+  for (ReadResult result; (result = source.read(frame)) != ReadResult::kEnd;) {
+    if (result == ReadResult::kNoFrameYet) continue;
     detector.detect(frame, detections);
     balls += static_cast<int>(detections.balls.size());
     ++frames;

@@ -31,7 +31,8 @@ class DepthSourceError : public std::runtime_error {
 
 enum class ReadResult {
   kFrame,       // frame filled
-  kNoFrameYet,  // nothing within the wait (a live device, a paced or slow recording); try again
+  kNoFrameYet,  // nothing within the wait (a live device, a paced or slow recording), or a frame
+                // skipped (its time stamp is not finite); try again
   kEnd          // the recording or scene is over
 };
 

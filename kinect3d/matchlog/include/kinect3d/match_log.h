@@ -30,6 +30,12 @@ class MatchLogError : public std::runtime_error {
  public:
   using std::runtime_error::runtime_error;
 };
+// One publication the log cannot hold (a time stamp that is not a number where the log needs one);
+// the log itself is fine and takes the next.
+class MatchLogRefused : public MatchLogError {
+ public:
+  using MatchLogError::MatchLogError;
+};
 
 // What a run was: stored once, at the start.
 struct RunInfo {
@@ -57,7 +63,8 @@ class MatchLogWriter {
   MatchLogWriter(const MatchLogWriter&) = delete;
   MatchLogWriter& operator=(const MatchLogWriter&) = delete;
 
-  // Adds one publication to the current batch. Throws MatchLogError when the disk refuses it.
+  // Adds one publication to the current batch. Throws MatchLogRefused when the log cannot hold it
+  // (the batch goes on), MatchLogError when the disk refuses it.
   void write(const fw::JournalEntry& entry);
   // Ends the batch: from here on, a crash keeps it.
   void commit();
