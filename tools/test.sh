@@ -3,7 +3,7 @@
 # whole test suite; then the framework's and the scene map's tests under ThreadSanitizer
 # (tools/sanitize.sh thread), the test suite under AddressSanitizer + UndefinedBehaviorSanitizer
 # (tools/sanitize.sh address), and every fuzzer for a bounded time from that same build
-# (tools/fuzz.sh). About 18 minutes on 2 cores, packages installed.
+# (tools/fuzz.sh). About 15 minutes on 2 cores, packages installed.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 KINECT3D_WERROR=ON tools/build.sh
