@@ -68,6 +68,7 @@ void BallDetector::detect(const DepthFrame& frame, Detections& out, const std::o
   }
   const Eigen::Isometry3d T_M_R = T_F_R.value_or(Eigen::Isometry3d::Identity());
   const Eigen::Isometry3f T_R_S_f = T_R_S_->cast<float>();
+  coverage_.update(frame);
   projector_->project(frame, T_R_S_f, points_);
   Clock::time_point t2 = Clock::now();
   out.times.seconds[StageTimes::kPoints] = secondsBetween(t1, t2);
@@ -80,7 +81,7 @@ void BallDetector::detect(const DepthFrame& frame, Detections& out, const std::o
   const Eigen::Isometry3f T_S_R = T_R_S_f.inverse();
   candidates_.erase(std::remove_if(candidates_.begin(), candidates_.end(),
                                    [&](const BallCandidate& candidate) {
-                                     return !shell_evidence_->shellObserved(candidate, *grid_, frame, T_S_R);
+                                     return !shell_evidence_->shellObserved(candidate, *grid_, frame, coverage_, T_S_R);
                                    }),
                     candidates_.end());
   out.occupied_voxels = static_cast<int>(grid_->occupiedVoxels().size());
@@ -90,7 +91,7 @@ void BallDetector::detect(const DepthFrame& frame, Detections& out, const std::o
 
   const fw::Stamp stamp{frame.source_time_s, frame.receive_time_s};
   for (const BallCandidate& candidate : candidates_) {
-    const std::optional<BallFit> fit = refiner_->refine(candidate, *grid_, frame, *T_R_S_, *projector_);
+    const std::optional<BallFit> fit = refiner_->refine(candidate, *grid_, frame, coverage_, *T_R_S_, *projector_);
     if (!fit) continue;
     fw::BallObservation ball =
         fw::BallObservation::inRobotFrame(fit->center_R, fit->covariance_m2, fit->state, source_, stamp);

@@ -1,19 +1,22 @@
 #include "kinect3d/shell_evidence.h"
 
+#include <algorithm>
 #include <cmath>
-
-#include "kinect3d/depth_noise.h"
 
 namespace kinect3d {
 
 ShellEvidence::ShellEvidence(const Intrinsics& intrinsics, int shell_voxels, const PointProjector::Config& points)
     : intrinsics_(intrinsics),
       shell_(shell_voxels),
+      max_range_m_(static_cast<float>(points.max_range_m)),
+      noise_{intrinsics.fx, points.baseline_m},
       fb_(static_cast<float>(intrinsics.fx * points.baseline_m)),
-      max_shadow_px_(static_cast<int>(std::ceil(intrinsics.fx * points.baseline_m / points.min_range_m))) {
+      max_shadow_px_(static_cast<int>(std::ceil(intrinsics.fx * points.baseline_m / points.min_range_m))) {}
+
+float ShellEvidence::sureReturn_m(const SensorCoverage& coverage) const {
   // Near the range limit a surface's depth is one quantisation step either side of it.
-  const DepthNoiseModel noise{intrinsics.fx, points.baseline_m};
-  sure_return_m_ = static_cast<float>(points.max_range_m - noise.quantisationStep_m(points.max_range_m));
+  const float range_m = std::min(max_range_m_, static_cast<float>(coverage.farthestReturn_m()));
+  return range_m - static_cast<float>(noise_.quantisationStep_m(range_m));
 }
 
 bool ShellEvidence::inShadow(const DepthFrame& frame, int u, int v, float far_m) const {
@@ -28,8 +31,9 @@ bool ShellEvidence::inShadow(const DepthFrame& frame, int u, int v, float far_m)
   return false;
 }
 
-ShellEvidence::Ray ShellEvidence::classify(const DepthFrame& frame, int u, int v, float near_m, float far_m) const {
-  if (u < 0 || v < 0 || u >= frame.width() || v >= frame.height()) return Ray::kHidden;  // out of view
+ShellEvidence::Ray ShellEvidence::classify(const DepthFrame& frame, const SensorCoverage& coverage, int u, int v,
+                                           float near_m, float far_m) const {
+  if (!coverage.inView(u, v)) return Ray::kHidden;
   const std::uint16_t d_mm = frame.at(u, v);
   if (d_mm != 0) {
     const float d_m = d_mm * 1e-3f;
@@ -37,15 +41,12 @@ ShellEvidence::Ray ShellEvidence::classify(const DepthFrame& frame, int u, int v
     if (d_m < near_m) return Ray::kHidden;
     return Ray::kSurface;  // something within the voxel, too little of it for the grid
   }
-  if (far_m > sure_return_m_) return Ray::kUnknown;
-  const bool at_edge =
-      u < kEdgeBand_px || v < kEdgeBand_px || u >= frame.width() - kEdgeBand_px || v >= frame.height() - kEdgeBand_px;
-  if (at_edge || inShadow(frame, u, v, far_m)) return Ray::kHidden;
-  return Ray::kEmpty;
+  if (far_m > sureReturn_m(coverage)) return Ray::kUnknown;
+  return inShadow(frame, u, v, far_m) ? Ray::kHidden : Ray::kEmpty;
 }
 
 bool ShellEvidence::shellObserved(const BallCandidate& candidate, const OccupancyGrid& grid, const DepthFrame& frame,
-                                  const Eigen::Isometry3f& T_S_R) const {
+                                  const SensorCoverage& coverage, const Eigen::Isometry3f& T_S_R) const {
   const float voxel = static_cast<float>(grid.voxel_m());
   const float half_depth = 0.5f * std::sqrt(3.0f) * voxel;  // half the cube's extent along any ray
   // Five rays per voxel: through its centre and a quarter voxel to each side across the view.
@@ -64,7 +65,7 @@ bool ShellEvidence::shellObserved(const BallCandidate& candidate, const Occupanc
           const Eigen::Vector3f p = centre_S + offset;
           const int u = static_cast<int>(std::lround(intrinsics_.fx * p.x() / p.z() + intrinsics_.cx));
           const int v = static_cast<int>(std::lround(intrinsics_.fy * p.y() / p.z() + intrinsics_.cy));
-          const Ray ray = classify(frame, u, v, centre_S.z() - half_depth, centre_S.z() + half_depth);
+          const Ray ray = classify(frame, coverage, u, v, centre_S.z() - half_depth, centre_S.z() + half_depth);
           empty += ray == Ray::kEmpty;
           unknown += ray == Ray::kUnknown;
         }

@@ -17,6 +17,7 @@
 #include "kinect3d/occupancy_grid.h"
 #include "kinect3d/point_projector.h"
 #include "kinect3d/scene_map.h"
+#include "kinect3d/sensor_coverage.h"
 #include "kinect3d/shell_evidence.h"
 
 namespace kinect3d {
@@ -72,6 +73,7 @@ class BallDetector {
   std::unique_ptr<PointProjector> projector_;
   std::unique_ptr<OccupancyGrid> grid_;
   std::unique_ptr<BallCandidateFinder> finder_;
+  SensorCoverage coverage_;
   std::unique_ptr<ShellEvidence> shell_evidence_;
   std::unique_ptr<BallRefiner> refiner_;
   std::unique_ptr<SceneMap> map_;

@@ -5,8 +5,9 @@
 // seen cap): the centre is the centroid moved back along the viewing ray by the depth of the
 // visible disc, refined by a least-squares fit of a sphere of the known radius where the sensor
 // resolves the cap's shape (see refine()). When part of the ball's outline is hidden (by something
-// nearer, or cut by the image border) the centroid sits towards the visible part; the outline that
-// is the ball's own then fixes the centre across the view (see centreFromLimb()).
+// nearer, or cut by the edge of the view) the centroid sits towards the visible part; the outline
+// that is the ball's own then fixes the centre across the view, and must be a ball's: a circle of
+// the ball's radius at its range holding every pixel (see centreFromOutline()).
 #pragma once
 
 #include <optional>
@@ -20,6 +21,7 @@
 #include "kinect3d/depth_frame.h"
 #include "kinect3d/depth_noise.h"
 #include "kinect3d/point_projector.h"
+#include "kinect3d/sensor_coverage.h"
 
 namespace kinect3d {
 
@@ -43,7 +45,8 @@ class BallRefiner {
 
   // The ball the candidate holds, or nothing if it cannot be one.
   std::optional<BallFit> refine(const BallCandidate& candidate, const OccupancyGrid& grid, const DepthFrame& frame,
-                                const Eigen::Isometry3d& T_R_S, const PointProjector& surface) const;
+                                const SensorCoverage& coverage, const Eigen::Isometry3d& T_R_S,
+                                const PointProjector& surface) const;
 
  private:
   static constexpr std::size_t kMinPoints = 5;       // fewer full-resolution points: nothing to refine
@@ -57,10 +60,12 @@ class BallRefiner {
   bool isBallSized(const Eigen::Vector3d& centroid, const Eigen::Vector3d& ray, double range, double focal_px) const;
   // The centre: the centroid moved back along the ray by the visible cap's depth.
   Eigen::Vector3d centreFromDisc(const Eigen::Vector3d& centroid, const Eigen::Vector3d& ray) const;
-  // The centre moved across the view so that the rays through the visible limb graze a sphere of
-  // the ball's radius; unchanged when the whole outline is visible or too little of it is.
-  Eigen::Vector3d centreFromLimb(const Eigen::Vector3d& center_R, const DepthFrame& frame,
-                                 const Eigen::Isometry3d& T_R_S) const;
+  // For a ball seen in part, the centre moved across the view so that the rays through the visible
+  // limb graze a sphere of the ball's radius; nothing when that outline is not a ball's. Unchanged
+  // when the whole outline is visible.
+  std::optional<Eigen::Vector3d> centreFromOutline(const Eigen::Vector3d& center_R, const DepthFrame& frame,
+                                                   const SensorCoverage& coverage,
+                                                   const Eigen::Isometry3d& T_R_S) const;
   // The centre's covariance, mostly along the viewing ray.
   Eigen::Matrix3d covariance(const Eigen::Vector3d& ray, double range, int points) const;
 

@@ -1,0 +1,71 @@
+#include "kinect3d/sensor_coverage.h"
+
+#include <algorithm>
+
+namespace kinect3d {
+
+void SensorCoverage::update(const DepthFrame& frame) {
+  const int w = frame.width(), h = frame.height();
+  if (w != width_ || h != height_) {
+    width_ = w, height_ = h;
+    band_u_ = std::min(kMaxBandColumns_px, w / 4), band_v_ = std::min(kMaxBandRows_px, h / 4);
+    // Nothing returned yet: the whole band is out of view.
+    row_first_.assign(h, band_u_), row_last_.assign(h, w - 1 - band_u_);
+    column_first_.assign(w, band_v_), column_last_.assign(w, h - 1 - band_v_);
+    range_samples_.assign(static_cast<std::size_t>(kMaxRange_m / kRangeBin_m) + 1, 0);
+    farthest_return_m_ = 0.0;
+  }
+  // The bands: from each side inwards, up to what is already known to be in view.
+  for (int v = 0; v < h; ++v) {
+    for (int u = 0; u < row_first_[v]; ++u) {
+      if (frame.at(u, v) != 0) {
+        row_first_[v] = u;
+        break;
+      }
+    }
+    for (int u = w - 1; u > row_last_[v]; --u) {
+      if (frame.at(u, v) != 0) {
+        row_last_[v] = u;
+        break;
+      }
+    }
+  }
+  for (int u = 0; u < w; ++u) {
+    for (int v = 0; v < column_first_[u]; ++v) {
+      if (frame.at(u, v) != 0) {
+        column_first_[u] = v;
+        break;
+      }
+    }
+    for (int v = h - 1; v > column_last_[u]; --v) {
+      if (frame.at(u, v) != 0) {
+        column_last_[u] = v;
+        break;
+      }
+    }
+  }
+  // The range: the farthest bin that, with everything beyond it, enough samples returned.
+  std::fill(range_samples_.begin(), range_samples_.end(), 0);
+  const int last_bin = static_cast<int>(range_samples_.size()) - 1;
+  for (int v = 0; v < h; v += kSampleStride_px) {
+    for (int u = 0; u < w; u += kSampleStride_px) {
+      const std::uint16_t d_mm = frame.at(u, v);
+      if (d_mm != 0) ++range_samples_[std::min(last_bin, static_cast<int>(d_mm * 1e-3 / kRangeBin_m))];
+    }
+  }
+  int beyond = 0;
+  for (int bin = last_bin; bin >= 0; --bin) {
+    beyond += range_samples_[bin];
+    if (beyond >= kMinFarSamples) {
+      farthest_return_m_ = std::max(farthest_return_m_, bin * kRangeBin_m);
+      break;
+    }
+  }
+}
+
+bool SensorCoverage::inView(int u, int v) const {
+  if (u < 0 || v < 0 || u >= width_ || v >= height_) return false;
+  return u >= row_first_[v] && u <= row_last_[v] && v >= column_first_[u] && v <= column_last_[u];
+}
+
+}  // namespace kinect3d
