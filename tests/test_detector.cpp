@@ -290,31 +290,6 @@ TEST(BallDetector, NoPhantomsOnRealKinectFrames) {
   EXPECT_TRUE(detections.balls.empty());
 }
 
-// How many balls the shipped detector reports over the frames of a TUM sequence made of images
-// (millimetres, fx = fy = 525, centre cx, cy), each played twice; 0 when none. Sets aligned when
-// the floor was found (or the pose given).
-int ballsOnRealFrames(const std::vector<std::string>& images, double cx, double cy, const DetectorConfig& config,
-                      bool& aligned) {
-  const ScopedTempDir temp;
-  std::ofstream list(temp.path() / "depth.txt");
-  for (std::size_t i = 0; i < 2 * images.size(); ++i) list << i / 30.0 << " " << images[i % images.size()] << "\n";
-  list.close();
-  std::ofstream(temp.path() / "camera.yaml")
-      << "width: 640\nheight: 480\nfx: 525\nfy: 525\ncx: " << cx << "\ncy: " << cy << "\ndepth_scale: 1000\n";
-  auto source = kinect3d::DepthSourceTable::core().open("tum:" + temp.path().string());
-  kinect3d::BallDetector detector(config, "kinect3d");
-  kinect3d::Detections detections;
-  DepthFrame frame;
-  int balls = 0;
-  aligned = false;
-  while (source->read(frame) == kinect3d::ReadResult::kFrame) {
-    detector.detect(frame, detections);
-    balls += static_cast<int>(detections.balls.size());
-    aligned = detections.aligned;
-  }
-  return balls;
-}
-
 TEST(BallDetector, NoPhantomsOnThePclGrabberFramesOfAFloorWithALaptopAndABox) {
   std::vector<std::string> images;
   for (const char* stamp : {"20121214T142255.814212", "20121214T142256.068683", "20121214T142256.332395"}) {
@@ -323,21 +298,22 @@ TEST(BallDetector, NoPhantomsOnThePclGrabberFramesOfAFloorWithALaptopAndABox) {
     if (!image) GTEST_SKIP() << noSharedData(name);
     images.push_back(*image);
   }
-  DetectorConfig config = kinect3d::readDetectorConfig(shippedConfig().block("kinect3d"));  // floor search
-  bool aligned = false;
-  EXPECT_EQ(ballsOnRealFrames(images, 320, 240, config, aligned), 0);
-  EXPECT_TRUE(aligned) << "the floor under the laptop and the box is found";
+  const DetectorConfig config = kinect3d::readDetectorConfig(shippedConfig().block("kinect3d"));  // floor search
+  const sim::RealFramesResult result = sim::detectOnDepthImages(images, 320, 240, config);
+  EXPECT_EQ(result.frames, 6);
+  EXPECT_EQ(result.balls, 0);
+  EXPECT_TRUE(result.aligned) << "the floor under the laptop and the box is found";
 }
 
 TEST(BallDetector, NoPhantomsInARealOfficeWithItsFloorFoundOrItsMountingGiven) {
   const std::optional<std::string> office = sharedDataFile("realdata/pcl_single_frames/office1_depth_mm.png");
   if (!office) GTEST_SKIP() << noSharedData("realdata/pcl_single_frames/office1_depth_mm.png");
   DetectorConfig config = kinect3d::readDetectorConfig(shippedConfig().block("kinect3d"));  // floor search
-  bool aligned = false;
-  EXPECT_EQ(ballsOnRealFrames({*office}, 320, 240, config, aligned), 0);
-  EXPECT_TRUE(aligned) << "the floor in the bottom fifth of the view is found";
+  const sim::RealFramesResult found = sim::detectOnDepthImages({*office}, 320, 240, config);
+  EXPECT_EQ(found.balls, 0);
+  EXPECT_TRUE(found.aligned) << "the floor in the bottom fifth of the view is found";
   config.ground.pose = kinect3d::SensorPose{0.0, 0.0, 1.38, 0.0, 0.0, 0.0};  // measured: level, 1.38 m up
-  EXPECT_EQ(ballsOnRealFrames({*office}, 320, 240, config, aligned), 0);
+  EXPECT_EQ(sim::detectOnDepthImages({*office}, 320, 240, config).balls, 0);
 }
 
 TEST(BallDetector, NoPhantomsOnARealFrameOfFivePeopleWalkingDownACorridor) {
@@ -346,16 +322,16 @@ TEST(BallDetector, NoPhantomsOnARealFrameOfFivePeopleWalkingDownACorridor) {
   const std::string name = "realdata/pcl_single_frames/five_people_depth_mm.png";
   const std::optional<std::string> people = sharedDataFile(name);
   if (!people) GTEST_SKIP() << noSharedData(name);
-  DetectorConfig config = kinect3d::readDetectorConfig(shippedConfig().block("kinect3d"));  // floor search
-  bool aligned = false;
-  EXPECT_EQ(ballsOnRealFrames({*people}, 319.5, 239.5, config, aligned), 0);
-  EXPECT_TRUE(aligned) << "the corridor's floor is found";
+  const DetectorConfig config = kinect3d::readDetectorConfig(shippedConfig().block("kinect3d"));  // floor search
+  const sim::RealFramesResult found = sim::detectOnDepthImages({*people}, 319.5, 239.5, config);
+  EXPECT_EQ(found.balls, 0);
+  EXPECT_TRUE(found.aligned) << "the corridor's floor is found";
   // And with each shipped robot's fixed mounting, as the goalkeeper would see them.
   for (const auto& entry : std::filesystem::directory_iterator(std::string(PROJECT_CONFIG_DIR) + "/robots")) {
     SCOPED_TRACE(entry.path().string());
     const fw::Config robot = fw::Config::load(std::string(PROJECT_CONFIG_DIR) + "/defaults", entry.path().string(), {});
-    EXPECT_EQ(
-        ballsOnRealFrames({*people}, 319.5, 239.5, kinect3d::readDetectorConfig(robot.block("kinect3d")), aligned), 0);
+    const DetectorConfig mounted = kinect3d::readDetectorConfig(robot.block("kinect3d"));
+    EXPECT_EQ(sim::detectOnDepthImages({*people}, 319.5, 239.5, mounted).balls, 0);
   }
 }
 

@@ -427,9 +427,9 @@ void addReport(CLI::App& app) {
   command->add_option("--clutter-frames", options->report.clutter_frames, "detection: frames of the clutter scene")
       ->capture_default_str();
   command
-      ->add_option("--real-depth", options->report.real_depth_dir,
-                   "detection: the folder of the real Kinect frames tum_depth.png and nyu_raw_disparity.pgm "
-                   "(third-party data, not in the repository; without it that part of the report is left out)")
+      ->add_option("--real-data", options->report.real_data_dir,
+                   "detection: the folder of third-party real frames, real-depth/ and realdata/ (../shared/data; "
+                   "not in the repository; without it that part of the report is left out)")
       ->check(CLI::ExistingDirectory);
   command->add_option("--keep", options->keep,
                       "fusion: keep every case's input files and fused output here; calibration: every session");

@@ -2,6 +2,12 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <stdexcept>
+
+#include "kinect3d/depth_source.h"
 
 namespace kinect3d::sim {
 
@@ -64,6 +70,35 @@ void DetectionScore::add(const DetectionScore& other) {
   reported += other.reported;
   off_truth += other.off_truth;
   errors_m.insert(errors_m.end(), other.errors_m.begin(), other.errors_m.end());
+}
+
+RealFramesResult detectOnDepthImages(const std::vector<std::string>& images, double cx, double cy,
+                                     const DetectorConfig& config, int units_per_m) {
+  std::string dir = (std::filesystem::temp_directory_path() / "kinect3d_real_frames_XXXXXX").string();
+  if (mkdtemp(dir.data()) == nullptr) throw std::runtime_error("cannot create a folder like " + dir);
+  std::ofstream list(dir + "/depth.txt");
+  for (std::size_t i = 0; i < 2 * images.size(); ++i) list << i / 30.0 << " " << images[i % images.size()] << "\n";
+  list.close();
+  std::ofstream(dir + "/camera.yaml") << "width: 640\nheight: 480\nfx: 525\nfy: 525\ncx: " << cx << "\ncy: " << cy
+                                      << "\ndepth_scale: " << units_per_m << "\n";
+  RealFramesResult result;
+  try {
+    auto source = DepthSourceTable::core().open("tum:" + dir);
+    BallDetector detector(config, "kinect3d");
+    Detections detections;
+    DepthFrame frame;
+    while (source->read(frame) == ReadResult::kFrame) {
+      detector.detect(frame, detections);
+      result.balls += static_cast<int>(detections.balls.size());
+      result.aligned = detections.aligned;
+      ++result.frames;
+    }
+  } catch (...) {
+    std::filesystem::remove_all(dir);
+    throw;
+  }
+  std::filesystem::remove_all(dir);
+  return result;
 }
 
 }  // namespace kinect3d::sim

@@ -8,9 +8,9 @@
 namespace kinect3d {
 
 struct ReportOptions {
-  int seeds = 3;               // noise seeds per kick/shot scene
-  int clutter_frames = 1500;   // frames of the clutter scene (for the phantom rate)
-  std::string real_depth_dir;  // the real Kinect frames (tum_depth.png, nyu_raw_disparity.pgm); empty: left out
+  int seeds = 3;              // noise seeds per kick/shot scene
+  int clutter_frames = 1500;  // frames of the clutter scene (for the phantom rate)
+  std::string real_data_dir;  // third-party real frames (../shared/data: real-depth/, realdata/); empty: left out
 };
 
 // Writes the markdown report to out_path; prints a summary on stderr.

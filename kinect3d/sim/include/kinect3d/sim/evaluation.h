@@ -2,6 +2,7 @@
 // behind docs/accuracy.md and the scenario tests.
 #pragma once
 
+#include <string>
 #include <vector>
 
 #include "framework_api/types.h"
@@ -47,5 +48,16 @@ double quantile(std::vector<double> values, double q);
 bool shouldBeFound(const GroundTruth& truth, const Scene& scene, const EvaluationCriteria& criteria);
 DetectionScore scoreFrames(const std::vector<EvaluatedFrame>& frames, const Scene& scene,
                            const EvaluationCriteria& criteria);
+
+// One detector over real depth images (16-bit, units_per_m to the metre: 1000 for millimetres,
+// 5000 for TUM RGB-D; PNG or TIFF, 640 x 480, fx = fy = 525 at cx, cy), each played twice in order
+// as a TUM sequence through the product's tum: source.
+struct RealFramesResult {
+  int frames = 0;
+  int balls = 0;         // reported over all frames
+  bool aligned = false;  // the floor was found (or the pose given) by the last frame
+};
+RealFramesResult detectOnDepthImages(const std::vector<std::string>& images, double cx, double cy,
+                                     const DetectorConfig& config, int units_per_m = 1000);
 
 }  // namespace kinect3d::sim
