@@ -4,10 +4,14 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include <cmath>
+#include <fstream>
 #include <map>
 #include <set>
 
+#include "kinect3d/point_projector.h"
 #include "kinect3d/sim/kinect_simulator.h"
+#include "kinect3d/sim/people.h"
+#include "scoped_temp_dir.h"
 #include "sim_test_scenes.h"
 
 #include "shared_data.h"
@@ -219,6 +223,95 @@ TEST(Simulator, EveryBuiltinSceneLoadsAndRenders) {
     EXPECT_GT(stats.invalid_fraction, 0.02);
     EXPECT_LT(stats.invalid_fraction, 0.6);
   }
+}
+
+// The depth the simulator gives at pixel (u, v) of scene's first frame, with every effect off.
+double exactDepthAt(Scene scene, int u, int v) {
+  scene.noise = testing_scenes::noNoise();
+  KinectSimulator simulator(scene);
+  DepthFrame frame;
+  GroundTruth truth;
+  simulator.render(0, frame, truth);
+  return frame.at(u, v) / 1000.0;
+}
+
+TEST(Simulator, CapsulesAreLimbsInAnyDirection) {
+  // A limb of 5 cm radius 2 m ahead, level with the sensor: across the view, then pointing away
+  // from the sensor (its near end's cap faces it).
+  Scene across = testing_scenes::wallAt(6.0);
+  kinect3d::sim::SceneObject limb;
+  limb.shapes = {kinect3d::sim::Shape::capsule({-0.2, 2.0, 0.7}, {0.2, 2.0, 0.7}, 0.05, 0.0)};
+  across.objects.push_back(limb);
+  EXPECT_NEAR(exactDepthAt(across, 320, 240), 1.95, 0.002);
+  EXPECT_NEAR(exactDepthAt(across, 320, 200), 6.0, 0.002) << "above the limb: the wall";
+  Scene along = testing_scenes::wallAt(6.0);
+  limb.shapes = {kinect3d::sim::Shape::capsule({0.0, 2.0, 0.7}, {0.0, 2.4, 0.7}, 0.05, 0.0)};
+  along.objects.push_back(limb);
+  EXPECT_NEAR(exactDepthAt(along, 320, 240), 1.95, 0.002);
+}
+
+TEST(People, BodyPartsAreWhereAPersonHasThem) {
+  kinect3d::sim::Person person;  // 1.75 m, facing +y, arms down
+  person.right_arm = kinect3d::sim::ArmPose::of(kinect3d::sim::Gesture::kRaised, 1.0);
+  person.left_arm = kinect3d::sim::ArmPose::of(kinect3d::sim::Gesture::kHeldOut, -1.0);
+  double top = 0.0, right_most = 0.0, left_most = 0.0;
+  for (const kinect3d::sim::Shape& shape : person.shapes()) {
+    top = std::max(top, shape.top_m());
+    right_most = std::max(right_most, shape.center_m.x() + std::max(0.0, shape.axis_m.x()));
+    left_most = std::min(left_most, shape.center_m.x() + std::min(0.0, shape.axis_m.x()));
+  }
+  EXPECT_GT(top, 2.0) << "a raised hand reaches above the head";
+  EXPECT_LT(left_most, -0.7) << "an arm held out reaches sideways";
+  EXPECT_LT(right_most, 0.35);
+  kinect3d::sim::Person still;  // arms down: the head is the top
+  double head_top = 0.0;
+  for (const kinect3d::sim::Shape& shape : still.shapes()) head_top = std::max(head_top, shape.top_m());
+  EXPECT_NEAR(head_top, 1.75, 0.05);
+}
+
+TEST(People, SceneFilesPlacePeopleAndNameWrongGestures) {
+  const ScopedTempDir temp;
+  auto write = [&](const std::string& person) {
+    const std::string path = (temp.path() / "people.yaml").string();
+    std::ofstream(path) << "name: people\nduration_s: 1.0\nsensor:\n  pose_in_robot: {x: 0.0, y: 0.0, z: 0.7, "
+                           "yaw_deg: 0.0, pitch_deg: 0.0, roll_deg: 0.0}\nobjects:\n  - "
+                        << person << "\n";
+    return path;
+  };
+  const Scene scene = kinect3d::sim::loadScene(
+      write("{type: person, center: [0.0, 3.0, 0.0], yaw_deg: 180, height: 1.9, left_arm: flag, hair_dropout: 1.0}"));
+  ASSERT_EQ(scene.objects.size(), 1u);
+  EXPECT_EQ(scene.objects[0].shapes.size(), 18u) << "legs, feet, torso, neck, hair, head, arms, hands, a flag";
+  try {
+    kinect3d::sim::loadScene(write("{type: person, center: [0.0, 3.0, 0.0], left_arm: waving}"));
+    FAIL() << "no error";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("left_arm"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("waving"), std::string::npos) << e.what();
+  }
+}
+
+TEST(Simulator, DarkSurfacesLosePatchesNotSinglePixels) {
+  // A wall with half its surface dark: about half its pixels return nothing, in patches, so that
+  // most of what remains still has four valid neighbours (a surface, not flying pixels).
+  Scene scene = testing_scenes::wallAt(3.0);
+  scene.noise = testing_scenes::noNoise();
+  scene.objects[0].shapes[0].dropout = 0.5;
+  KinectSimulator simulator(scene);
+  DepthFrame frame;
+  GroundTruth truth;
+  simulator.render(0, frame, truth);
+  const kinect3d::PointProjector surface(kinect3d::PointProjector::Config{}, scene.intrinsics);
+  int valid = 0, surface_points = 0;
+  for (int v = 1; v < frame.height() - 1; ++v) {
+    for (int u = 1; u < frame.width() - 1; ++u) {
+      valid += frame.at(u, v) != 0;
+      surface_points += surface.isSurface(frame, u, v);
+    }
+  }
+  const double pixels = (frame.width() - 2.0) * (frame.height() - 2.0);
+  EXPECT_NEAR(valid / pixels, 0.5, 0.05);
+  EXPECT_GT(surface_points, 0.6 * valid);
 }
 
 }  // namespace

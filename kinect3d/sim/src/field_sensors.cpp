@@ -49,16 +49,15 @@ bool OmniCameraSimulator::occluded(const Eigen::Vector3d& ball_F, const fw::Robo
   for (const SceneObject& object : scene_.objects) {
     const Eigen::Vector3d offset = object.displacementAt(t_s);
     for (const Shape& shape : object.shapes) {
-      const Eigen::Vector3d c = shape.center_m + offset;
+      // The shape's footprint on the floor as a disc round its middle (a capsule's spans its axis).
+      const Eigen::Vector3d c = shape.center_m + 0.5 * shape.axis_m + offset;
+      const double footprint = 0.5 * std::max(shape.size_m.x(), shape.size_m.y()) + 0.5 * shape.axis_m.head<2>().norm();
       // Where the ray passes the shape, and how high it is there.
       const double s = std::clamp((c.head<2>() - from).dot(along) / length2, 0.0, 1.0);
       if (s <= 0.0 || s >= 1.0) continue;
-      const double footprint = 0.5 * std::max(shape.size_m.x(), shape.size_m.y());
       if ((from + s * along - c.head<2>()).norm() > footprint) continue;
       const double ray_z = model_.viewpoint_height_m + s * (ball_F.z() - model_.viewpoint_height_m);
-      const double bottom = shape.kind == Shape::Kind::kCylinder ? c.z() : c.z() - shape.size_m.z() / 2;
-      const double top = shape.kind == Shape::Kind::kCylinder ? c.z() + shape.size_m.z() : c.z() + shape.size_m.z() / 2;
-      if (ray_z >= bottom && ray_z <= top) return true;
+      if (ray_z >= shape.bottom_m() + offset.z() && ray_z <= shape.top_m() + offset.z()) return true;
     }
   }
   return false;

@@ -76,7 +76,7 @@ struct PlacedShape {
   Shape::Kind kind;
   Eigen::Matrix3d R_L_S;  // sensor directions into the shape's local frame
   Eigen::Vector3d o_L;    // the sensor origin in the local frame
-  Eigen::Vector3d half;   // box half extents; cylinder (r, r, height); sphere (r, r, r)
+  Eigen::Vector3d half;   // box half extents; cylinder (r, r, height); sphere (r, r, r); capsule (r, r, length)
 
   // Optical depth of the nearest hit in front of the sensor, or infinity.
   double intersect(const Eigen::Vector3d& d_S) const {
@@ -104,6 +104,29 @@ struct PlacedShape {
           if (t_min > t_max) return kNoHit;
         }
         return t_min > 0.0 ? t_min : kNoHit;
+      }
+      case Shape::Kind::kCapsule: {
+        // The segment runs from the local origin up z for half.z(); nearest of its side and end balls.
+        const double r = half.x(), length = half.z();
+        double best = kNoHit;
+        const double a = d.x() * d.x() + d.y() * d.y();
+        if (a > 1e-12) {
+          const double b = o.x() * d.x() + o.y() * d.y();
+          const double disc = b * b - a * (o.x() * o.x() + o.y() * o.y() - r * r);
+          if (disc >= 0.0) {
+            const double t = (-b - std::sqrt(disc)) / a;
+            const double z = o.z() + t * d.z();
+            if (t > 0.0 && z >= 0.0 && z <= length) best = t;
+          }
+        }
+        for (const double end_z : {0.0, length}) {
+          const Eigen::Vector3d oc(o.x(), o.y(), o.z() - end_z);
+          const double b = oc.dot(d), disc = b * b - d.squaredNorm() * (oc.squaredNorm() - r * r);
+          if (disc < 0.0) continue;
+          const double t = (-b - std::sqrt(disc)) / d.squaredNorm();
+          if (t > 0.0 && t < best) best = t;
+        }
+        return best;
       }
       case Shape::Kind::kCylinder: {
         const double r = half.x(), height = half.z();
@@ -133,8 +156,8 @@ struct PlacedShape {
 
   // Corners of the local bounding box, in the sensor frame.
   std::array<Eigen::Vector3d, 8> corners_S() const {
-    const double z_lo = kind == Shape::Kind::kCylinder ? 0.0 : -half.z();
-    const double z_hi = kind == Shape::Kind::kCylinder ? half.z() : half.z();
+    const double z_lo = kind == Shape::Kind::kCylinder ? 0.0 : kind == Shape::Kind::kCapsule ? -half.x() : -half.z();
+    const double z_hi = kind == Shape::Kind::kCapsule ? half.z() + half.x() : half.z();
     std::array<Eigen::Vector3d, 8> corners;
     for (int i = 0; i < 8; ++i) {
       const Eigen::Vector3d p_L((i & 1) ? half.x() : -half.x(), (i & 2) ? half.y() : -half.y(), (i & 4) ? z_hi : z_lo);
@@ -153,6 +176,11 @@ double distanceToShape(const Shape& shape, const Eigen::Vector3d& offset_F, cons
       return std::max(0.0, p.norm() - shape.size_m.x() / 2);
     case Shape::Kind::kBox:
       return (p.cwiseAbs() - shape.size_m / 2).cwiseMax(0.0).norm();
+    case Shape::Kind::kCapsule: {
+      const Eigen::Vector3d& axis = shape.axis_m;
+      const double s = std::clamp(rel.dot(axis) / std::max(axis.squaredNorm(), 1e-12), 0.0, 1.0);
+      return std::max(0.0, (rel - s * axis).norm() - shape.size_m.x() / 2);
+    }
     case Shape::Kind::kCylinder: {
       const double radial = std::max(0.0, p.head<2>().norm() - shape.size_m.x() / 2);
       const double vertical = std::max({0.0, -p.z(), p.z() - shape.size_m.z()});
@@ -248,9 +276,14 @@ struct KinectSimulator::Renderer {
     for (const SceneObject& object : scene->objects) {
       const Eigen::Vector3d offset_F = object.displacementAt(t);
       for (const Shape& shape : object.shapes) {
-        const Eigen::Matrix3d R_L_F = Eigen::AngleAxisd(-shape.yaw_rad, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+        // The shape's local frame: turned by its yaw, or for a capsule with z along its axis.
+        const Eigen::Matrix3d R_L_F =
+            shape.kind == Shape::Kind::kCapsule
+                ? Eigen::Quaterniond::FromTwoVectors(shape.axis_m, Eigen::Vector3d::UnitZ()).toRotationMatrix()
+                : Eigen::AngleAxisd(-shape.yaw_rad, Eigen::Vector3d::UnitZ()).toRotationMatrix();
         PlacedShape shape_S{shape.kind, R_L_F * R_F_S, R_L_F * (o_F - shape.center_m - offset_F), shape.size_m / 2.0};
         if (shape.kind == Shape::Kind::kCylinder) shape_S.half.z() = shape.size_m.z();
+        if (shape.kind == Shape::Kind::kCapsule) shape_S.half.z() = shape.axis_m.norm();
         placed.push_back(shape_S);
         shape_dropout.push_back(shape.dropout);
         const std::int16_t shape_id = static_cast<std::int16_t>(placed.size());
@@ -382,6 +415,25 @@ struct KinectSimulator::Renderer {
     }
   }
 
+  // 5b. Where a dark or absorbing surface returns nothing: whole patches of the size of the
+  //     Kinect's correlation window, not single pixels (a surface with a share p of its patches
+  //     dark loses those patches and keeps the rest intact). Drawn from their own stream, so that
+  //     scenes without such surfaces render as before.
+  static constexpr int kDarkPatch_px = 8;
+  std::vector<float> block_draw;
+  std::size_t blockOf(std::size_t pixel) const {
+    const int u = static_cast<int>(pixel % width()), v = static_cast<int>(pixel / width());
+    const int blocks_across = (width() + kDarkPatch_px - 1) / kDarkPatch_px;
+    return static_cast<std::size_t>(v / kDarkPatch_px) * blocks_across + u / kDarkPatch_px;
+  }
+  void drawDarkPatches(std::uint64_t seed, int frame_index) {
+    Random patches(seed ^ 0xDA4C9A7C4E5ULL, static_cast<std::uint64_t>(frame_index));
+    const int across = (width() + kDarkPatch_px - 1) / kDarkPatch_px,
+              down = (height() + kDarkPatch_px - 1) / kDarkPatch_px;
+    block_draw.resize(static_cast<std::size_t>(across) * down);
+    for (float& draw : block_draw) draw = static_cast<float>(patches.uniform());
+  }
+
   // 6. Disparity noise and 1/8 px quantisation, dropouts, then millimetres as OpenNI2 gives them.
   //    Returns how many pixels show the ball with valid depth.
   int toDepth(Random& random, DepthFrame& frame) const {
@@ -394,8 +446,8 @@ struct KinectSimulator::Renderer {
       const std::int16_t what = id[i];
       double dropout = noise.random_dropout;
       if (what == kIdTrail) dropout += noise.trail_dropout;
-      if (what > 0 && what < kIdBall) dropout += shape_dropout[what];
       if (dropout > 0.0 && random.uniform() < dropout) continue;
+      if (what > 0 && what < kIdBall && block_draw[blockOf(i)] < shape_dropout[what]) continue;
       double eighths = 8.0 * d;
       if (noise.axial_noise) {
         const double z = fb / d;
@@ -469,6 +521,7 @@ void KinectSimulator::render(int frame_index, DepthFrame& frame, GroundTruth& tr
   frame.index = static_cast<std::uint64_t>(frame_index);
   frame.source_time_s = scene_.start_time_s + t;
   frame.sensor_id = "sim:" + scene_.name;
+  r.drawDarkPatches(scene_.noise.seed, frame_index);
   truth.visible_pixels = r.toDepth(random, frame);
 }
 

@@ -6,6 +6,7 @@
 
 #include "builtin_scenes.h"
 #include "kinect3d/config_io.h"
+#include "kinect3d/sim/people.h"
 #include "kinect3d/sim/scene.h"
 
 namespace kinect3d::sim {
@@ -52,6 +53,24 @@ std::vector<Shape> shapesOf(const fw::ConfigView& object, const std::string& typ
         box({0, 0, 1.2}, {0.42, 0.24, 0.62}),
         Shape{Shape::Kind::kSphere, base + Eigen::Vector3d(0, 0, 1.64), Eigen::Vector3d::Constant(0.22), 0.0, dropout}};
   }
+  if (type == "person") {
+    // An articulated person (kinect3d/sim/people.h); centre given on the floor between the feet.
+    Person person;
+    person.feet_m = base;
+    person.yaw_rad = yaw;
+    if (object.has("height")) person.height_m = object.getDouble("height", 1.0, 2.3);
+    if (object.has("build")) person.build = object.getDouble("build", 0.6, 1.5);
+    if (object.has("stride_deg")) person.stride_rad = degreesToRadians(object.getDouble("stride_deg", 0.0, 40.0));
+    person.clothes_dropout = dropout;
+    if (object.has("hair_dropout")) person.hair_dropout = object.getDouble("hair_dropout", 0.0, 1.0);
+    for (const auto& [key, side] : {std::pair{"left_arm", -1.0}, std::pair{"right_arm", 1.0}}) {
+      if (!object.has(key)) continue;
+      const std::vector<std::string> names = gestureNames();
+      const ArmPose arm = ArmPose::of(gestureNamed(object.getChoice(key, {names.begin(), names.end()})), side);
+      (side < 0 ? person.left_arm : person.right_arm) = arm;
+    }
+    return person.shapes();
+  }
   if (type == "goal") {
     // 2.0 m wide, 1.0 m high inside, 0.125 m posts; the net is invisible to the projector.
     const double post = 0.125;
@@ -60,7 +79,7 @@ std::vector<Shape> shapesOf(const fw::ConfigView& object, const std::string& typ
             box({0, 0, 1.0 + post / 2}, {2.0 + 2 * post, post, post})};
   }
   throw std::runtime_error(object.originOf("type") + ": " + object.path() + ".type = '" + type +
-                           "' is unknown; expected box, cylinder, sphere, robot, human or goal");
+                           "' is unknown; expected box, cylinder, sphere, robot, human, person or goal");
 }
 
 // Waypoints [[x, y], ...] under key.
@@ -104,9 +123,10 @@ CarrierRobot readCarrier(const fw::ConfigView& robot) {
 }
 
 SceneObject readObject(const fw::ConfigView& object) {
-  object.requireOnlyKeys({"type", "center", "size", "radius", "height", "yaw_deg", "dropout", "path", "speed_mps"});
+  object.requireOnlyKeys({"type", "center", "size", "radius", "height", "yaw_deg", "dropout", "path", "speed_mps",
+                          "build", "stride_deg", "hair_dropout", "left_arm", "right_arm"});
   SceneObject result;
-  result.type = object.getChoice("type", {"box", "cylinder", "sphere", "robot", "human", "goal"});
+  result.type = object.getChoice("type", {"box", "cylinder", "sphere", "robot", "human", "person", "goal"});
   result.shapes = shapesOf(object, result.type);
   if (object.has("path")) {
     // Waypoints [[x, y], ...]; the object walks them back and forth, starting at the first.
@@ -191,6 +211,38 @@ Scene readScene(const fw::ConfigView& root) {
 
 int Scene::frameCount() const { return static_cast<int>(std::lround(duration_s * fps)); }
 
+Shape Shape::capsule(const Eigen::Vector3d& from_m, const Eigen::Vector3d& to_m, double radius_m, double dropout) {
+  Shape shape{Kind::kCapsule, from_m, Eigen::Vector3d::Constant(2 * radius_m), 0.0, dropout};
+  shape.axis_m = to_m - from_m;
+  return shape;
+}
+
+Shape Shape::sphere(const Eigen::Vector3d& center_m, double radius_m, double dropout) {
+  return Shape{Kind::kSphere, center_m, Eigen::Vector3d::Constant(2 * radius_m), 0.0, dropout};
+}
+
+double Shape::bottom_m() const {
+  switch (kind) {
+    case Kind::kCylinder:
+      return center_m.z();
+    case Kind::kCapsule:
+      return std::min(center_m.z(), center_m.z() + axis_m.z()) - size_m.x() / 2;
+    default:
+      return center_m.z() - size_m.z() / 2;
+  }
+}
+
+double Shape::top_m() const {
+  switch (kind) {
+    case Kind::kCylinder:
+      return center_m.z() + size_m.z();
+    case Kind::kCapsule:
+      return std::max(center_m.z(), center_m.z() + axis_m.z()) + size_m.x() / 2;
+    default:
+      return center_m.z() + size_m.z() / 2;
+  }
+}
+
 Eigen::Vector2d walkPath(const std::vector<Eigen::Vector2d>& path_m, double speed_mps, double t_s) {
   if (path_m.size() < 2 || speed_mps <= 0.0) return Eigen::Vector2d::Zero();
   double length = 0.0;
@@ -228,13 +280,16 @@ Scene loadScene(const std::string& name_or_path) {
   try {
     const bool is_file = std::filesystem::path(name_or_path).extension() == ".yaml";
     if (is_file) return readScene(fw::Config::loadDocument(name_or_path).root());
+    if (const std::optional<Scene> crowd = crowdSceneNamed(name_or_path)) return *crowd;
     const std::map<std::string, std::string>& builtins = builtinScenes();
     const auto found = builtins.find(name_or_path);
     if (found == builtins.end()) {
       std::string names;
       for (const auto& entry : builtins) names += " " + entry.first;
       throw std::runtime_error("no built-in scene '" + name_or_path + "' (built in:" + names +
-                               "; or give a scene file ending in .yaml)");
+                               "; random people: people_no_ball_<seed>, people_thrown_from_hands_<seed>, "
+                               "people_over_a_head_<seed>, people_from_the_border_<seed>; or give a scene file "
+                               "ending in .yaml)");
     }
     return readScene(fw::Config::parseDocument(found->second, "built-in scene " + found->first).root());
   } catch (const fw::ConfigError& e) {

@@ -18,14 +18,22 @@
 
 namespace kinect3d::sim {
 
-// A solid primitive. Boxes and cylinders stand upright and may be turned about z.
+// A solid primitive. Boxes and cylinders stand upright and may be turned about z; a capsule (a
+// limb) is a segment from center_m to center_m + axis_m, rounded, in any direction.
 struct Shape {
-  enum class Kind { kBox, kCylinder, kSphere };
+  enum class Kind { kBox, kCylinder, kSphere, kCapsule };
   Kind kind = Kind::kBox;
-  Eigen::Vector3d center_m = Eigen::Vector3d::Zero();  // box/sphere centre; cylinder base centre
-  Eigen::Vector3d size_m = Eigen::Vector3d::Ones();    // box extents; cylinder (2r, 2r, height); sphere (2r, 2r, 2r)
+  Eigen::Vector3d center_m = Eigen::Vector3d::Zero();  // box/sphere centre; cylinder base centre; capsule end
+  Eigen::Vector3d size_m = Eigen::Vector3d::Ones();    // box extents; cylinder (2r, 2r, height); sphere and capsule 2r
   double yaw_rad = 0.0;
   double dropout = 0.0;  // extra chance a pixel on it returns no data (dark, absorbing material)
+  Eigen::Vector3d axis_m = Eigen::Vector3d::Zero();  // capsule: from one end to the other
+
+  static Shape capsule(const Eigen::Vector3d& from_m, const Eigen::Vector3d& to_m, double radius_m, double dropout);
+  static Shape sphere(const Eigen::Vector3d& center_m, double radius_m, double dropout);
+  // The lowest and highest points of the shape (at displacement 0).
+  double bottom_m() const;
+  double top_m() const;
 };
 
 // One obstacle (a wall, a goal, a robot, a person) made of shapes, optionally walking a path.
