@@ -73,9 +73,9 @@ DetectorRun detectAll(const sim::Scene& scene, const DetectorConfig& config) {
 }
 
 TEST(BallRefiner, HalfHiddenBallIsCentredOnItsOwnOutline) {
-  // Half of each ball is out of sight: behind a robot, behind a person (5 m away), cut by the image
-  // border. The centroid of the visible half lies 0.42 radii (4.6 cm) sideways; the outline that is
-  // the ball's own puts the centre back.
+  // Part of each ball is out of sight: half behind a robot, half behind a person (5 m away), a
+  // third cut off by the image border. The centroid of a visible half lies 0.42 radii (4.6 cm)
+  // sideways; the outline that is the ball's own puts the centre back.
   for (const char* name : {"half_hidden_robot", "half_hidden_person", "cut_by_border"}) {
     SCOPED_TRACE(name);
     sim::Scene scene = sim::loadScene(name);
@@ -108,6 +108,28 @@ TEST(BallRefiner, RejectsWhatIsNotBallSized) {
   const DetectorRun too_small = detectAll(small, strict);
   EXPECT_GT(too_small.candidates, 0);
   EXPECT_EQ(too_small.balls, 0);
+}
+
+TEST(BallRefiner, WhatIsNotRoundLikeABallIsNotOne) {
+  // Each object alone in the air where the hung ball would be, 3 m ahead: a square panel as wide
+  // as the ball facing the sensor (a flag, a sign), a sphere half the ball's radius on the end of a
+  // forearm (a hand), a forearm pointing at the sensor. The ball itself is found there.
+  const Eigen::Vector3d at(0.0, 3.0, 1.0);
+  sim::SceneObject panel = box(at, {0.22, 0.02, 0.22});
+  sim::SceneObject hand;
+  hand.shapes = {sim::Shape::sphere(at, 0.05, 0.0),
+                 sim::Shape::capsule(at + Eigen::Vector3d(0.3, 0.1, -0.1), at, 0.04, 0.0)};
+  sim::SceneObject forearm;
+  forearm.shapes = {sim::Shape::capsule(at, at + Eigen::Vector3d(0.0, 0.3, 0.0), 0.05, 0.0)};
+  for (const auto& [name, object] :
+       {std::pair{"panel", panel}, std::pair{"hand", hand}, std::pair{"forearm", forearm}}) {
+    SCOPED_TRACE(name);
+    sim::Scene scene = hungWith({object});
+    scene.ball.reset();
+    EXPECT_EQ(detectAll(scene, shippedDetector(scene)).balls, 0);
+  }
+  const sim::Scene ball = hungWith({});
+  EXPECT_EQ(detectAll(ball, shippedDetector(ball)).balls, ball.frameCount());
 }
 
 // The first frame of the hung_4m scene seen from `pose`, through a detector that searches for

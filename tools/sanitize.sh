@@ -76,7 +76,7 @@ heavy=(
   "MatchDay\.LogsOpenReadOnlyOnAReadOnlyMountAndAsAnotherUserAndNothingIsWrittenBesideThem"
   "FusionPlugins\.(TheDemoRobotFusesTheLobFlyingOverItWhileItDrives|TheAlignmentCheckFindsAKinectTurnedOnTheRobot)"
   "TrajectoryScenario\.GoalkeeperSeesWhereAShotCrossesItsLine"
-  "BallDetector\.(FindsKicksAndShotsAndNothingElse|NoPhantomsInClutter)"
+  "BallDetector\.(FindsKicksAndShotsAndNothingElse|NoPhantomsInClutter|PeopleRoundTheRobotAreNotBallsAndABallAmongThemIsFound)"
   "SceneMap\.(WorksInTheFieldFrameAndStartsAfreshWhenAPoseAppears|FlagsABallHungInPlaceAsStaticButNeverAFlyingOne)"
 )
 excluded="^(Install\..*|Style\..*$(printf '|%s' "${heavy[@]}"))$"

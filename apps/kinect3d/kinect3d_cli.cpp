@@ -426,6 +426,8 @@ void addReport(CLI::App& app) {
       ->capture_default_str();
   command->add_option("--clutter-frames", options->report.clutter_frames, "detection: frames of the clutter scene")
       ->capture_default_str();
+  command->add_option("--people-seeds", options->report.people_seeds, "detection: random scenes per kind of people")
+      ->capture_default_str();
   command
       ->add_option("--real-data", options->report.real_data_dir,
                    "detection: the folder of third-party real frames, real-depth/ and realdata/ (../shared/data; "
