@@ -15,35 +15,28 @@ void SensorCoverage::update(const DepthFrame& frame) {
     range_samples_.assign(static_cast<std::size_t>(kMaxRange_m / kRangeBin_m) + 1, 0);
     farthest_return_m_ = 0.0;
   }
-  // The bands: from each side inwards, up to what is already known to be in view.
-  for (int v = 0; v < h; ++v) {
-    for (int u = 0; u < row_first_[v]; ++u) {
-      if (frame.at(u, v) != 0) {
-        row_first_[v] = u;
-        break;
+  // The bands: from each side inwards, up to what is already known to be in view. at(i, j) reads
+  // pixel j of line i (a row, or a column); first and last are the line's outermost returns.
+  auto learn = [&](int lines, int length, auto at, std::vector<int>& first, std::vector<int>& last) {
+    for (int i = 0; i < lines; ++i) {
+      for (int j = 0; j < first[i]; ++j) {
+        if (at(i, j) != 0) {
+          first[i] = j;
+          break;
+        }
+      }
+      for (int j = length - 1; j > last[i]; --j) {
+        if (at(i, j) != 0) {
+          last[i] = j;
+          break;
+        }
       }
     }
-    for (int u = w - 1; u > row_last_[v]; --u) {
-      if (frame.at(u, v) != 0) {
-        row_last_[v] = u;
-        break;
-      }
-    }
-  }
-  for (int u = 0; u < w; ++u) {
-    for (int v = 0; v < column_first_[u]; ++v) {
-      if (frame.at(u, v) != 0) {
-        column_first_[u] = v;
-        break;
-      }
-    }
-    for (int v = h - 1; v > column_last_[u]; --v) {
-      if (frame.at(u, v) != 0) {
-        column_last_[u] = v;
-        break;
-      }
-    }
-  }
+  };
+  const auto in_row = [&](int v, int u) { return frame.at(u, v); };
+  const auto in_column = [&](int u, int v) { return frame.at(u, v); };
+  learn(h, w, in_row, row_first_, row_last_);
+  learn(w, h, in_column, column_first_, column_last_);
   // The range: the farthest bin that, with everything beyond it, enough samples returned.
   std::fill(range_samples_.begin(), range_samples_.end(), 0);
   const int last_bin = static_cast<int>(range_samples_.size()) - 1;

@@ -70,6 +70,25 @@ class Random {
   std::array<std::uint64_t, 4> s_;
 };
 
+// The nearest hit in front of o along o + t d: of a sphere of radius r round the origin, and of the
+// side of an upright cylinder of radius r standing on the origin, height high.
+double sphereHit(const Eigen::Vector3d& o, const Eigen::Vector3d& d, double r) {
+  const double b = o.dot(d), disc = b * b - d.squaredNorm() * (o.squaredNorm() - r * r);
+  if (disc < 0.0) return kNoHit;
+  const double t = (-b - std::sqrt(disc)) / d.squaredNorm();
+  return t > 0.0 ? t : kNoHit;
+}
+double sideHit(const Eigen::Vector3d& o, const Eigen::Vector3d& d, double r, double height) {
+  const double a = d.x() * d.x() + d.y() * d.y();
+  if (a <= 1e-12) return kNoHit;
+  const double b = o.x() * d.x() + o.y() * d.y();
+  const double disc = b * b - a * (o.x() * o.x() + o.y() * o.y() - r * r);
+  if (disc < 0.0) return kNoHit;
+  const double t = (-b - std::sqrt(disc)) / a;
+  const double z = o.z() + t * d.z();
+  return t > 0.0 && z >= 0.0 && z <= height ? t : kNoHit;
+}
+
 // A shape at one instant, prepared for ray casting from the sensor origin: the ray o + t d with
 // d = ((u - cx)/fx, (v - cy)/fy, 1) in the sensor frame hits at optical depth t.
 struct PlacedShape {
@@ -83,13 +102,8 @@ struct PlacedShape {
     const Eigen::Vector3d d = R_L_S * d_S;
     const Eigen::Vector3d& o = o_L;
     switch (kind) {
-      case Shape::Kind::kSphere: {
-        const double b = o.dot(d), c = o.squaredNorm() - half.x() * half.x();
-        const double disc = b * b - d.squaredNorm() * c;
-        if (disc < 0.0) return kNoHit;
-        const double t = (-b - std::sqrt(disc)) / d.squaredNorm();
-        return t > 0.0 ? t : kNoHit;
-      }
+      case Shape::Kind::kSphere:
+        return sphereHit(o, d, half.x());
       case Shape::Kind::kBox: {
         double t_min = 0.0, t_max = kNoHit;
         for (int i = 0; i < 3; ++i) {
@@ -108,40 +122,12 @@ struct PlacedShape {
       case Shape::Kind::kCapsule: {
         // The segment runs from the local origin up z for half.z(); nearest of its side and end balls.
         const double r = half.x(), length = half.z();
-        double best = kNoHit;
-        const double a = d.x() * d.x() + d.y() * d.y();
-        if (a > 1e-12) {
-          const double b = o.x() * d.x() + o.y() * d.y();
-          const double disc = b * b - a * (o.x() * o.x() + o.y() * o.y() - r * r);
-          if (disc >= 0.0) {
-            const double t = (-b - std::sqrt(disc)) / a;
-            const double z = o.z() + t * d.z();
-            if (t > 0.0 && z >= 0.0 && z <= length) best = t;
-          }
-        }
-        for (const double end_z : {0.0, length}) {
-          const Eigen::Vector3d oc(o.x(), o.y(), o.z() - end_z);
-          const double b = oc.dot(d), disc = b * b - d.squaredNorm() * (oc.squaredNorm() - r * r);
-          if (disc < 0.0) continue;
-          const double t = (-b - std::sqrt(disc)) / d.squaredNorm();
-          if (t > 0.0 && t < best) best = t;
-        }
-        return best;
+        const Eigen::Vector3d along_z(0.0, 0.0, length);
+        return std::min({sideHit(o, d, r, length), sphereHit(o, d, r), sphereHit(o - along_z, d, r)});
       }
       case Shape::Kind::kCylinder: {
         const double r = half.x(), height = half.z();
-        double best = kNoHit;
-        const double a = d.x() * d.x() + d.y() * d.y();
-        if (a > 1e-12) {
-          const double b = o.x() * d.x() + o.y() * d.y();
-          const double c = o.x() * o.x() + o.y() * o.y() - r * r;
-          const double disc = b * b - a * c;
-          if (disc >= 0.0) {
-            const double t = (-b - std::sqrt(disc)) / a;
-            const double z = o.z() + t * d.z();
-            if (t > 0.0 && z >= 0.0 && z <= height) best = t;
-          }
-        }
+        double best = sideHit(o, d, r, height);
         for (const double cap_z : {0.0, height}) {
           if (std::abs(d.z()) < 1e-12) break;
           const double t = (cap_z - o.z()) / d.z();
