@@ -362,6 +362,19 @@ TEST(BallDetector, PeopleRoundTheRobotAreNotBallsAndABallAmongThemIsFound) {
   EXPECT_LE(lobs.off_truth, 1);
 }
 
+TEST(BallDetector, ABallWithDarkPanelsIsFoundAndAnotherKinectMakesNoBall) {
+  sim::Scene dark = sim::loadScene("hung_3m");
+  dark.duration_s = 0.5;
+  dark.ball->dark_panels = true;
+  const sim::DetectionScore found = sim::scoreFrames(sim::runDetectorOnScene(dark, shippedDetector(dark)), dark, {});
+  EXPECT_GE(found.found, found.frames - 1);
+  EXPECT_EQ(found.off_truth, 0);
+  sim::Scene facing = sim::loadScene("clutter");
+  facing.duration_s = 2.0;
+  facing.noise.interference = 1.0;
+  EXPECT_EQ(sim::scoreFrames(sim::runDetectorOnScene(facing, shippedDetector(facing)), facing, {}).reported, 0);
+}
+
 TEST(BallDetector, CovarianceGrowsWithRangeAlongTheRay) {
   auto covarianceAt = [](int d) {
     sim::Scene scene = sim::loadScene("hung_" + std::to_string(d) + "m");

@@ -314,4 +314,52 @@ TEST(Simulator, DarkSurfacesLosePatchesNotSinglePixels) {
   EXPECT_GT(surface_points, 0.6 * valid);
 }
 
+TEST(Simulator, ABallsDarkPanelsReturnNoDepth) {
+  // The hung ball 2 m ahead: its 12 black pentagons cover 28 % of it, a quarter or so of its disc.
+  Scene scene = testing_scenes::wallAt(5.0);
+  scene.ball = kinect3d::sim::BallLaunch{};
+  scene.ball->position_m = {0.0, 2.0, 0.7};
+  scene.ball->hanging = true;
+  auto visible = [&](bool dark) {
+    scene.ball->dark_panels = dark;
+    KinectSimulator simulator(scene);
+    DepthFrame frame;
+    GroundTruth truth;
+    simulator.render(0, frame, truth);
+    return truth.visible_pixels;
+  };
+  const double share = double(visible(true)) / visible(false);
+  EXPECT_GT(share, 0.55);
+  EXPECT_LT(share, 0.9);
+}
+
+TEST(Simulator, AnotherKinectFacingOursHolesItsViewAndAddsFalseDepth) {
+  Scene scene = testing_scenes::wallAt(4.0);
+  scene.noise = testing_scenes::noNoise();
+  auto frameWith = [&](double interference) {
+    scene.noise.interference = interference;
+    KinectSimulator simulator(scene);
+    DepthFrame frame;
+    GroundTruth truth;
+    simulator.render(3, frame, truth);
+    return frame;
+  };
+  const DepthFrame clean = frameWith(0.0), overlapped = frameWith(1.0);
+  int holes = 0, holes_in_patches = 0, false_depth = 0;
+  for (int v = 1; v < clean.height() - 1; ++v) {
+    for (int u = 1; u < clean.width() - 1; ++u) {
+      const std::size_t i = static_cast<std::size_t>(v) * clean.width() + u;
+      if (clean.depth_mm[i] != 0 && overlapped.depth_mm[i] == 0) {
+        ++holes;
+        holes_in_patches += overlapped.depth_mm[i - 1] == 0 || overlapped.depth_mm[i + 1] == 0;
+      }
+      false_depth += overlapped.depth_mm[i] != 0 && std::abs(overlapped.depth_mm[i] - clean.depth_mm[i]) > 200;
+    }
+  }
+  EXPECT_GT(holes, 1000) << "a tenth of an ellipse of 100-220 x 80-160 px";
+  EXPECT_GT(holes_in_patches, 0.95 * holes) << "holes of 2-5 px radius, not single pixels";
+  EXPECT_GT(false_depth, 100) << "clusters of 3-7 px across";
+  EXPECT_LT(holes + false_depth, static_cast<int>(clean.depth_mm.size() / 8)) << "only where the patterns overlap";
+}
+
 }  // namespace

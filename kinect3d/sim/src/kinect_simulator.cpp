@@ -17,6 +17,7 @@ constexpr std::int16_t kIdFloor = 0;
 // Shapes are 1..N; the ball and its partly covered trail pixels come after every shape id.
 constexpr std::int16_t kIdBall = 30000;
 constexpr std::int16_t kIdTrail = 30001;
+constexpr std::int16_t kIdBallDark = 30002;  // the ball's black panels: no depth
 constexpr int kBlurSamples = 8;
 
 // xoshiro256** seeded by splitmix64: fast, and a frame's noise depends only on (seed, frame).
@@ -288,6 +289,23 @@ struct KinectSimulator::Renderer {
     }
   }
 
+  // A classic ball's black pentagons sit round the 12 vertices of an icosahedron (six axes, both
+  // ways), each a cap of 17.6 degrees (12 of them cover 28 % of the sphere); fixed in the field.
+  bool dark_panels = false;
+  bool onDarkPanel(const Eigen::Vector3d& from_centre_S) const {
+    static const double phi = (1.0 + std::sqrt(5.0)) / 2.0;
+    static const std::array<Eigen::Vector3d, 6> axes = {
+        Eigen::Vector3d(0, 1, phi).normalized(), Eigen::Vector3d(0, -1, phi).normalized(),
+        Eigen::Vector3d(1, phi, 0).normalized(), Eigen::Vector3d(-1, phi, 0).normalized(),
+        Eigen::Vector3d(phi, 0, 1).normalized(), Eigen::Vector3d(-phi, 0, 1).normalized()};
+    static const double cos_cap = std::cos(17.6 * M_PI / 180.0);
+    const Eigen::Vector3d n_F = (T_F_S.linear() * from_centre_S).normalized();
+    for (const Eigen::Vector3d& axis : axes) {
+      if (std::abs(n_F.dot(axis)) > cos_cap) return true;
+    }
+    return false;
+  }
+
   // 2. The ball, smeared over the exposure: a pixel it covers for the whole exposure shows the
   //    ball; one it covers part of the time correlates to a disparity between ball and background
   //    (the trail the paper describes).
@@ -321,7 +339,7 @@ struct KinectSimulator::Renderer {
         if (hits == 0) continue;
         if (hits == samples) {
           depth_m[i] = static_cast<float>(hits / inverse_depth_sum);
-          id[i] = kIdBall;
+          id[i] = dark_panels && onDarkPanel(d * depth_m[i] + ball_at[samples / 2].o_L) ? kIdBallDark : kIdBall;
           continue;
         }
         const double covered = double(hits) / samples;
@@ -434,6 +452,7 @@ struct KinectSimulator::Renderer {
       if (what == kIdTrail) dropout += noise.trail_dropout;
       if (dropout > 0.0 && random.uniform() < dropout) continue;
       if (what > 0 && what < kIdBall && block_draw[blockOf(i)] < shape_dropout[what]) continue;
+      if (what == kIdBallDark) continue;
       double eighths = 8.0 * d;
       if (noise.axial_noise) {
         const double z = fb / d;
@@ -453,6 +472,48 @@ struct KinectSimulator::Renderer {
   }
 };
 
+namespace {
+
+// 7. Another Kinect's pattern over an ellipse of the view, where it and ours overlap (fixed for the
+//    scene): holes of 2-5 px radius over a tenth of it (Maimone and Fuchs measured 16.6 % of a frame
+//    missing with five more Kinects overlapping) and clusters of false depth, drawn from their own
+//    stream so that scenes without it render as before.
+void addInterference(const Scene& scene, int frame_index, DepthFrame& frame) {
+  const double strength = scene.noise.interference;
+  if (strength <= 0.0) return;
+  Random where(scene.noise.seed ^ 0x1E7E4FE4E11CEULL, 0);
+  const double cu = frame.width() * (0.2 + 0.6 * where.uniform()), cv = frame.height() * (0.2 + 0.6 * where.uniform());
+  const double ru = 100.0 + 120.0 * where.uniform(), rv = 80.0 + 80.0 * where.uniform();
+  auto inside = [&](int u, int v) { return std::pow((u - cu) / ru, 2) + std::pow((v - cv) / rv, 2) <= 1.0; };
+  Random random(scene.noise.seed ^ 0x1E7E4FE4E11CEULL, static_cast<std::uint64_t>(frame_index) + 1);
+  // A disc of radius r px round a random point of the ellipse, set to depth_mm.
+  auto disc = [&](double radius, auto depthAt) {
+    const int u0 = static_cast<int>(cu + ru * (2.0 * random.uniform() - 1.0));
+    const int v0 = static_cast<int>(cv + rv * (2.0 * random.uniform() - 1.0));
+    if (u0 < 0 || v0 < 0 || u0 >= frame.width() || v0 >= frame.height() || !inside(u0, v0)) return;
+    const std::uint16_t depth_mm = depthAt(frame.at(u0, v0));
+    const int reach = static_cast<int>(radius);
+    for (int v = std::max(0, v0 - reach); v <= std::min(frame.height() - 1, v0 + reach); ++v) {
+      for (int u = std::max(0, u0 - reach); u <= std::min(frame.width() - 1, u0 + reach); ++u) {
+        if (std::hypot(u - u0, v - v0) <= radius)
+          frame.depth_mm[static_cast<std::size_t>(v) * frame.width() + u] = depth_mm;
+      }
+    }
+  };
+  const double mean_hole_px = M_PI * 3.5 * 3.5;
+  const int holes = static_cast<int>(std::lround(0.1 * strength * M_PI * ru * rv / mean_hole_px));
+  for (int h = 0; h < holes; ++h) disc(2.0 + 3.0 * random.uniform(), [](std::uint16_t) { return std::uint16_t{0}; });
+  const int clusters = static_cast<int>(std::lround(60.0 * strength));
+  for (int c = 0; c < clusters; ++c) {
+    disc(1.0 + 2.0 * random.uniform(), [&](std::uint16_t here) {
+      const double z_m = here != 0 ? here * 1e-3 * (0.6 + 0.6 * random.uniform()) : 1.0 + 5.0 * random.uniform();
+      return static_cast<std::uint16_t>(std::lround(z_m * 1000.0));
+    });
+  }
+}
+
+}  // namespace
+
 KinectSimulator::KinectSimulator(Scene scene) : scene_(std::move(scene)), renderer_(std::make_unique<Renderer>()) {
   if (scene_.ball) {
     ball_motion_ =
@@ -460,6 +521,7 @@ KinectSimulator::KinectSimulator(Scene scene) : scene_(std::move(scene)), render
   }
   renderer_->resize(static_cast<std::size_t>(scene_.intrinsics.width) * scene_.intrinsics.height);
   renderer_->scene = &scene_;
+  renderer_->dark_panels = scene_.ball && scene_.ball->dark_panels;
 }
 
 KinectSimulator::~KinectSimulator() = default;
@@ -509,6 +571,7 @@ void KinectSimulator::render(int frame_index, DepthFrame& frame, GroundTruth& tr
   frame.sensor_id = "sim:" + scene_.name;
   r.drawDarkPatches(scene_.noise.seed, frame_index);
   truth.visible_pixels = r.toDepth(random, frame);
+  addInterference(scene_, frame_index, frame);
 }
 
 }  // namespace kinect3d::sim

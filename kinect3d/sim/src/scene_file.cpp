@@ -138,8 +138,8 @@ SceneObject readObject(const fw::ConfigView& object) {
 
 KinectNoise readNoise(const fw::ConfigView& view) {
   view.requireOnlyKeys({"baseline_m", "quantisation", "axial_noise", "lateral_noise_px", "shadows", "edge_dropout",
-                        "flying_pixels", "exposure_s", "trail_dropout", "random_dropout", "min_range_m", "max_range_m",
-                        "seed"});
+                        "flying_pixels", "exposure_s", "trail_dropout", "random_dropout", "interference", "min_range_m",
+                        "max_range_m", "seed"});
   KinectNoise n;
   readOptional(view, "baseline_m", n.baseline_m, 0.01, 0.5);
   readOptional(view, "quantisation", n.quantisation);
@@ -151,6 +151,7 @@ KinectNoise readNoise(const fw::ConfigView& view) {
   readOptional(view, "exposure_s", n.exposure_s, 0.0, 0.033);
   readOptional(view, "trail_dropout", n.trail_dropout, 0.0, 1.0);
   readOptional(view, "random_dropout", n.random_dropout, 0.0, 1.0);
+  readOptional(view, "interference", n.interference, 0.0, 1.0);
   readOptional(view, "min_range_m", n.min_range_m, 0.1, 20.0);
   readOptional(view, "max_range_m", n.max_range_m, n.min_range_m, 20.0);
   if (view.has("seed")) n.seed = static_cast<std::uint64_t>(view.getInt("seed", 0, 2147483647));
@@ -182,12 +183,13 @@ Scene readScene(const fw::ConfigView& root) {
   }
   if (root.has("ball")) {
     const fw::ConfigView ball = root.child("ball");
-    ball.requireOnlyKeys({"position", "velocity", "launch_time_s", "hanging"});
+    ball.requireOnlyKeys({"position", "velocity", "launch_time_s", "hanging", "dark_panels"});
     BallLaunch launch;
     launch.position_m = vector3(ball, "position");
     if (ball.has("velocity")) launch.velocity_mps = vector3(ball, "velocity");
     readOptional(ball, "launch_time_s", launch.launch_time_s, 0.0, 3600.0);
     readOptional(ball, "hanging", launch.hanging);
+    readOptional(ball, "dark_panels", launch.dark_panels);
     scene.ball = launch;
   }
   if (root.has("physics")) {

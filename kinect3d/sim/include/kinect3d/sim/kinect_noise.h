@@ -19,6 +19,9 @@ struct KinectNoise {
   double exposure_s = 0.012;      // motion blur of the ball (trails); 0 = instantaneous
   double trail_dropout = 0.3;     // share of partly covered (trail) pixels that return no data
   double random_dropout = 0.003;  // share of all pixels that return no data (isolated)
+  // Another Kinect's projector overlapping ours over part of the view (0 = none, 1 = facing it):
+  // there a tenth of it is holed in patches and small clusters of false depth appear.
+  double interference = 0.0;
   double min_range_m = 0.5;
   double max_range_m = 9.5;
   std::uint64_t seed = 1;

@@ -82,6 +82,7 @@ struct BallLaunch {
   Eigen::Vector3d velocity_mps = Eigen::Vector3d::Zero();
   double launch_time_s = 0.0;  // at rest at position_m before this
   bool hanging = false;        // hung on a wire: never moves
+  bool dark_panels = false;    // a classic ball's 12 black pentagons (28 % of it), returning no depth
 };
 
 struct Scene {
