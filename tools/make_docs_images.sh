@@ -13,6 +13,7 @@ echo "0 $(cd "$(dirname "$real_frame")" && pwd)/tum_depth.png" > "$real_dir/dept
 mkdir -p docs/images
 build/bin/kinect3d snapshot "tum:$real_dir" sim:kick_away --frame 0 --frame 16 --out docs/images/sim_vs_real.png
 build/bin/kinect3d snapshot sim:clutter sim:shot_goalkeeper --frame 20 --out docs/images/sim_scenes.png
+build/bin/kinect3d snapshot sim:people_over_a_head_3 sim:people_from_the_border_1 --frame 20 --out docs/images/people.png
 # The match report of the demo's run (docs/match-log.md), as Chromium draws it.
 run_dir=$(mktemp -d)
 trap 'rm -rf "$real_dir" "$run_dir"' EXIT
