@@ -244,10 +244,11 @@ std::optional<Eigen::Vector3d> BallRefiner::centreFromOutline(const Eigen::Vecto
   for (const Eigen::Vector3d& p : points_) {
     if (fromCentre_r((T_S_R * p).normalized()) > kMaxPixelSpread) return std::nullopt;
   }
-  // At least half the ball lies in the image: a centre beyond its border is a guess at what is not
-  // seen (a hand cut by the border fits one as well as a ball does).
+  // At least half the ball lies in the sensor's view: a centre beyond its edge (the image border or
+  // a band that never returns depth) is a guess at what is not seen. A hand cut by the border fits
+  // one as well as a ball does; so does the wall strip beside five_people's dead band.
   const Eigen::Vector2d centre_px = in.project(c_S);
-  if (centre_px.x() < 0 || centre_px.y() < 0 || centre_px.x() > in.width - 1 || centre_px.y() > in.height - 1) {
+  if (!coverage.inView(static_cast<int>(std::lround(centre_px.x())), static_cast<int>(std::lround(centre_px.y())))) {
     return std::nullopt;
   }
   radial_.clear();
