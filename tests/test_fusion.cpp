@@ -10,6 +10,7 @@
 
 #include "fusion/ball_fusion.h"
 #include "fusion/measurements.h"
+#include "fusion/pose_history.h"
 
 namespace {
 
@@ -119,6 +120,23 @@ auto always = [](double, const Eigen::Vector3d&) { return true; };
 auto never = [](double, const Eigen::Vector3d&) { return false; };
 
 }  // namespace
+
+TEST(PoseHistory, PosesAlmostAtTheSameTimeGiveAFinitePoseAtAnyTime) {
+  // Found by tests/fuzz/fuzz_stamps.cpp: two poses 1e-320 s apart, asked for a time long after them.
+  fusion::PoseHistory history;
+  history.add(fw::RobotPose{-4.0, 0.0, 0.0, {-1.9857619387229293e-307, 0.0}});
+  history.add(fw::RobotPose{-0.8, 0.8, 0.0, {-1.9857619387230415e-307, 0.0}});
+  for (const double t : {2.7e9, 0.0, 0.05, -1.0}) {
+    const fw::RobotPose pose = history.at(t);
+    EXPECT_TRUE(std::isfinite(pose.x_m) && std::isfinite(pose.y_m) && std::isfinite(pose.theta_rad)) << t;
+  }
+  // Poses a normal interval apart are still extrapolated, at most 0.1 s.
+  fusion::PoseHistory moving;
+  moving.add(fw::RobotPose{0.0, 0.0, 0.0, {10.0, 10.0}});
+  moving.add(fw::RobotPose{0.1, 0.0, 0.0, {10.1, 10.1}});
+  EXPECT_NEAR(moving.at(10.15).x_m, 0.15, 1e-9);
+  EXPECT_NEAR(moving.at(20.0).x_m, 0.2, 1e-9);
+}
 
 TEST(FusionMeasurements, KinectPositionIsMovedToTheFieldWithThePoseAndItsCovarianceTurned) {
   const fw::RobotPose pose = poseAt(1.0, 2.0, M_PI / 2, 0.0);              // facing the field's -x

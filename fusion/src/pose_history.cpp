@@ -10,9 +10,13 @@ namespace fusion {
 namespace {
 double timeOf(const fw::RobotPose& pose) { return pose.stamp.source_time_s; }
 
+// Poses closer in time than this carry no velocity worth using: the later one stands. (Two poses a
+// denormal apart once turned a 0.1 s extrapolation into an infinite one.)
+constexpr double kMinSpan_s = 1e-3;
+
 fw::RobotPose blend(const fw::RobotPose& a, const fw::RobotPose& b, double t_s) {
   const double span = timeOf(b) - timeOf(a);
-  const double w = span > 0.0 ? (t_s - timeOf(a)) / span : 0.0;
+  const double w = span >= kMinSpan_s ? (t_s - timeOf(a)) / span : 1.0;
   fw::RobotPose pose = a;
   pose.x_m = a.x_m + w * (b.x_m - a.x_m);
   pose.y_m = a.y_m + w * (b.y_m - a.y_m);
