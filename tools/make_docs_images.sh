@@ -1,12 +1,14 @@
 #!/usr/bin/env bash
 # Regenerates docs/images/: a real Kinect frame next to simulated ones, on one colour map, and the
 # match report of the demo robot's run, a calibration page, and the demo's lob in the viewer.
-# Needs a build (tools/build.sh), and the real frame ../shared/data/real-depth/tum_depth.png
-# (third-party data kept beside the repository, never in it).
+# Needs a build (tools/build.sh), and the folder of the third-party real frames (never in the
+# repository) as its argument: tools/make_docs_images.sh <real frames>, which holds
+# real-depth/tum_depth.png.
 set -euo pipefail
+[ $# -eq 1 ] || { echo "usage: tools/make_docs_images.sh <folder of the real frames, holding real-depth/tum_depth.png>" >&2; exit 2; }
+real_frame=$(cd "$1" && pwd)/real-depth/tum_depth.png
 cd "$(dirname "$0")/.."
-real_frame=../shared/data/real-depth/tum_depth.png
-[ -f "$real_frame" ] || { echo "make_docs_images: $real_frame is not here (third-party data beside the repository)" >&2; exit 2; }
+[ -f "$real_frame" ] || { echo "make_docs_images: $real_frame is not there" >&2; exit 2; }
 real_dir=$(mktemp -d)
 trap 'rm -rf "$real_dir"' EXIT
 echo "0 $(cd "$(dirname "$real_frame")" && pwd)/tum_depth.png" > "$real_dir/depth.txt"

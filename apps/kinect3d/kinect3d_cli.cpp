@@ -430,8 +430,8 @@ void addReport(CLI::App& app) {
       ->capture_default_str();
   command
       ->add_option("--real-data", options->report.real_data_dir,
-                   "detection: the folder of third-party real frames, real-depth/ and realdata/ (../shared/data; "
-                   "not in the repository; without it that part of the report is left out)")
+                   "detection: the folder holding the third-party real frames, real-depth/ and realdata/ "
+                   "(not in the repository; without it that part of the report is left out)")
       ->check(CLI::ExistingDirectory);
   command->add_option("--keep", options->keep,
                       "fusion: keep every case's input files and fused output here; calibration: every session");

@@ -3,8 +3,6 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <cstdlib>
-#include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <string>
@@ -12,7 +10,6 @@
 
 #include "framework_api/log.h"
 #include "kinect3d/config_io.h"
-#include "kinect3d/depth_source.h"
 #include "kinect3d/kinect_disparity.h"
 #include "kinect3d/sim/evaluation.h"
 #include "kinect3d/sim/people.h"
@@ -25,6 +22,19 @@ std::string format(const char* pattern, double value) {
   char text[64];
   std::snprintf(text, sizeof text, pattern, value);
   return text;
+}
+
+// The columns every scored table shares: frames | counted | found | reported balls | off the truth |
+// median error | p95 error.
+std::string scoreColumns(const sim::DetectionScore& score) {
+  auto centimetres = [&](double q) {
+    return score.errors_m.empty() ? std::string("-") : format("%.1f cm", sim::quantile(score.errors_m, q) * 100);
+  };
+  std::ostringstream columns;
+  columns << score.frames << " | " << score.eligible << " | " << score.found
+          << format(" (%.1f %%)", 100.0 * score.recall()) << " | " << score.reported << " | " << score.off_truth
+          << " | " << centimetres(0.5) << " | " << centimetres(0.95);
+  return columns.str();
 }
 
 // The detector as a robot running the scene would be configured: shipped settings, scene pose.
@@ -126,15 +136,9 @@ void kicks(const fw::Config& config, const ReportOptions& options, std::ostream&
       score.add(sim::scoreFrames(sim::runDetectorOnScene(scene, configFor(config, scene)), scene, criteria));
     }
     total.add(score);
-    md << "| `" << name << "` | " << score.frames << " | " << score.eligible << " | " << score.found
-       << format(" (%.1f %%)", 100.0 * score.recall()) << " | " << score.reported << " | " << score.off_truth << " | "
-       << format("%.1f cm", sim::quantile(score.errors_m, 0.5) * 100) << " | "
-       << format("%.1f cm", sim::quantile(score.errors_m, 0.95) * 100) << " |\n";
+    md << "| `" << name << "` | " << scoreColumns(score) << " |\n";
   }
-  md << "| **all** | " << total.frames << " | " << total.eligible << " | " << total.found
-     << format(" (%.1f %%)", 100.0 * total.recall()) << " | " << total.reported << " | " << total.off_truth << " | "
-     << format("%.1f cm", sim::quantile(total.errors_m, 0.5) * 100) << " | "
-     << format("%.1f cm", sim::quantile(total.errors_m, 0.95) * 100) << " |\n\n"
+  md << "| **all** | " << scoreColumns(total) << " |\n\n"
      << "Found in counted frames: " << format("%.1f %%", 100.0 * total.recall())
      << (total.recall() >= 0.95 ? " (target met)" : " (**target not met**)")
      << "; reported balls off the truth: " << total.off_truth
@@ -168,12 +172,7 @@ void people(const fw::Config& config, const ReportOptions& options, std::ostream
     } else {
       with_ball.add(score);
     }
-    auto centimetres = [&](double q) {
-      return score.errors_m.empty() ? std::string("-") : format("%.1f cm", sim::quantile(score.errors_m, q) * 100);
-    };
-    md << "| `" << sim::crowdBallName(kind) << "` | " << score.frames << " | " << score.eligible << " | " << score.found
-       << format(" (%.1f %%)", 100.0 * score.recall()) << " | " << score.reported << " | " << score.off_truth << " | "
-       << centimetres(0.5) << " | " << centimetres(0.95) << " |\n";
+    md << "| `" << sim::crowdBallName(kind) << "` | " << scoreColumns(score) << " |\n";
   }
   md << "\nBalls without a ball: " << phantoms_without_ball
      << (phantoms_without_ball == 0 ? " (target met)" : " (**target not met**)")
@@ -206,13 +205,8 @@ void sensorEffects(const fw::Config& config, const ReportOptions& options, std::
         score.add(sim::scoreFrames(sim::runDetectorOnScene(scene, configFor(config, scene)), scene, criteria));
       }
     }
-    auto centimetres = [&](double q) {
-      return score.errors_m.empty() ? std::string("-") : format("%.1f cm", sim::quantile(score.errors_m, q) * 100);
-    };
     md << "| " << effect << " | " << (names.size() == 1 ? "`" + names.front() + "`" : std::string("the five kicks"))
-       << " | " << score.frames << " | " << score.eligible << " | " << score.found
-       << format(" (%.1f %%)", 100.0 * score.recall()) << " | " << score.reported << " | " << score.off_truth << " | "
-       << centimetres(0.5) << " | " << centimetres(0.95) << " |\n";
+       << " | " << scoreColumns(score) << " |\n";
   };
   row("dark panels", kicks, [](sim::Scene& scene) { scene.ball->dark_panels = true; });
   row("another Kinect facing", kicks, [](sim::Scene& scene) { scene.noise.interference = 1.0; });
@@ -252,12 +246,12 @@ void phantoms(const fw::Config& config, const ReportOptions& options, std::ostre
 void realFrames(const fw::Config& config, const ReportOptions& options, std::ostream& md) {
   md << "## Real frames\n\n";
   if (options.real_data_dir.empty()) {
-    md << "Not run: no `--real-data` folder (third-party frames, kept beside the repository in "
-          "`../shared/data`, never in it).\n\n";
+    md << "Not run: no `--real-data` folder (third-party frames, never in the repository).\n\n";
     return;
   }
-  md << "Real Kinect-class frames from public datasets (`--real-data " << options.real_data_dir
-     << "`; each folder's README gives origin and licence). None shows a ball: every ball reported is a phantom. "
+  md << "Real Kinect-class frames from public datasets, in the folders `real-depth/` and `realdata/` of the "
+        "`--real-data` folder (each folder's README gives origin and licence). None shows a ball: every ball reported "
+        "is a phantom. "
         "Each image is played twice as a TUM sequence (640 x 480, fx = fy = 525); the floor is searched for as a "
         "robot without a configured mounting would, or the mounting is given where it was measured.\n\n"
         "| frames | what they show | floor | frames played | floor found | balls reported | target |\n"
@@ -305,8 +299,9 @@ void realFrames(const fw::Config& config, const ReportOptions& options, std::ost
 void writeAccuracyReport(const fw::Config& config, const ReportOptions& options, const std::string& out_path) {
   std::ostringstream md;
   md << "# Detection accuracy\n\n"
-        "Generated by `build/bin/kinect3d report detection --out docs/accuracy.md --real-data "
-        "../shared/data` (two to three minutes on one core). "
+        "Generated by `build/bin/kinect3d report detection --out docs/accuracy.md --real-data <real frames>` "
+        "(two to three minutes on one core; the real frames are third-party data, not in the repository: "
+        "docs/cli.md). "
         "Every number below comes from that run: the simulator with every noise effect on "
         "(docs/simulator.md), the detector with the shipped defaults (config/defaults/kinect3d.yaml) "
         "and the scene's sensor pose, as a robot file would give it.\n\n";

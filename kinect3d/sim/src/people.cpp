@@ -231,12 +231,14 @@ Scene crowdScene(int seed, CrowdBall ball) {
     }
   }
   if (ball != CrowdBall::kNone) scene.ball = launch;
-  for (const Person& person : crowd) {
+  // Walking slowly across, but for the thrower or the person under the lob (the last), who stand still.
+  const bool last_stands = ball == CrowdBall::kThrownFromHands || ball == CrowdBall::kOverAHead;
+  for (std::size_t i = 0; i < crowd.size(); ++i) {
+    const Person& person = crowd[i];
     SceneObject object;
     object.type = "person";
     object.shapes = person.shapes();
-    // Walking slowly across, the thrower and the person under the lob standing still.
-    if (&person != &crowd.back() || ball == CrowdBall::kNone || ball == CrowdBall::kFromTheBorder) {
+    if (!(last_stands && i + 1 == crowd.size())) {
       const Eigen::Vector2d start = person.feet_m.head<2>();
       object.path_m = {start, start + Eigen::Vector2d(uniform(-1.0, 1.0), uniform(-0.5, 0.5))};
       object.speed_mps = uniform(0.0, 1.2);

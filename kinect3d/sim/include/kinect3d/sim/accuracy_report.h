@@ -11,7 +11,7 @@ struct ReportOptions {
   int seeds = 3;              // noise seeds per kick/shot scene
   int clutter_frames = 1500;  // frames of the clutter scene (for the phantom rate)
   int people_seeds = 20;      // random scenes per kind in the people section
-  std::string real_data_dir;  // third-party real frames (../shared/data: real-depth/, realdata/); empty: left out
+  std::string real_data_dir;  // third-party real frames (holding real-depth/ and realdata/); empty: left out
 };
 
 // Writes the markdown report to out_path; prints a summary on stderr.
