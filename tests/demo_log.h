@@ -35,7 +35,9 @@ std::vector<T> itemsOf(const std::vector<fw::JournalEntry>& entries) {
 // The one run folder the logger made under folder.
 inline std::string onlySubfolder(const std::filesystem::path& folder) {
   std::vector<std::filesystem::path> runs;
-  for (const auto& entry : std::filesystem::directory_iterator(folder)) runs.push_back(entry.path());
+  for (const auto& entry : std::filesystem::directory_iterator(folder)) {
+    if (entry.is_directory()) runs.push_back(entry.path());
+  }
   if (runs.size() != 1) throw std::runtime_error("expected one run folder in " + folder.string());
   return runs.front().string();
 }

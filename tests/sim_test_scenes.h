@@ -26,7 +26,7 @@ inline kinect3d::sim::Scene wallAt(double distance_m) {
   scene.name = "wall";
   scene.duration_s = 1.0;
   scene.floor = false;
-  scene.sensor_pose = kinect3d::SensorPose{0.0, 0.0, 0.7, 0.0, 0.0, 0.0};
+  scene.sensor_pose = fw::SensorPose{0.0, 0.0, 0.7, 0.0, 0.0, 0.0};
   kinect3d::sim::SceneObject wall;
   wall.type = "box";
   wall.shapes.push_back({kinect3d::sim::Shape::Kind::kBox, {0.0, distance_m + 0.1, 0.7}, {30.0, 0.2, 30.0}, 0.0, 0.0});

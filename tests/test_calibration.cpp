@@ -19,11 +19,11 @@ namespace {
 
 namespace fs = std::filesystem;
 
-const kinect3d::SensorPose kTruth{0.08, 0.21, 0.64, 0.2, 0.15, -0.05};  // yawed, pitched, rolled
+const fw::SensorPose kTruth{0.08, 0.21, 0.64, 0.2, 0.15, -0.05};  // yawed, pitched, rolled
 
 // The floor's view of the truth: height, pitch and roll; x, y and yaw unknown (zero).
-Eigen::Isometry3d floorPose(const kinect3d::SensorPose& truth) {
-  return kinect3d::SensorPose{0.0, 0.0, truth.z_m, 0.0, truth.pitch_rad, truth.roll_rad}.T_R_S();
+Eigen::Isometry3d floorPose(const fw::SensorPose& truth) {
+  return fw::SensorPose{0.0, 0.0, truth.z_m, 0.0, truth.pitch_rad, truth.roll_rad}.T_R_S();
 }
 
 std::vector<kinect3d::CalibrationMark> marksAt(const std::vector<Eigen::Vector2d>& xy) {
@@ -35,7 +35,7 @@ std::vector<kinect3d::CalibrationMark> marksAt(const std::vector<Eigen::Vector2d
   return marks;
 }
 
-void expectPose(const kinect3d::SensorPose& found, const kinect3d::SensorPose& truth, double tol_m, double tol_rad) {
+void expectPose(const fw::SensorPose& found, const fw::SensorPose& truth, double tol_m, double tol_rad) {
   EXPECT_NEAR(found.x_m, truth.x_m, tol_m);
   EXPECT_NEAR(found.y_m, truth.y_m, tol_m);
   EXPECT_NEAR(found.z_m, truth.z_m, tol_m);
@@ -149,7 +149,7 @@ TEST(SensorCalibration, WritesThePoseIntoTheRobotFileChangingNothingElse) {
 // What a team does on the field: a recording of the ball on four marks, the marks file, one command.
 TEST(CalibrateCommand, FindsASimulatedSensorsPoseAndWritesItIntoTheRobotFile) {
   ScopedTempDir dir;
-  const kinect3d::SensorPose truth{-0.10, 0.15, 0.70, -5.0 * M_PI / 180, 5.0 * M_PI / 180, 4.0 * M_PI / 180};
+  const fw::SensorPose truth{-0.10, 0.15, 0.70, -5.0 * M_PI / 180, 5.0 * M_PI / 180, 4.0 * M_PI / 180};
   kinect3d::sim::writeCalibrationSession({truth, {{0.0, 2.0}, {-0.6, 2.8}, {0.6, 3.0}, {0.1, 3.8}}, 0.7, 3},
                                          dir.path().string());
   const fs::path robot = dir.path() / "robot.yaml";
@@ -166,12 +166,12 @@ TEST(CalibrateCommand, FindsASimulatedSensorsPoseAndWritesItIntoTheRobotFile) {
                                   .block("kinect3d")
                                   .child("sensor")
                                   .child("pose_in_robot");
-  const kinect3d::SensorPose found{pose.getDouble("x", -9, 9),
-                                   pose.getDouble("y", -9, 9),
-                                   pose.getDouble("z", -9, 9),
-                                   pose.getDouble("yaw_deg", -180, 180) * M_PI / 180,
-                                   pose.getDouble("pitch_deg", -90, 90) * M_PI / 180,
-                                   pose.getDouble("roll_deg", -180, 180) * M_PI / 180};
+  const fw::SensorPose found{pose.getDouble("x", -9, 9),
+                             pose.getDouble("y", -9, 9),
+                             pose.getDouble("z", -9, 9),
+                             pose.getDouble("yaw_deg", -180, 180) * M_PI / 180,
+                             pose.getDouble("pitch_deg", -90, 90) * M_PI / 180,
+                             pose.getDouble("roll_deg", -180, 180) * M_PI / 180};
   expectPose(found, truth, 0.01, 0.3 * M_PI / 180.0);
   // The page draws, as a person opening it sees it.
   const auto [page_status, dom] =

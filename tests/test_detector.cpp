@@ -313,7 +313,7 @@ TEST(BallDetector, NoPhantomsInARealOfficeWithItsFloorFoundOrItsMountingGiven) {
   const sim::RealFramesResult found = sim::detectOnDepthImages({*office}, 320, 240, config);
   EXPECT_EQ(found.balls, 0);
   EXPECT_TRUE(found.aligned) << "the floor in the bottom fifth of the view is found";
-  config.ground.pose = kinect3d::SensorPose{0.0, 0.0, 1.38, 0.0, 0.0, 0.0};  // measured: level, 1.38 m up
+  config.ground.pose = fw::SensorPose{0.0, 0.0, 1.38, 0.0, 0.0, 0.0};  // measured: level, 1.38 m up
   EXPECT_EQ(sim::detectOnDepthImages({*office}, 320, 240, config).balls, 0);
 }
 

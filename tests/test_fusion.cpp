@@ -8,9 +8,9 @@
 #include <limits>
 #include <random>
 
+#include "framework_api/pose_history.h"
 #include "fusion/ball_fusion.h"
 #include "fusion/measurements.h"
-#include "fusion/pose_history.h"
 
 namespace {
 
@@ -123,7 +123,7 @@ auto never = [](double, const Eigen::Vector3d&) { return false; };
 
 TEST(PoseHistory, PosesAlmostAtTheSameTimeGiveAFinitePoseAtAnyTime) {
   // Found by tests/fuzz/fuzz_stamps.cpp: two poses 1e-320 s apart, asked for a time long after them.
-  fusion::PoseHistory history;
+  fw::PoseHistory history;
   history.add(fw::RobotPose{-4.0, 0.0, 0.0, {-1.9857619387229293e-307, 0.0}});
   history.add(fw::RobotPose{-0.8, 0.8, 0.0, {-1.9857619387230415e-307, 0.0}});
   for (const double t : {2.7e9, 0.0, 0.05, -1.0}) {
@@ -131,7 +131,7 @@ TEST(PoseHistory, PosesAlmostAtTheSameTimeGiveAFinitePoseAtAnyTime) {
     EXPECT_TRUE(std::isfinite(pose.x_m) && std::isfinite(pose.y_m) && std::isfinite(pose.theta_rad)) << t;
   }
   // Poses a normal interval apart are still extrapolated, at most 0.1 s.
-  fusion::PoseHistory moving;
+  fw::PoseHistory moving;
   moving.add(fw::RobotPose{0.0, 0.0, 0.0, {10.0, 10.0}});
   moving.add(fw::RobotPose{0.1, 0.0, 0.0, {10.1, 10.1}});
   EXPECT_NEAR(moving.at(10.15).x_m, 0.15, 1e-9);
@@ -180,14 +180,14 @@ TEST(FusionMeasurements, OmniPredictsTheGroundBallAndThePhantomOfABallInTheAir) 
 }
 
 TEST(FusionPoseHistory, InterpolatesAcrossTheTurnAndExtrapolatesOnlyALittle) {
-  fusion::PoseHistory poses;
+  fw::PoseHistory poses;
   EXPECT_TRUE(poses.at(5.0).T_F_R().isApprox(Eigen::Isometry3d::Identity()));
   poses.add(poseAt(0.0, 0.0, M_PI - 0.1, 1.0));
   poses.add(poseAt(2.0, 0.0, -M_PI + 0.1, 2.0));  // turned through the back, not the front
   const fw::RobotPose mid = poses.at(1.5);
   EXPECT_NEAR(mid.x_m, 1.0, 1e-12);
   EXPECT_NEAR(std::abs(mid.theta_rad), M_PI, 1e-9);
-  EXPECT_NEAR(poses.at(5.0).x_m, 2.0 + 2.0 * fusion::PoseHistory::kMaxExtrapolation_s, 1e-9);
+  EXPECT_NEAR(poses.at(5.0).x_m, 2.0 + 2.0 * fw::PoseHistory::kMaxExtrapolation_s, 1e-9);
   EXPECT_NEAR(poses.at(0.0).x_m, 0.0, 1e-12);
 }
 

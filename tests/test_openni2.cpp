@@ -82,7 +82,7 @@ TEST_F(OniRecording, RecordingPlaysBackIdentically) {
 
   // The detector reads a recording like any other source.
   kinect3d::DetectorConfig config;
-  config.ground.pose = kinect3d::SensorPose{0.0, 0.0, 0.7, 0.0, 0.0, 0.0};
+  config.ground.pose = fw::SensorPose{0.0, 0.0, 0.7, 0.0, 0.0, 0.0};
   kinect3d::BallDetector detector(config, "kinect3d");
   kinect3d::Detections detections;
   detector.detect(played[5], detections);

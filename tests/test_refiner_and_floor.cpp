@@ -137,10 +137,10 @@ TEST(BallRefiner, WhatIsNotRoundLikeABallIsNotOne) {
 struct FloorSearch {
   kinect3d::Detections detections;
   sim::GroundTruth truth;
-  std::optional<kinect3d::SensorPose> found;  // the pose the floor implies, if one was taken
+  std::optional<fw::SensorPose> found;  // the pose the floor implies, if one was taken
 };
 
-FloorSearch searchFloor(const kinect3d::SensorPose& pose, double max_height_m = 2.0) {
+FloorSearch searchFloor(const fw::SensorPose& pose, double max_height_m = 2.0) {
   sim::Scene scene = sim::loadScene("hung_4m");
   scene.duration_s = 0.1;
   scene.sensor_pose = pose;
@@ -153,14 +153,14 @@ FloorSearch searchFloor(const kinect3d::SensorPose& pose, double max_height_m = 
   FloorSearch search;
   simulator.render(0, frame, search.truth);
   detector.detect(frame, search.detections);
-  if (detector.T_R_S()) search.found = kinect3d::SensorPose::fromTransform(*detector.T_R_S());
+  if (detector.T_R_S()) search.found = fw::SensorPose::fromTransform(*detector.T_R_S());
   return search;
 }
 
 constexpr double kDeg = M_PI / 180.0;
 
 TEST(GroundAligner, FindsTheFloorAndTheBallWhenNoPoseIsConfigured) {
-  const FloorSearch level = searchFloor(kinect3d::SensorPose{0.0, 0.0, 0.7, 0.0, 0.0, 0.0});
+  const FloorSearch level = searchFloor(fw::SensorPose{0.0, 0.0, 0.7, 0.0, 0.0, 0.0});
   ASSERT_TRUE(level.found.has_value());
   EXPECT_NEAR(level.found->z_m, 0.70, 0.02);
   EXPECT_NEAR(level.found->pitch_rad, 0.0, 0.01);
@@ -173,8 +173,7 @@ TEST(GroundAligner, FindsAPitchedAndRolledSensorOnItsFloor) {
   for (const auto& [pitch_deg, roll_deg, height_m] :
        {std::tuple{12.0, 0.0, 0.7}, std::tuple{-4.0, 6.0, 0.5}, std::tuple{20.0, -8.0, 0.9}}) {
     SCOPED_TRACE("pitch " + std::to_string(pitch_deg) + " roll " + std::to_string(roll_deg));
-    const FloorSearch tilted =
-        searchFloor(kinect3d::SensorPose{0.0, 0.0, height_m, 0.0, pitch_deg * kDeg, roll_deg * kDeg});
+    const FloorSearch tilted = searchFloor(fw::SensorPose{0.0, 0.0, height_m, 0.0, pitch_deg * kDeg, roll_deg * kDeg});
     ASSERT_TRUE(tilted.found.has_value());
     EXPECT_NEAR(tilted.found->z_m, height_m, 0.02);
     EXPECT_NEAR(tilted.found->pitch_rad, pitch_deg * kDeg, 0.01);
@@ -188,7 +187,7 @@ TEST(GroundAligner, TheFloorIsTheLowestPlaneNotATableTopAboveIt) {
   // below it.
   sim::Scene scene = sim::loadScene("hung_4m");
   scene.duration_s = 0.1;
-  scene.sensor_pose = kinect3d::SensorPose{0.0, 0.0, 1.4, 0.0, 0.0, 0.0};
+  scene.sensor_pose = fw::SensorPose{0.0, 0.0, 1.4, 0.0, 0.0, 0.0};
   scene.objects.push_back(box({0.0, 1.9, 0.375}, {1.6, 1.6, 0.75}));
   DetectorConfig config = shippedDetector(scene);
   config.ground.pose.reset();
@@ -199,7 +198,7 @@ TEST(GroundAligner, TheFloorIsTheLowestPlaneNotATableTopAboveIt) {
   simulator.render(0, frame, truth);
   const std::optional<Eigen::Isometry3d> T_R_S = aligner.fitFloor(frame);
   ASSERT_TRUE(T_R_S.has_value());
-  const kinect3d::SensorPose found = kinect3d::SensorPose::fromTransform(*T_R_S);
+  const fw::SensorPose found = fw::SensorPose::fromTransform(*T_R_S);
   EXPECT_NEAR(found.z_m, 1.4, 0.03) << "the table's top would put the sensor 0.65 m up";
   EXPECT_NEAR(found.pitch_rad, 0.0, 0.01);
   EXPECT_NEAR(found.roll_rad, 0.0, 0.01);
@@ -222,7 +221,7 @@ TEST(GroundAligner, FindsTheFloorOfARealOfficeThatFillsTheBottomFifthOfTheView) 
   kinect3d::GroundAligner aligner(config.ground);
   const std::optional<Eigen::Isometry3d> T_R_S = aligner.fitFloor(frame);
   ASSERT_TRUE(T_R_S.has_value());
-  const kinect3d::SensorPose found = kinect3d::SensorPose::fromTransform(*T_R_S);
+  const fw::SensorPose found = fw::SensorPose::fromTransform(*T_R_S);
   EXPECT_NEAR(found.z_m, 1.38, 0.05);
   EXPECT_NEAR(found.pitch_rad, 0.0, 2.0 * kDeg);
 }
@@ -230,7 +229,7 @@ TEST(GroundAligner, FindsTheFloorOfARealOfficeThatFillsTheBottomFifthOfTheView) 
 TEST(GroundAligner, KeepsLookingWhenTheFloorItFindsIsImplausible) {
   // A sensor 3 m up (a ceiling mount, or a plane fitted in clutter) is outside the plausible
   // heights: no floor is taken, so nothing is detected against a wrong one.
-  const kinect3d::SensorPose ceiling{0.0, 0.0, 3.0, 0.0, 35.0 * kDeg, 0.0};
+  const fw::SensorPose ceiling{0.0, 0.0, 3.0, 0.0, 35.0 * kDeg, 0.0};
   const FloorSearch refused = searchFloor(ceiling);
   EXPECT_FALSE(refused.detections.aligned);
   EXPECT_FALSE(refused.found.has_value());

@@ -63,26 +63,29 @@ TEST(BallTrajectory, PropagatesAcrossAnyTimeWithoutAStepPerFrame) {
   EXPECT_NEAR(flight.positionAt(1.0).y(), 4.6, 0.2);
 }
 
-TEST(WorldState, AReaderSeesEachFrameOnceInPublicationOrderWhateverItsStamp) {
+TEST(WorldState, AReaderSeesEachMeasurementOnceInPublicationOrderWhateverItsStamp) {
   fw::WorldState world;
   std::uint64_t cursor = 0;
   const auto ballStamped = [](double t_s) {
     return fw::BallObservation::inRobotFrame({0.0, 1.0, 0.5}, Eigen::Matrix3d::Identity() * 0.01, fw::BallState::kAir,
                                              "kinect3d", fw::Stamp{t_s, t_s});
   };
+  const auto timeOf = [](const fw::WorldState::Measurement& measurement) {
+    return std::get<fw::BallFrame>(measurement).stamp.source_time_s;
+  };
   world.publishBalls({ballStamped(100.0)});
   world.publishBalls({ballStamped(1e9)});
-  ASSERT_EQ(world.ballFramesSince("kinect3d", &cursor).size(), 2u);
-  EXPECT_TRUE(world.ballFramesSince("kinect3d", &cursor).empty()) << "each frame once";
+  ASSERT_EQ(world.measurementsSince(&cursor).size(), 2u);
+  EXPECT_TRUE(world.measurementsSince(&cursor).empty()) << "each measurement once";
   world.publishBalls({ballStamped(5.0)});  // back by a billion seconds
   world.publishBalls({ballStamped(kNan)});
-  const std::vector<fw::BallFrame> frames = world.ballFramesSince("kinect3d", &cursor);
+  const std::vector<fw::WorldState::Measurement> frames = world.measurementsSince(&cursor);
   ASSERT_EQ(frames.size(), 2u) << "a stamp that goes back is still new to the reader";
-  EXPECT_DOUBLE_EQ(frames[0].stamp.source_time_s, 5.0);
-  EXPECT_TRUE(std::isnan(frames[1].stamp.source_time_s));
-  // A reader that falls far behind gets the newest kHistoryPerSource.
-  for (int i = 0; i < 100; ++i) world.publishBalls({ballStamped(i)});
-  EXPECT_EQ(world.ballFramesSince("kinect3d", &cursor).size(), fw::WorldState::kHistoryPerSource);
+  EXPECT_DOUBLE_EQ(timeOf(frames[0]), 5.0);
+  EXPECT_TRUE(std::isnan(timeOf(frames[1])));
+  // A reader that falls far behind gets the newest kMeasurementsKept.
+  for (std::size_t i = 0; i < 2 * fw::WorldState::kMeasurementsKept; ++i) world.publishBalls({ballStamped(i)});
+  EXPECT_EQ(world.measurementsSince(&cursor).size(), fw::WorldState::kMeasurementsKept);
 }
 
 }  // namespace

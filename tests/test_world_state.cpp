@@ -1,5 +1,6 @@
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <thread>
 
 #include "framework_api/world_state.h"
@@ -13,8 +14,8 @@ fw::BallObservation ballAt(double y_m, const std::string& source) {
 
 TEST(WorldState, KeepsNewestFirstAndCapsHistoryPerSource) {
   fw::WorldState world;
-  for (int i = 0; i < 40; ++i) world.publishBall(ballAt(i, "kinect3d"));
-  world.publishBall(ballAt(-1, "other"));
+  for (int i = 0; i < 40; ++i) world.publishBalls({ballAt(i, "kinect3d")});
+  world.publishBalls({ballAt(-1, "other")});
   const auto balls = world.recentBalls("kinect3d");
   ASSERT_EQ(balls.size(), fw::WorldState::kHistoryPerSource);
   EXPECT_DOUBLE_EQ(balls.front().position_m.y(), 39.0);
@@ -52,7 +53,7 @@ TEST(WorldState, HoldsRobotPoseOmniBallsAndTrajectories) {
   fw::OmniBallObservation omni;
   omni.distance_m = 3.0;
   omni.source = "omni";
-  world.publishOmniFrame({omni.stamp, {omni}});
+  world.publishOmniFrame({omni.stamp, {omni}, "omni"});
   ASSERT_EQ(world.recentOmniBalls("omni").size(), 1u);
   EXPECT_DOUBLE_EQ(world.recentOmniBalls("omni")[0].distance_m, 3.0);
   fw::BallTrajectory trajectory;
@@ -105,7 +106,7 @@ TEST(Types, ObservationIsApprox) {
 
 TEST(WorldState, JournalHoldsEveryPublicationInOrderOnlyOnceOpened) {
   fw::WorldState world;
-  world.publishBall(ballAt(1.0, "kinect3d"));  // before anyone reads the journal: not kept
+  world.publishBalls({ballAt(1.0, "kinect3d")});  // before anyone reads the journal: not kept
   EXPECT_FALSE(world.journalOpen());
   world.openJournal(false);
   world.publishDepthImage(fw::DepthImage{});  // not wanted: not kept
@@ -140,6 +141,44 @@ TEST(WorldState, JournalRefusesAndCountsWhatItsReaderCannotKeepUpWith) {
   world.closeJournal();
   world.publishRobotPose({});
   EXPECT_TRUE(world.takeJournal(&refused).empty());
+}
+
+TEST(WorldState, ADepthFramesBallsComeInTheOrderTheFrameArrivedWhateverCameWhileItWasProcessed) {
+  fw::WorldState world;
+  std::uint64_t pose_cursor = 0, reader = 0;
+  world.publishRobotPose({1.0, 0.0, 0.0, {10.0, 10.0}});
+  const fw::WorldState::DepthArrival arrival = world.arriveDepthFrame(std::nullopt, &pose_cursor);
+  ASSERT_EQ(arrival.poses.size(), 1u) << "the detector gets the poses that came before its frame";
+  // While the frame is processed, a pose and an omni image come.
+  world.publishRobotPose({2.0, 0.0, 0.0, {10.03, 10.03}});
+  world.publishOmniFrame({{10.02, 10.02}, {}, "omni"});
+  EXPECT_EQ(world.measurementsSince(&reader).size(), 1u) << "the first pose; the rest waits for the frame's balls";
+  world.publishBallFrame(arrival.place, {{10.0, 10.0}, {}, "kinect3d"});
+  const std::vector<fw::WorldState::Measurement> after = world.measurementsSince(&reader);
+  ASSERT_EQ(after.size(), 3u);
+  EXPECT_EQ(std::get<fw::BallFrame>(after[0]).source, "kinect3d") << "a frame without a ball is a measurement too";
+  EXPECT_DOUBLE_EQ(std::get<fw::RobotPose>(after[1]).x_m, 2.0);
+  EXPECT_EQ(std::get<fw::OmniFrame>(after[2]).source, "omni");
+  EXPECT_EQ(world.arriveDepthFrame(std::nullopt, &pose_cursor).poses.size(), 1u) << "each pose once";
+}
+
+TEST(WorldState, AReaderGoesPastADepthFrameWhoseBallsNeverCome) {
+  fw::WorldState world;
+  std::uint64_t pose_cursor = 0, reader = 0;
+  const std::uint64_t place = world.arriveDepthFrame(std::nullopt, &pose_cursor).place;  // its plugin sticks
+  world.publishOmniFrame({{1.0, 1.0}, {}, "omni"});
+  std::size_t seen = world.measurementsSince(&reader).size();
+  EXPECT_EQ(seen, 0u);
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+  while (seen == 0 && std::chrono::steady_clock::now() < deadline) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    seen = world.measurementsSince(&reader).size();
+  }
+  EXPECT_EQ(seen, 1u) << "the omni image is read after kArrivalPatience_s";
+  world.publishBallFrame(place, {{0.9, 0.9}, {}, "kinect3d"});  // the plugin comes back
+  const std::vector<fw::WorldState::Measurement> late = world.measurementsSince(&reader);
+  ASSERT_EQ(late.size(), 1u) << "its balls are not lost: they come as a late measurement";
+  EXPECT_EQ(std::get<fw::BallFrame>(late[0]).source, "kinect3d");
 }
 
 }  // namespace

@@ -149,7 +149,7 @@ std::string fixed(double value, int decimals) {
 void printPoseCalibration(const PoseCalibration& calibration, std::ostream& out) {
   const CalibrationResult& result = calibration.result;
   const std::vector<CalibrationMark>& marks = calibration.marks;
-  out << "kinect3d:\n  sensor:\n    pose_in_robot: " << poseInRobotYaml(result.pose) << "\n";
+  out << "kinect3d:\n  sensor:\n    pose_in_robot: " << fw::poseInRobotYaml(result.pose) << "\n";
   if (result.sigma) {
     const auto& s = *result.sigma;
     out << "# 1 sigma: x " << fixed(100 * s[0], 1) << " cm, y " << fixed(100 * s[1], 1) << " cm, z "
@@ -223,7 +223,7 @@ PoseCalibration calibratePose(const PoseCalibrationOptions& options, const fw::C
   return calibration;
 }
 
-std::string writePoseInRobotFile(const std::string& robot_file, const SensorPose& pose) {
+std::string writePoseInRobotFile(const std::string& robot_file, const fw::SensorPose& pose) {
   std::ifstream in(robot_file);
   if (!in) throw std::runtime_error("cannot read '" + robot_file + "'");
   std::vector<std::string> lines;
@@ -257,7 +257,7 @@ std::string writePoseInRobotFile(const std::string& robot_file, const SensorPose
     }
     return std::nullopt;
   };
-  const std::string value = poseInRobotYaml(pose);
+  const std::string value = fw::poseInRobotYaml(pose);
   const auto kinect3d = findKey("kinect3d", std::string::npos);
   if (!kinect3d) {
     lines.push_back("kinect3d:");

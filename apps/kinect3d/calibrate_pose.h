@@ -33,6 +33,6 @@ void printPoseCalibration(const PoseCalibration& calibration, std::ostream& out)
 
 // Rewrites kinect3d.sensor.pose_in_robot in a robot file, leaving every other line as it was, after
 // copying the file to <file>.<date>_<time>.bak. Returns the copy's path.
-std::string writePoseInRobotFile(const std::string& robot_file, const SensorPose& pose);
+std::string writePoseInRobotFile(const std::string& robot_file, const fw::SensorPose& pose);
 
 }  // namespace kinect3d

@@ -26,7 +26,7 @@ void writeCalibrationPlot(const PoseCalibration& calibration, const std::string&
                      {"used", static_cast<bool>(calibration.result.used[i])}});
   }
   const nlohmann::json data = {
-      {"pose", poseInRobotYaml(calibration.result.pose)},
+      {"pose", fw::poseInRobotYaml(calibration.result.pose)},
       {"sensor", {{"x_m", sensor.x()}, {"y_m", sensor.y()}, {"view_x_m", view.x()}, {"view_y_m", view.y()}}},
       {"marks", marks}};
   writeChartPage(out_dir, kCalibrationPage, "calibration_data.js", "CALIBRATION", data.dump());

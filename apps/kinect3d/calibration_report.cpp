@@ -22,10 +22,10 @@ namespace fs = std::filesystem;
 struct NamedPose {
   const char* folder;  // the session's folder under --keep
   const char* name;
-  SensorPose pose;
+  fw::SensorPose pose;
 };
 
-SensorPose pose(double x, double y, double z, double yaw_deg, double pitch_deg, double roll_deg) {
+fw::SensorPose pose(double x, double y, double z, double yaw_deg, double pitch_deg, double roll_deg) {
   const double d = M_PI / 180.0;
   return {x, y, z, yaw_deg * d, pitch_deg * d, roll_deg * d};
 }
@@ -50,7 +50,7 @@ const std::vector<Variant> kVariants = {
     {"clean", false, false}, {"one mark 0.5 m off", true, false}, {"picked 5 px off", false, true}};
 
 // marks.yaml for the first n marks of a session written with one mark per second.
-std::string marksYaml(int n, const Variant& variant, const SensorPose& truth) {
+std::string marksYaml(int n, const Variant& variant, const fw::SensorPose& truth) {
   std::ostringstream yaml;
   yaml << "marks:\n";
   for (int i = 0; i < n; ++i) {
@@ -66,7 +66,7 @@ std::string marksYaml(int n, const Variant& variant, const SensorPose& truth) {
   return yaml.str();
 }
 
-std::string errors(const SensorPose& found, const SensorPose& truth) {
+std::string errors(const fw::SensorPose& found, const fw::SensorPose& truth) {
   const double position_cm =
       100.0 * Eigen::Vector3d(found.x_m - truth.x_m, found.y_m - truth.y_m, found.z_m - truth.z_m).norm();
   const Eigen::AngleAxisd turn(truth.T_R_S().linear().transpose() * found.T_R_S().linear());

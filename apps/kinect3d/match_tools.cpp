@@ -4,17 +4,16 @@
 #include <filesystem>
 #include <fstream>
 #include <optional>
+#include <set>
 
 #include "detect_line.h"
 #include "framework_api/config.h"
+#include "framework_api/host.h"
+#include "framework_api/install_layout.h"
 #include "framework_api/log.h"
-#include "fusion/ball_fusion.h"
 #include "fusion/json_lines.h"
-#include "kinect3d/ball_detector.h"
-#include "kinect3d/config_io.h"
 #include "kinect3d/match_log.h"
 #include "kinect3d/sim/sequence_writer.h"
-#include "kinect3d/trajectory.h"
 
 namespace kinect3d {
 
@@ -62,19 +61,11 @@ void inLoggedOrder(const MatchLogReader& log, const std::string& depth_source, O
   }
 }
 
-bool listsPlugin(const fw::Config& config, const std::string& name) {
-  const std::vector<std::string> plugins = config.block("host").getStringList("plugins");
-  return std::find(plugins.begin(), plugins.end(), name) != plugins.end();
-}
-
 }  // namespace
 
 void replayMatch(const std::string& log_folder, const std::string& defaults_dir, const std::string& robot_file,
                  const std::vector<std::string>& overrides, const std::string& output) {
   const MatchLogReader log(log_folder);
-  if (fs::exists(fs::path(output) / kMatchLogFile)) {
-    throw MatchLogError(output + ": holds a match log already; replay into a new folder");
-  }
   std::string robot = robot_file;
   if (robot.empty()) {
     fs::create_directories(output);
@@ -83,71 +74,61 @@ void replayMatch(const std::string& log_folder, const std::string& defaults_dir,
     file << "# The configuration recorded in " << log_folder << " (the run being replayed).\n" << log.run().config_yaml;
     if (!file.flush()) throw std::runtime_error("cannot write '" + robot + "'");
   }
-  const fw::Config config = fw::Config::load(defaults_dir, robot, overrides);
-  const std::string source = depthSource(log);
-  const fw::ConfigView kinect_block = config.block(source);
-  BallDetector detector(readDetectorConfig(kinect_block), source);
-  const auto trajectory = makeTrajectoryEstimator(readTrajectoryConfig(kinect_block));
-  std::optional<fusion::BallFusion> fusion;
-  if (listsPlugin(config, "fusion")) fusion.emplace(fusion::readFusionConfig(config.block("fusion")));
 
-  RunInfo run = log.run();
-  run.config_yaml = config.toYaml();
-  run.replayed_from = log_folder;
-  MatchLogWriter writer(output, run);
-
-  // What the plugins would publish, stamped with the moment the robot received the input.
-  std::optional<fw::RobotPose> pose;
-  bool has_trajectory = false, has_fused = false, aligned = false;
-  std::uint64_t frames = 0, with_ball = 0;
-  const auto publishFused = [&](const fusion::FusionUpdate& update, double wall_s) {
-    if (update.ball) {
-      fw::FusedBall ball = *update.ball;
-      ball.stamp.receive_time_s = wall_s;
-      writer.write({wall_s, ball});
-      has_fused = true;
-    } else if (has_fused) {
-      writer.write({wall_s, fw::FusedBallCleared{}});
-      has_fused = false;
+  // Which plugin handed out each input on the robot: a depth frame names its plugin, and the omni
+  // images and poses come from the plugins of those names (a plugin's name is its library's).
+  std::vector<fw::Host::ReplayStep> steps;
+  std::set<std::string> sources;
+  for (const MatchLogReader::Input& input : log.inputs()) {
+    switch (input.kind) {
+      case MatchLogReader::Input::Kind::kDepth:
+        steps.push_back({input.depth_source, input.wall_time_s});
+        break;
+      case MatchLogReader::Input::Kind::kOmni:
+        steps.push_back({"omni", input.wall_time_s});
+        break;
+      case MatchLogReader::Input::Kind::kPose:
+        steps.push_back({"localisation", input.wall_time_s});
+        break;
     }
-  };
-  Detections detections;
-  inLoggedOrder(
-      log, source,
-      [&](const fw::JournalEntry& entry) {
-        if (const auto* p = std::get_if<fw::RobotPose>(&entry.item)) {
-          writer.write(entry);
-          pose = *p;
-          if (fusion) fusion->addPose(*p);
-        } else if (const auto* omni = std::get_if<fw::OmniFrame>(&entry.item)) {
-          writer.write(entry);
-          if (fusion) publishFused(fusion->addOmniFrame(omni->stamp.source_time_s, omni->balls), entry.wall_time_s);
-        }
-      },
-      [&](const fw::DepthImage& image, double wall_s) {
-        writer.write({wall_s, image});
-        const DepthFrame frame = toDepthFrame(image, "log:" + log_folder);
-        detector.detect(frame, detections, pose ? std::optional<Eigen::Isometry3d>(pose->T_F_R()) : std::nullopt);
-        const fw::Stamp stamp{frame.source_time_s, frame.receive_time_s};
-        if (detections.aligned && !aligned) {
-          aligned = true;
-          writer.write({wall_s, fw::Event{source, "floor_found", "sensor aligned with the floor; detecting", stamp}});
-        }
-        if (!detections.balls.empty()) writer.write({wall_s, fw::BallFrame{stamp, detections.balls}});
-        if (const auto fit = trajectory->update(frame.source_time_s, detections.balls)) {
-          writer.write({wall_s, *fit});
-          has_trajectory = true;
-        } else if (has_trajectory) {
-          writer.write({wall_s, fw::TrajectoryCleared{source}});
-          has_trajectory = false;
-        }
-        if (fusion) publishFused(fusion->addKinectFrame(frame.source_time_s, detections.balls), wall_s);
-        ++frames;
-        with_ball += !detections.balls.empty();
-      });
-  writer.commit();
-  fw::logInfo("replay", log_folder + " -> " + output + ": " + std::to_string(frames) + " depth frames, ball in " +
-                            std::to_string(with_ball));
+    sources.insert(steps.back().plugin);
+  }
+  if (steps.empty()) throw MatchLogError(log_folder + ": the match log holds no inputs to replay");
+
+  // The robot's plugins as configured, but the sources read the log as fast as they can, the logger
+  // records under output, and nothing prints to the console.
+  std::vector<std::string> replay_overrides;
+  for (const std::string& source : sources) {
+    replay_overrides.push_back(source + ".source=log:" + log_folder);
+    replay_overrides.push_back(source + ".realtime=false");
+  }
+  const fw::Config configured = fw::Config::load(defaults_dir, robot, overrides);
+  std::string plugins;
+  for (const std::string& plugin : configured.block("host").getStringList("plugins")) {
+    if (plugin != "console" && plugin != "logger") plugins += plugin + ", ";
+  }
+  replay_overrides.insert(replay_overrides.end(), {"host.plugins=[" + plugins + "logger]", "logger.folder=" + output,
+                                                   "logger.fallback_folder=\"\"", "host.replay_of=" + log_folder});
+  replay_overrides.insert(replay_overrides.end(), overrides.begin(), overrides.end());
+  const fw::Config config = fw::Config::load(defaults_dir, robot, replay_overrides);
+
+  std::set<fs::path> before;
+  if (fs::is_directory(output)) before.insert(fs::directory_iterator(output), fs::directory_iterator());
+  {
+    fw::Host host(config, fw::defaultPluginDir());
+    host.replay(steps);
+    for (const fw::PluginSummary& summary : host.summaries()) {
+      if (summary.errors > 0) fw::logWarn("replay", fw::formatSummary(summary));
+    }
+  }  // the logger records its last batch as the host unloads it
+  for (const fs::directory_entry& entry : fs::directory_iterator(output)) {
+    if (!before.count(entry.path()) && fs::exists(entry.path() / kMatchLogFile)) {
+      fw::logInfo("replay", log_folder + " -> " + entry.path().string() + ": " + std::to_string(steps.size()) +
+                                " inputs replayed");
+      return;
+    }
+  }
+  throw MatchLogError(output + ": the replay was not recorded there (the logger's messages above say why)");
 }
 
 void exportMatch(const std::string& log_folder, const ExportFiles& files) {

@@ -7,10 +7,12 @@
 
 namespace kinect3d {
 
-// `kinect3d replay`: detection, trajectory and fusion re-run on the recorded depth, omni images and
-// poses, in the order the robot received them, into a new match log at output. The configuration
-// is the recorded one (written to <output>/recorded_config.yaml), or robot_file instead when given,
-// with the overrides on top. The same log and settings always give the same output.
+// `kinect3d replay`: the robot's own plugins (detection, trajectory, fusion, the logger) re-run by
+// the host's deterministic mode (fw::Host::replay) on the recorded depth, omni images and poses, in
+// the order the robot received them, into a new run folder under output. The configuration is the
+// recorded one (written to <output>/recorded_config.yaml), or robot_file instead when given, with
+// the overrides on top. The same log and settings always give the same output, and the robot's own
+// settings give what the robot published.
 void replayMatch(const std::string& log_folder, const std::string& defaults_dir, const std::string& robot_file,
                  const std::vector<std::string>& overrides, const std::string& output);
 

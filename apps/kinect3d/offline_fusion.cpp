@@ -18,7 +18,7 @@ FusionRun fuseFiles(const fw::Config& config, const std::string& depth_uri, cons
                                               : fusion::readOmniFile(omni_file, fusion_block.getString("omni.source"));
   const std::vector<fw::RobotPose> poses =
       pose_file.empty() ? std::vector<fw::RobotPose>{} : fusion::readPoseFile(pose_file);
-  fusion::PoseHistory pose_history;
+  fw::PoseHistory pose_history;
   for (const fw::RobotPose& pose : poses) pose_history.add(pose);
 
   // Every input as an event on its source clock; at equal times poses go first, then the Kinect.

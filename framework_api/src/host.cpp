@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
+#include <map>
 
 #include "framework_api/log.h"
 
@@ -87,7 +88,8 @@ std::vector<std::string> Host::stop(std::chrono::duration<double> grace) {
   {
     std::unique_lock<std::mutex> lock(wake_mutex_);
     wake_.wait_until(lock, deadline, [this] {
-      return std::all_of(plugins_.begin(), plugins_.end(), [](const auto& p) { return p->finished.load(); });
+      return std::all_of(plugins_.begin(), plugins_.end(),
+                         [](const auto& p) { return !p->thread.joinable() || p->finished.load(); });
     });
   }
   std::vector<std::string> stuck;
@@ -182,6 +184,7 @@ void Host::run(Running& plugin) {
           : Clock::duration::zero();
   Clock::time_point next_tick = start;
   int consecutive_errors = 0;
+  bool gave_up = false;
   while (!stop_requested_) {
     if (period > Clock::duration::zero()) {
       std::unique_lock<std::mutex> lock(wake_mutex_);
@@ -190,45 +193,19 @@ void Host::run(Running& plugin) {
       // After a long stall, skip the missed ticks instead of bursting to catch up.
       if (next_tick < Clock::now()) next_tick = Clock::now() + period;
     }
-    StepResult result = StepResult::kIdle;
-    std::string error;
-    const Clock::time_point step_start = Clock::now();
-    plugin.step_started = step_start.time_since_epoch().count();
-    try {
-      result = plugin.instance->step();
-    } catch (const PluginError& e) {
-      error = e.what();
-    }
-    plugin.step_started = 0;
-    const double step_s = secondsSince(step_start);
+    const std::optional<StepResult> result = stepOnce(plugin, start);
     Clock::duration backoff = Clock::duration::zero();
+    if (result) {
+      consecutive_errors = 0;
+      if (*result == StepResult::kEndOfStream) break;
+      continue;
+    }
     {
       std::lock_guard<std::mutex> lock(plugin.mutex);
-      PluginSummary& summary = plugin.summary;
-      ++summary.steps;
-      summary.elapsed_s = secondsSince(start);
-      if (error.empty()) {
-        consecutive_errors = 0;
-        if (result == StepResult::kProcessed) {
-          ++summary.frames;
-          if (plugin.step_times_s.size() < WorldState::kJournalCapacity) plugin.step_times_s.push_back(step_s);
-        }
-        if (result == StepResult::kEndOfStream) {
-          summary.end_of_stream = true;
-          logInfo(summary.name, "end of stream");
-          break;
-        }
-        continue;
-      }
-      ++summary.errors;
-      summary.last_error = error;
-      if (worthLogging(summary.errors)) {
-        logError(summary.name, "step failed (" + std::to_string(summary.errors) + "): " + error);
-      }
       if (++consecutive_errors >= max_consecutive_errors_) {
-        summary.gave_up = true;
-        logError(summary.name,
-                 "gave up after " + std::to_string(consecutive_errors) + " failed steps in a row; last: " + error);
+        plugin.summary.gave_up = gave_up = true;
+        logError(plugin.summary.name, "gave up after " + std::to_string(consecutive_errors) +
+                                          " failed steps in a row; last: " + plugin.summary.last_error);
         break;
       }
       backoff = errorBackoff(consecutive_errors);
@@ -238,6 +215,10 @@ void Host::run(Running& plugin) {
     std::unique_lock<std::mutex> lock(wake_mutex_);
     if (wake_.wait_for(lock, backoff, [this] { return stop_requested_.load(); })) break;
   }
+  // Asked to stop, a plugin with a rate takes one last step, so that what the sources published
+  // last is processed (after a normal end they have all finished): the fusion's last world ball is
+  // the one a replay of the log ends with.
+  if (period > Clock::duration::zero() && stop_requested_ && !gave_up) stepOnce(plugin, start);
   {
     std::lock_guard<std::mutex> lock(plugin.mutex);
     plugin.summary.elapsed_s = secondsSince(start);
@@ -247,6 +228,73 @@ void Host::run(Running& plugin) {
     plugin.finished = true;
   }
   wake_.notify_all();
+}
+
+std::optional<StepResult> Host::stepOnce(Running& plugin, Clock::time_point start) {
+  StepResult result = StepResult::kIdle;
+  std::string error;
+  const Clock::time_point step_start = Clock::now();
+  plugin.step_started = step_start.time_since_epoch().count();
+  try {
+    result = plugin.instance->step();
+  } catch (const PluginError& e) {
+    error = e.what();
+  }
+  plugin.step_started = 0;
+  const double step_s = secondsSince(step_start);
+  std::lock_guard<std::mutex> lock(plugin.mutex);
+  PluginSummary& summary = plugin.summary;
+  ++summary.steps;
+  summary.elapsed_s = secondsSince(start);
+  if (!error.empty()) {
+    ++summary.errors;
+    summary.last_error = error;
+    if (worthLogging(summary.errors)) {
+      logError(summary.name, "step failed (" + std::to_string(summary.errors) + "): " + error);
+    }
+    return std::nullopt;
+  }
+  if (result == StepResult::kProcessed) {
+    ++summary.frames;
+    if (plugin.step_times_s.size() < WorldState::kJournalCapacity) plugin.step_times_s.push_back(step_s);
+  }
+  if (result == StepResult::kEndOfStream && !summary.end_of_stream) {
+    summary.end_of_stream = true;
+    logInfo(summary.name, "end of stream");
+  }
+  return result;
+}
+
+void Host::replay(const std::vector<ReplayStep>& steps) {
+  const Clock::time_point start = Clock::now();
+  std::map<std::string, Running*> by_name;
+  for (auto& plugin : plugins_) by_name[plugin->summary.name] = plugin.get();
+  // A source that skips what it cannot use (a frame without a time stamp) hands out nothing on a
+  // step: it is stepped again, but never without end.
+  constexpr int kMaxStepsPerItem = 1000;
+  for (std::size_t i = 0; i < steps.size(); ++i) {
+    const auto found = by_name.find(steps[i].plugin);
+    if (found == by_name.end()) {
+      throw PluginError("replay step " + std::to_string(i) + ": no plugin '" + steps[i].plugin +
+                        "' is loaded (host.plugins) to hand out its input");
+    }
+    Running& source = *found->second;
+    setReplayedWallClock(steps[i].wall_time_s);
+    std::optional<StepResult> result;
+    for (int attempt = 0; attempt < kMaxStepsPerItem && !(result && *result != StepResult::kIdle); ++attempt) {
+      result = stepOnce(source, start);
+      if (!result) break;  // counted and logged: the input is lost, as it would be on the robot
+    }
+    if (result == StepResult::kEndOfStream || result == StepResult::kIdle) {
+      setReplayedWallClock(std::nullopt);
+      throw PluginError("replay step " + std::to_string(i) + ": '" + steps[i].plugin +
+                        "' has no input left to hand out; its source is not the log being replayed");
+    }
+    for (auto& plugin : plugins_) {
+      if (plugin->rate_hz > 0.0) stepOnce(*plugin, start);
+    }
+  }
+  setReplayedWallClock(std::nullopt);
 }
 
 std::string formatSummary(const PluginSummary& summary) {

@@ -1,16 +1,31 @@
 #include "framework_api/types.h"
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
+#include <limits>
 
 #include <Eigen/Eigenvalues>
 
 namespace fw {
 
+namespace {
+// NaN: the system clock. Atomic: plugin threads read it while a test's host may run beside a replay.
+std::atomic<double> replayed_wall_time_s{std::numeric_limits<double>::quiet_NaN()};
+}  // namespace
+
 double wallClockNow_s() {
+  const double replayed_s = replayed_wall_time_s.load();
+  if (!std::isnan(replayed_s)) return replayed_s;
   return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
 }
+
+void setReplayedWallClock(std::optional<double> wall_time_s) {
+  replayed_wall_time_s = wall_time_s.value_or(std::numeric_limits<double>::quiet_NaN());
+}
+
+double wrapAngle(double a_rad) { return a_rad - 2.0 * M_PI * std::floor((a_rad + M_PI) / (2.0 * M_PI)); }
 
 const char* toString(Frame frame) {
   switch (frame) {

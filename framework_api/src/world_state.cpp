@@ -29,28 +29,93 @@ void WorldState::journal(WorldItem item) {
   journal_.push_back({wallClockNow_s(), std::move(item)});
 }
 
-void WorldState::publishBall(const BallObservation& observation) {
-  std::lock_guard<std::mutex> lock(mutex_);
-  BallFrame frame{observation.stamp, {observation}};
-  ball_frames_[observation.source].push(frame);
-  journal(std::move(frame));
+std::chrono::steady_clock::duration WorldState::patience() {
+  return std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+      std::chrono::duration<double>(kArrivalPatience_s));
+}
+
+std::uint64_t WorldState::takePlace(std::optional<Measurement> measurement) {
+  places_.push_back({std::move(measurement), std::chrono::steady_clock::now(), false});
+  if (places_.size() > kMeasurementsKept) {
+    places_.pop_front();
+    ++first_place_;
+  }
+  return first_place_ + places_.size() - 1;
+}
+
+void WorldState::addBallFrame(BallFrame frame) {
+  if (!frame.balls.empty()) {
+    ball_frames_[frame.source].push(frame);
+    journal(std::move(frame));  // a frame without a ball is in the log as its depth frame
+  }
   ++version_;
 }
 
 void WorldState::publishBalls(const std::vector<BallObservation>& observations) {
   if (observations.empty()) return;
   std::lock_guard<std::mutex> lock(mutex_);
-  BallFrame frame{observations.front().stamp, observations};
-  ball_frames_[observations.front().source].push(frame);
-  journal(std::move(frame));
-  ++version_;
+  BallFrame frame{observations.front().stamp, observations, observations.front().source};
+  takePlace(frame);
+  addBallFrame(std::move(frame));
 }
 
 void WorldState::publishOmniFrame(const OmniFrame& frame) {
   std::lock_guard<std::mutex> lock(mutex_);
-  if (!frame.balls.empty()) omni_frames_[frame.balls.front().source].push(frame);
+  if (!frame.balls.empty()) omni_frames_[frame.source].push(frame);
+  takePlace(frame);
   journal(frame);
   ++version_;
+}
+
+WorldState::DepthArrival WorldState::arriveDepthFrame(std::optional<DepthImage> image, std::uint64_t* pose_cursor) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (image && journal_depth_) journal(std::move(*image));
+  return {takePlace(std::nullopt), robot_poses_.since(pose_cursor)};
+}
+
+void WorldState::publishBallFrame(std::uint64_t place, BallFrame frame) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (place >= first_place_ && place < first_place_ + places_.size()) {
+    Place& taken = places_[place - first_place_];
+    if (std::chrono::steady_clock::now() - taken.taken < patience()) {
+      taken.measurement = frame;
+    } else {
+      // A reader may have gone past its place: it comes now, a late measurement, to every reader.
+      taken.withdrawn = true;
+      takePlace(frame);
+    }
+  }
+  addBallFrame(std::move(frame));
+}
+
+std::vector<WorldState::Measurement> WorldState::measurementsSince(std::uint64_t* cursor) const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  const auto now = std::chrono::steady_clock::now();
+  std::vector<Measurement> measurements;
+  std::uint64_t place = std::max(*cursor, first_place_);
+  for (; place < first_place_ + places_.size(); ++place) {
+    const Place& next = places_[place - first_place_];
+    if (next.measurement) {
+      measurements.push_back(*next.measurement);
+    } else if (!next.withdrawn && now - next.taken < patience()) {
+      break;  // a depth frame still being processed: what came after it waits for it
+    }
+  }
+  *cursor = place;
+  return measurements;
+}
+
+void WorldState::publishSensorPose(const std::string& source, const SensorPose& pose) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  sensor_poses_[source] = pose;
+  ++version_;
+}
+
+std::optional<SensorPose> WorldState::sensorPose(const std::string& source) const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  const auto found = sensor_poses_.find(source);
+  if (found == sensor_poses_.end()) return std::nullopt;
+  return found->second;
 }
 
 void WorldState::clearFusedBall() {
@@ -94,6 +159,7 @@ void WorldState::publishFusedBall(const FusedBall& ball) {
 void WorldState::publishRobotPose(const RobotPose& pose) {
   std::lock_guard<std::mutex> lock(mutex_);
   robot_poses_.push(pose);
+  takePlace(pose);
   journal(pose);
   ++version_;
 }
@@ -136,23 +202,6 @@ std::vector<double> WorldState::takeProcessingTimes(const std::string& plugin) {
   const auto found = processing_times_s_.find(plugin);
   if (found != processing_times_s_.end()) times.swap(found->second);
   return times;
-}
-
-std::vector<BallFrame> WorldState::ballFramesSince(const std::string& source, std::uint64_t* cursor) const {
-  std::lock_guard<std::mutex> lock(mutex_);
-  const auto found = ball_frames_.find(source);
-  return found == ball_frames_.end() ? std::vector<BallFrame>{} : found->second.since(cursor);
-}
-
-std::vector<OmniFrame> WorldState::omniFramesSince(const std::string& source, std::uint64_t* cursor) const {
-  std::lock_guard<std::mutex> lock(mutex_);
-  const auto found = omni_frames_.find(source);
-  return found == omni_frames_.end() ? std::vector<OmniFrame>{} : found->second.since(cursor);
-}
-
-std::vector<RobotPose> WorldState::robotPosesSince(std::uint64_t* cursor) const {
-  std::lock_guard<std::mutex> lock(mutex_);
-  return robot_poses_.since(cursor);
 }
 
 namespace {

@@ -15,8 +15,6 @@ constexpr double kAirborneRamp_m = 0.1;
 constexpr double kPhantomDistanceFraction = 0.2;
 }  // namespace
 
-double wrapAngle(double a_rad) { return a_rad - 2.0 * M_PI * std::floor((a_rad + M_PI) / (2.0 * M_PI)); }
-
 PositionMeasurement::PositionMeasurement(const Eigen::Vector3d& p_R, const Eigen::Matrix3d& covariance_R,
                                          const fw::RobotPose& pose, const PoseConfig& pose_config) {
   const Eigen::Isometry3d T_F_R = pose.T_F_R();
@@ -71,7 +69,7 @@ Eigen::MatrixXd OmniMeasurement::noise(const Eigen::Vector3d& p_F) const {
 
 Eigen::VectorXd OmniMeasurement::residual(const Eigen::VectorXd& z, const Eigen::VectorXd& h) const {
   Eigen::VectorXd r = z - h;
-  r[0] = wrapAngle(r[0]);
+  r[0] = fw::wrapAngle(r[0]);
   return r;
 }
 

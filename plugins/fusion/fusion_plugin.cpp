@@ -1,7 +1,7 @@
 // fusion: the world's one ball (fw::FusedBall) from the Kinect's 3D balls, the omni camera's balls
 // and the robot's pose in the world state, by the same BallFusion that `kinect3d fuse` runs offline.
-// Each step takes what arrived since the last one, oldest first; the fusion itself puts late
-// measurements back in order. Beside it runs the check that the Kinect still sits where its
+// Each step takes what arrived since the last one, in the order it arrived; the fusion itself puts
+// late measurements back in order of time. Beside it runs the check that the Kinect still sits where its
 // pose_in_robot says (fusion.alignment_check): an alarm in the log and the world state when its
 // ground balls and the omni camera's part.
 #include <algorithm>
@@ -9,14 +9,14 @@
 #include <cstdio>
 #include <optional>
 #include <string>
+#include <variant>
 #include <vector>
 
 #include "framework_api/log.h"
 #include "framework_api/plugin.h"
+#include "framework_api/sensor_pose.h"
 #include "fusion/alignment_check.h"
 #include "fusion/ball_fusion.h"
-#include "kinect3d/config_io.h"
-#include "kinect3d/sensor_pose.h"
 
 namespace {
 
@@ -26,35 +26,40 @@ class FusionPlugin : public fw::Plugin {
       : world_(*context.world),
         name_(context.config.path()),
         config_(fusion::readFusionConfig(context.config)),
-        fusion_(config_) {
-    if (!config_.alignment_check.enabled) return;
-    kinect_pose_ = kinectPoseInRobot(*context.robot_config);
-    const Eigen::Vector2d kinect_xy_R =
-        kinect_pose_ ? Eigen::Vector2d(kinect_pose_->x_m, kinect_pose_->y_m) : Eigen::Vector2d::Zero();
-    alignment_.emplace(config_, kinect_xy_R);
-  }
+        fusion_(config_) {}
 
   fw::StepResult step() override {
     const std::uint64_t version = world_.version();
     if (version == seen_version_) return fw::StepResult::kIdle;
     seen_version_ = version;
 
-    // What arrived since the last step, in the order it was published: a source whose time stamps
-    // jump back is still read (the fusion applies the time-line rule to it).
-    for (const fw::RobotPose& pose : world_.robotPosesSince(&pose_cursor_)) fusion_.addPose(pose);
+    // What arrived since the last step, in the order it arrived (fw::WorldState::measurementsSince),
+    // one world ball for each image: the world balls are the same however the steps fall. A source
+    // whose time stamps jump back is still read (the fusion applies the time-line rule to it).
     bool updated = false;
-    for (const fw::BallFrame& frame : world_.ballFramesSince(config_.kinect.source, &kinect_cursor_)) {
-      fusion_.addKinectFrame(frame.stamp.source_time_s, frame.balls);
-      if (alignment_) alignment_->addKinectFrame(frame.stamp.source_time_s, frame.balls);
-      updated = true;
-    }
-    for (const fw::OmniFrame& frame : world_.omniFramesSince(config_.omni.source, &omni_cursor_)) {
-      fusion_.addOmniFrame(frame.stamp.source_time_s, frame.balls);
-      if (alignment_) alignment_->addOmniFrame(frame.stamp.source_time_s, frame.balls);
-      updated = true;
+    for (const fw::WorldState::Measurement& measurement : world_.measurementsSince(&cursor_)) {
+      if (const auto* pose = std::get_if<fw::RobotPose>(&measurement)) {
+        fusion_.addPose(*pose);
+      } else if (const auto* frame = std::get_if<fw::BallFrame>(&measurement)) {
+        if (frame->source != config_.kinect.source) continue;
+        publish(fusion_.addKinectFrame(frame->stamp.source_time_s, frame->balls));
+        if (alignmentCheck()) alignment_->addKinectFrame(frame->stamp.source_time_s, frame->balls);
+        updated = true;
+      } else if (const auto* omni = std::get_if<fw::OmniFrame>(&measurement)) {
+        if (omni->source != config_.omni.source) continue;
+        publish(fusion_.addOmniFrame(omni->stamp.source_time_s, omni->balls));
+        if (alignmentCheck()) alignment_->addOmniFrame(omni->stamp.source_time_s, omni->balls);
+        updated = true;
+      }
     }
     if (!updated) return fw::StepResult::kIdle;
-    const fusion::FusionUpdate& update = fusion_.latest();
+    reportLatency();
+    checkAlignment(fusion_.latest().time_s);
+    return fw::StepResult::kProcessed;
+  }
+
+ private:
+  void publish(const fusion::FusionUpdate& update) {
     if (update.ball) {
       fw::FusedBall ball = *update.ball;
       ball.stamp.receive_time_s = fw::wallClockNow_s();
@@ -62,19 +67,21 @@ class FusionPlugin : public fw::Plugin {
     } else {
       world_.clearFusedBall();
     }
-    reportLatency();
-    checkAlignment(update.time_s);
-    return fw::StepResult::kProcessed;
   }
 
- private:
-  // The Kinect plugin's kinect3d.sensor.pose_in_robot, when the robot file gives one (without it
-  // the Kinect's balls are placed by the floor fit alone, as if it sat at the robot centre).
-  std::optional<kinect3d::SensorPose> kinectPoseInRobot(const fw::Config& robot) const {
-    if (!robot.hasBlock(config_.kinect.source)) return std::nullopt;
-    const fw::ConfigView kinect = robot.block(config_.kinect.source);
-    if (!kinect.has("sensor") || !kinect.child("sensor").has("pose_in_robot")) return std::nullopt;
-    return kinect3d::readSensorPose(kinect.child("sensor").child("pose_in_robot"));
+  // The check that the Kinect still sits where its pose_in_robot says, made when its first
+  // measurement comes (the Kinect's plugin has published its pose by then, when it has one: without
+  // one its balls are placed by the floor fit alone, as if it sat at the robot centre). False when
+  // fusion.alignment_check.enabled is false.
+  bool alignmentCheck() {
+    if (!config_.alignment_check.enabled) return false;
+    if (!alignment_) {
+      kinect_pose_ = world_.sensorPose(config_.kinect.source);
+      const Eigen::Vector2d kinect_xy_R =
+          kinect_pose_ ? Eigen::Vector2d(kinect_pose_->x_m, kinect_pose_->y_m) : Eigen::Vector2d::Zero();
+      alignment_.emplace(config_, kinect_xy_R);
+    }
+    return true;
   }
 
   // The Kinect turned or shifted on the robot: loud in the log and in the world state, with the
@@ -94,11 +101,11 @@ class FusionPlugin : public fw::Plugin {
     std::string message =
         "THE SENSOR HAS MOVED since its calibration, or the omni camera has: " + std::string(comparison) + ".";
     if (kinect_pose_) {
-      kinect3d::SensorPose estimated = *kinect_pose_;
+      fw::SensorPose estimated = *kinect_pose_;
       estimated.x_m += moved->offset_m.x();
       estimated.y_m += moved->offset_m.y();
       estimated.yaw_rad += moved->yaw_rad;
-      message += " Estimated pose_in_robot: " + kinect3d::poseInRobotYaml(estimated) + ".";
+      message += " Estimated pose_in_robot: " + fw::poseInRobotYaml(estimated) + ".";
     }
     message += " Recalibrate (docs/calibration.md)";
     fw::logError(name_, message);
@@ -118,10 +125,10 @@ class FusionPlugin : public fw::Plugin {
   const std::string name_;
   const fusion::FusionConfig config_;
   fusion::BallFusion fusion_;
-  std::optional<kinect3d::SensorPose> kinect_pose_;  // the Kinect's pose_in_robot, when configured
-  std::optional<fusion::AlignmentCheck> alignment_;  // unless fusion.alignment_check.enabled is false
+  std::optional<fw::SensorPose> kinect_pose_;        // the Kinect's pose_in_robot, when configured
+  std::optional<fusion::AlignmentCheck> alignment_;  // once alignmentCheck() made it
   std::uint64_t seen_version_ = 0;
-  std::uint64_t pose_cursor_ = 0, kinect_cursor_ = 0, omni_cursor_ = 0;  // what was read (fw::WorldState)
+  std::uint64_t cursor_ = 0;  // what was read of the measurements (fw::WorldState)
   bool latency_reported_ = false;
 };
 

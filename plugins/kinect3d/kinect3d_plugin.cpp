@@ -11,12 +11,13 @@
 
 #include "framework_api/log.h"
 #include "framework_api/plugin.h"
+#include "framework_api/pose_history.h"
+#include "framework_api/sensor_pose.h"
 #include "kinect3d/ball_detector.h"
 #include "kinect3d/config_io.h"
 #include "kinect3d/depth_source.h"
 #include "kinect3d/log_source.h"
 #include "kinect3d/sensor_calibration.h"
-#include "kinect3d/sensor_pose.h"
 #include "kinect3d/sim/sim_sources.h"
 #include "kinect3d/trajectory.h"
 
@@ -44,6 +45,7 @@ class Kinect3dPlugin : public fw::Plugin {
     const kinect3d::DetectorConfig detector_config = kinect3d::readDetectorConfig(context.config);
     calibrated_ = detector_config.ground.pose;
     if (calibrated_) {
+      world_.publishSensorPose(source_name_, *calibrated_);
       calibration_check_.emplace(kinect3d::readCalibrationCheckConfig(context.config), *detector_config.ground.pose,
                                  detector_config.ground);
     }
@@ -59,10 +61,15 @@ class Kinect3dPlugin : public fw::Plugin {
         break;
     }
     const auto started = std::chrono::steady_clock::now();
-    if (world_.journalWantsDepth()) world_.publishDepthImage(depthImage());
-    // With a pose from localisation the scene map is kept in the field frame.
-    const std::optional<fw::RobotPose> pose = world_.robotPose();
-    detector_.detect(frame_, detections_, pose ? std::optional<Eigen::Isometry3d>(pose->T_F_R()) : std::nullopt);
+    // The frame takes its place among the measurements now, with the poses that came before it.
+    const fw::WorldState::DepthArrival arrival = world_.arriveDepthFrame(
+        world_.journalWantsDepth() ? std::optional<fw::DepthImage>(depthImage()) : std::nullopt, &pose_cursor_);
+    for (const fw::RobotPose& pose : arrival.poses) poses_.add(pose);
+    // With a pose from localisation the scene map is kept in the field frame: the pose at the
+    // frame's own time.
+    std::optional<Eigen::Isometry3d> T_F_R;
+    if (!poses_.empty()) T_F_R = poses_.at(frame_.source_time_s).T_F_R();
+    detector_.detect(frame_, detections_, T_F_R);
     if (detections_.aligned && !reported_alignment_) {
       fw::logInfo(source_name_, "sensor aligned with the floor; detecting");
       publishEvent("floor_found", "sensor aligned with the floor; detecting");
@@ -70,7 +77,9 @@ class Kinect3dPlugin : public fw::Plugin {
     }
     reportSourceCounters();
     checkCalibration();
-    if (!detections_.balls.empty()) world_.publishBalls(detections_.balls);
+    // Every frame, with or without a ball: the fusion reads a frame without one as evidence.
+    world_.publishBallFrame(arrival.place,
+                            {{frame_.source_time_s, frame_.receive_time_s}, detections_.balls, source_name_});
     if (const auto trajectory = trajectory_->update(frame_.source_time_s, detections_.balls)) {
       world_.publishTrajectory(*trajectory);
     } else {
@@ -117,7 +126,7 @@ class Kinect3dPlugin : public fw::Plugin {
   // the floor now implies.
   void checkCalibration() {
     if (!calibration_check_) return;
-    const std::optional<kinect3d::SensorPose> moved = calibration_check_->check(frame_);
+    const std::optional<fw::SensorPose> moved = calibration_check_->check(frame_);
     if (!moved) return;
     const double deg = 180.0 / M_PI;
     char comparison[256];
@@ -127,7 +136,7 @@ class Kinect3dPlugin : public fw::Plugin {
                   moved->z_m, moved->pitch_rad * deg, moved->roll_rad * deg, calibrated_->z_m,
                   calibrated_->pitch_rad * deg, calibrated_->roll_rad * deg);
     const std::string message = "THE SENSOR HAS MOVED since its calibration: " + std::string(comparison) +
-                                ". Estimated pose_in_robot: " + kinect3d::poseInRobotYaml(*moved) +
+                                ". Estimated pose_in_robot: " + fw::poseInRobotYaml(*moved) +
                                 ". Recalibrate (docs/calibration.md)";
     fw::logError(source_name_, message);
     publishEvent("calibration_alarm", message);
@@ -140,8 +149,10 @@ class Kinect3dPlugin : public fw::Plugin {
   std::unique_ptr<kinect3d::DepthSource> source_;
   kinect3d::DepthFrame frame_;
   kinect3d::Detections detections_;
+  fw::PoseHistory poses_;          // the robot's, from localisation
+  std::uint64_t pose_cursor_ = 0;  // what was read of them (fw::WorldState)
   bool reported_alignment_ = false;
-  std::optional<kinect3d::SensorPose> calibrated_;  // pose_in_robot, when configured
+  std::optional<fw::SensorPose> calibrated_;  // pose_in_robot, when configured
   std::optional<kinect3d::FloorCalibrationCheck> calibration_check_;
   std::uint64_t reported_reconnects_ = 0;
 };

@@ -52,6 +52,7 @@ class LoggerPlugin : public fw::Plugin {
     run_.robot = context.robot_config->block("host").getString("robot_name");
     run_.software_version = KINECT3D_VERSION;
     run_.config_yaml = context.robot_config->toYaml();
+    run_.replayed_from = context.robot_config->block("host").getString("replay_of");
     run_.start_wall_time_s = fw::wallClockNow_s();
     world_.openJournal(false);  // from now on nothing published is missed
     startRecording();

@@ -51,6 +51,7 @@ class OmniPlugin : public fw::Plugin {
       ball.source = name_;
       ball.stamp = frame->stamp;
     }
+    frame->source = name_;
     world_.publishOmniFrame(*frame);
     world_.reportProcessingTime(name_,
                                 std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count());

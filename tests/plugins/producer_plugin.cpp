@@ -16,8 +16,8 @@ class Producer : public fw::Plugin {
   fw::StepResult step() override {
     if (produced_ >= frames_) return fw::StepResult::kEndOfStream;
     std::this_thread::sleep_for(std::chrono::milliseconds(5));  // a 200 Hz "sensor"
-    world_.publishBall(fw::BallObservation::inRobotFrame(position_, Eigen::Matrix3d::Identity() * 1e-4,
-                                                         fw::BallState::kAir, "tp_producer", fw::Stamp::now()));
+    world_.publishBalls({fw::BallObservation::inRobotFrame(position_, Eigen::Matrix3d::Identity() * 1e-4,
+                                                           fw::BallState::kAir, "tp_producer", fw::Stamp::now())});
     ++produced_;
     return fw::StepResult::kProcessed;
   }

@@ -10,6 +10,7 @@
 #include <cstdint>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <thread>
 #include <vector>
@@ -45,7 +46,20 @@ class Host {
   Host(const Host&) = delete;
   Host& operator=(const Host&) = delete;
 
+  // Runs the plugins on their own threads, each at its rate or its source's pace.
   void start();
+
+  // The deterministic mode, instead of start(): no threads, no pacing. For each step in order, with
+  // the host's wall clock set to that moment (fw::wallClockNow_s), steps the named plugin until it
+  // hands out one input, then every plugin with a rate once (in host.plugins order): every plugin
+  // sees what it saw on the robot, in the order the robot received it, whatever the timing was
+  // (kinect3d replay plays a match log's inputs so, with the sources reading that log). Throws
+  // PluginError naming a step whose plugin is not loaded or has nothing left to hand out.
+  struct ReplayStep {
+    std::string plugin;  // the source plugin that hands out this input
+    double wall_time_s;  // when the robot received it
+  };
+  void replay(const std::vector<ReplayStep>& steps);
   // Asks every plugin thread to stop after its current step and joins those that do within grace.
   // Returns the plugins still inside a step then (stuck in a blocking call): their threads are
   // detached and their instances deliberately never destroyed, since their code is still running;
@@ -65,6 +79,8 @@ class Host {
  private:
   struct Running;
   void run(Running& plugin);
+  // One step, counted in the plugin's summary (an error logged too); nothing when it failed.
+  std::optional<StepResult> stepOnce(Running& plugin, std::chrono::steady_clock::time_point start);
   void publishHealth();
 
   std::chrono::steady_clock::time_point last_health_ = std::chrono::steady_clock::now();

@@ -14,8 +14,15 @@ namespace fw {
 // Standard gravity: what every ball model here falls with.
 constexpr double kGravity_mps2 = 9.81;
 
-// Seconds since the Unix epoch on the host's wall clock.
+// Seconds since the Unix epoch on the host's wall clock: the system clock, or, while the host
+// replays a match log (Host::replay), the moment the robot received the input being replayed, so a
+// replay stamps what it publishes as the robot did and two replays write the same log.
 double wallClockNow_s();
+// Only Host::replay sets it: the replayed moment, or nullopt for the system clock again.
+void setReplayedWallClock(std::optional<double> wall_time_s);
+
+// Wraps an angle into [-pi, pi).
+double wrapAngle(double a_rad);
 
 // When a measurement was taken by its source and when this host received it. The source clock
 // may differ from the host's (a recording replays old source times); fusion uses receive time to
@@ -91,12 +98,14 @@ struct OmniBallObservation {
 struct BallFrame {
   Stamp stamp;
   std::vector<BallObservation> balls;
+  std::string source;  // the plugin that published it (a frame may hold no ball)
 };
 
 // One image of the omni camera: every ball it saw (none, the ball, orange shirts), one stamp.
 struct OmniFrame {
   Stamp stamp;
   std::vector<OmniBallObservation> balls;
+  std::string source;  // the plugin that published it
 };
 
 // Where a ball in flight will land: the centre's ground point when its height comes down to

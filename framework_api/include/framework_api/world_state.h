@@ -2,6 +2,7 @@
 // Every accessor copies under a lock, so a reader never sees a half-written value.
 #pragma once
 
+#include <chrono>
 #include <cstdint>
 #include <deque>
 #include <map>
@@ -12,6 +13,7 @@
 #include <variant>
 #include <vector>
 
+#include "framework_api/sensor_pose.h"
 #include "framework_api/types.h"
 
 namespace fw {
@@ -35,8 +37,8 @@ class WorldState {
   // How many recent observations are kept per source (a second at 30 Hz).
   static constexpr std::size_t kHistoryPerSource = 30;
 
-  void publishBall(const BallObservation& observation);
-  // Every ball of one frame at once, so a reader never sees half a frame.
+  // One frame's balls at once, so a reader never sees half a frame (the observations' source names
+  // it; none: nothing is published). A depth plugin uses arriveDepthFrame and publishBallFrame.
   void publishBalls(const std::vector<BallObservation>& observations);
   void publishOmniFrame(const OmniFrame& frame);
   void publishFusedBall(const FusedBall& ball);
@@ -44,6 +46,33 @@ class WorldState {
   void publishTrajectory(const BallTrajectory& trajectory);  // replaces that source's last one
   void clearTrajectory(const std::string& source);           // the source lost the ball
   void publishRobotPose(const RobotPose& pose);
+  // Where a sensor sits on the robot (its configured pose_in_robot), for the stages that place its
+  // measurements; replaced when it changes.
+  void publishSensorPose(const std::string& source, const SensorPose& pose);
+  std::optional<SensorPose> sensorPose(const std::string& source) const;
+
+  // What the fusion takes in, in the order it came: robot poses, every depth frame's balls (a frame
+  // without a ball too: it is evidence), omni images.
+  using Measurement = std::variant<RobotPose, BallFrame, OmniFrame>;
+  // A depth frame takes its place among the measurements when it arrives, before its balls are
+  // known, and the poses published before it are handed to its detector at the same moment: so
+  // whatever the threads' timing, a reader of measurementsSince() and the detector see what a
+  // replay of the match log gives them (Host::replay). image goes into the journal with it (pass
+  // one when journalWantsDepth()).
+  struct DepthArrival {
+    std::uint64_t place = 0;
+    std::vector<RobotPose> poses;  // published since *pose_cursor, oldest first
+  };
+  DepthArrival arriveDepthFrame(std::optional<DepthImage> image, std::uint64_t* pose_cursor);
+  // Fills an arrival's place with the frame's balls (frame.balls may be empty, frame.source names
+  // the plugin). Readers go past a place left unfilled for kArrivalPatience_s (its plugin failed or
+  // is stuck); balls that come later than that take a new place, as a late measurement.
+  void publishBallFrame(std::uint64_t place, BallFrame frame);
+  static constexpr double kArrivalPatience_s = 0.25;
+  // The measurements after *cursor (a count the reader keeps, 0 at first) in their order, up to the
+  // first place still waiting for its balls; at most kMeasurementsKept of the newest.
+  static constexpr std::size_t kMeasurementsKept = 1024;
+  std::vector<Measurement> measurementsSince(std::uint64_t* cursor) const;
   // Only into the journal (nobody acts on them; the match log and the viewer show them). Every item is
   // a plain value: nothing in the journal may point into a plugin's library, which is unloaded with
   // the plugin while the journal's reader may still hold the item.
@@ -58,13 +87,6 @@ class WorldState {
   std::uint64_t droppedFrames(const std::string& plugin) const;
   // The processing times reported since the last call (none: the plugin reports none).
   std::vector<double> takeProcessingTimes(const std::string& plugin);
-
-  // What one reader has not seen yet, in the order it was published (not by time stamp, which may
-  // jump): the items published after *cursor (a count the reader keeps, 0 at first), at most the
-  // kHistoryPerSource newest; *cursor moves past them.
-  std::vector<BallFrame> ballFramesSince(const std::string& source, std::uint64_t* cursor) const;
-  std::vector<OmniFrame> omniFramesSince(const std::string& source, std::uint64_t* cursor) const;
-  std::vector<RobotPose> robotPosesSince(std::uint64_t* cursor) const;
 
   // Newest first.
   std::vector<BallObservation> recentBalls(const std::string& source) const;
@@ -100,7 +122,17 @@ class WorldState {
     void push(T value);
     std::vector<T> since(std::uint64_t* cursor) const;
   };
-  void journal(WorldItem item);  // under mutex_
+  void journal(WorldItem item);                                     // under mutex_
+  void addBallFrame(BallFrame frame);                               // to the recent balls and the journal, under mutex_
+  std::uint64_t takePlace(std::optional<Measurement> measurement);  // its number; under mutex_
+
+  // A measurement's place: empty until a depth frame's balls fill it.
+  struct Place {
+    std::optional<Measurement> measurement;
+    std::chrono::steady_clock::time_point taken;
+    bool withdrawn;  // its balls came too late and took a new place
+  };
+  static std::chrono::steady_clock::duration patience();
 
   mutable std::mutex mutex_;
   std::map<std::string, History<BallFrame>> ball_frames_;
@@ -108,6 +140,9 @@ class WorldState {
   std::map<std::string, BallTrajectory> trajectories_;
   std::optional<FusedBall> fused_ball_;
   History<RobotPose> robot_poses_;
+  std::map<std::string, SensorPose> sensor_poses_;
+  std::deque<Place> places_;       // the newest kMeasurementsKept measurements
+  std::uint64_t first_place_ = 0;  // the number of places_.front()
   std::map<std::string, std::uint64_t> dropped_frames_;
   std::map<std::string, std::vector<double>> processing_times_s_;
   std::uint64_t version_ = 0;

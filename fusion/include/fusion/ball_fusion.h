@@ -21,11 +21,11 @@
 #include <string>
 #include <vector>
 
+#include "framework_api/pose_history.h"
 #include "framework_api/time_line.h"
 #include "framework_api/types.h"
 #include "fusion/ball_filter.h"
 #include "fusion/fusion_config.h"
-#include "fusion/pose_history.h"
 
 namespace fusion {
 
@@ -136,7 +136,7 @@ class BallFusion {
   std::optional<fw::FusedBall> worldBall(double t_s) const;
 
   FusionConfig config_;
-  PoseHistory poses_;
+  fw::PoseHistory poses_;
   State state_;
   // Frames of the last max_delay_s with the state before each, to re-process after a late one.
   std::deque<std::pair<Frame, State>> recent_;

@@ -55,7 +55,4 @@ class OmniMeasurement : public MeasurementModel {
 double omniBearingSigma_rad(const fw::OmniBallObservation& observation, const OmniConfig& omni);
 double omniDistanceSigma_m(const fw::OmniBallObservation& observation, const OmniConfig& omni, double distance_m);
 
-// Wraps an angle into [-pi, pi).
-double wrapAngle(double a_rad);
-
 }  // namespace fusion

@@ -4,9 +4,9 @@
 
 namespace kinect3d {
 
-SensorPose readSensorPose(const fw::ConfigView& pose) {
+fw::SensorPose readSensorPose(const fw::ConfigView& pose) {
   pose.requireOnlyKeys({"x", "y", "z", "yaw_deg", "pitch_deg", "roll_deg"});
-  SensorPose result;
+  fw::SensorPose result;
   result.x_m = pose.getDouble("x", -5.0, 5.0);
   result.y_m = pose.getDouble("y", -5.0, 5.0);
   result.z_m = pose.getDouble("z", 0.05, 5.0);

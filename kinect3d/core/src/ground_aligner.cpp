@@ -132,7 +132,7 @@ std::optional<Eigen::Isometry3d> GroundAligner::fitFloor(const DepthFrame& frame
   Eigen::Isometry3d T_R_S = Eigen::Isometry3d::Identity();
   T_R_S.linear() = R_S_R.transpose();
   T_R_S.translation() = Eigen::Vector3d(0.0, 0.0, d);  // the sensor is d above the floor
-  const SensorPose pose = SensorPose::fromTransform(T_R_S);
+  const fw::SensorPose pose = fw::SensorPose::fromTransform(T_R_S);
   if (pose.z_m < config_.min_height_m || pose.z_m > config_.max_height_m) {
     fw::logWarn("ground", "implausible floor in frame " + std::to_string(frame.index) + ": it puts the sensor " +
                               std::to_string(pose.z_m) + " m up (expected " + std::to_string(config_.min_height_m) +

@@ -97,7 +97,7 @@ double residual(const CalibrationMark& mark, const Eigen::Isometry3d& T_R_S) {
 }
 
 Eigen::Matrix<double, 6, 1> parameters(const Eigen::Isometry3d& T_R_S) {
-  const SensorPose pose = SensorPose::fromTransform(T_R_S);
+  const fw::SensorPose pose = fw::SensorPose::fromTransform(T_R_S);
   return (Eigen::Matrix<double, 6, 1>() << pose.x_m, pose.y_m, pose.z_m, pose.yaw_rad, pose.pitch_rad, pose.roll_rad)
       .finished();
 }
@@ -139,7 +139,7 @@ CalibrationResult calibrateSensorPose(const std::vector<CalibrationMark>& marks,
 
   const Eigen::Isometry3d T_R_S = fit(used, floor_T_R_S);
   CalibrationResult result;
-  result.pose = SensorPose::fromTransform(T_R_S);
+  result.pose = fw::SensorPose::fromTransform(T_R_S);
   result.used_floor = floor_T_R_S.has_value();
   for (const CalibrationMark& mark : marks) {
     result.residuals_m.push_back(residual(mark, T_R_S));
@@ -220,11 +220,11 @@ std::optional<Eigen::Vector3d> ballCentreAtPixel(const DepthFrame& frame, const 
   return centre;
 }
 
-FloorCalibrationCheck::FloorCalibrationCheck(const Config& config, const SensorPose& calibrated,
+FloorCalibrationCheck::FloorCalibrationCheck(const Config& config, const fw::SensorPose& calibrated,
                                              GroundAligner::Config ground)
     : config_(config), calibrated_(calibrated), floor_(withoutPose(ground)) {}
 
-std::optional<SensorPose> FloorCalibrationCheck::check(const DepthFrame& frame) {
+std::optional<fw::SensorPose> FloorCalibrationCheck::check(const DepthFrame& frame) {
   if (++frames_ % config_.interval_frames != 0) return std::nullopt;
   const std::optional<Eigen::Isometry3d> fitted = floor_.fitFloor(frame);
   if (!fitted) return std::nullopt;  // no floor in view: nothing to compare
@@ -241,8 +241,8 @@ std::optional<SensorPose> FloorCalibrationCheck::check(const DepthFrame& frame) 
   }
   if (++disagreements_ < config_.confirmations || alarmed_) return std::nullopt;
   alarmed_ = true;
-  const SensorPose floor = SensorPose::fromTransform(*fitted);
-  SensorPose moved = calibrated_;
+  const fw::SensorPose floor = fw::SensorPose::fromTransform(*fitted);
+  fw::SensorPose moved = calibrated_;
   moved.z_m = floor.z_m;
   moved.pitch_rad = floor.pitch_rad;
   moved.roll_rad = floor.roll_rad;

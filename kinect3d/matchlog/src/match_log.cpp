@@ -515,14 +515,17 @@ std::vector<fw::JournalEntry> MatchLogReader::entries(std::int64_t after_seq, st
       b.covariance_m2 = symmetric(q, 10);
       b.support_points = static_cast<int>(q.integer(16));
       b.is_static = q.integer(17) != 0;
-      if (frame.balls.empty()) frame.stamp = b.stamp;
+      if (frame.balls.empty()) {
+        frame.stamp = b.stamp;
+        frame.source = b.source;
+      }
       frame.balls.push_back(b);
     }
   }
   {
     const auto frames = query("SELECT seq, wall_time_s, source_time_s, receive_time_s FROM omni_frame WHERE seq > ?");
     Statement& q = *frames;
-    while (q.row()) by_seq[q.integer(0)] = {q.real(1), fw::OmniFrame{{q.real(2), q.real(3)}, {}}};
+    while (q.row()) by_seq[q.integer(0)] = {q.real(1), fw::OmniFrame{{q.real(2), q.real(3)}, {}, {}}};
     const auto omni_balls = query(
         "SELECT seq, source, bearing_rad, distance_m, bearing_sigma_rad, distance_sigma_m FROM omni_ball "
         "WHERE seq > ? ORDER BY seq, ball_index");
@@ -535,6 +538,7 @@ std::vector<fw::JournalEntry> MatchLogReader::entries(std::int64_t after_seq, st
       auto& frame = std::get<fw::OmniFrame>(found->second.item);
       fw::OmniBallObservation b;
       b.source = balls.text(1);
+      frame.source = b.source;  // the log keeps it with each ball
       b.bearing_rad = balls.real(2);
       b.distance_m = balls.real(3);
       b.bearing_sigma_rad = balls.real(4);
@@ -691,6 +695,16 @@ std::vector<MatchLogReader::DepthFrameStamp> MatchLogReader::depthFrameStamps(co
   std::vector<DepthFrameStamp> stamps;
   while (q.row()) stamps.push_back({q.integer(0), static_cast<std::uint64_t>(q.integer(1)), q.real(2), q.real(3)});
   return stamps;
+}
+
+std::vector<MatchLogReader::Input> MatchLogReader::inputs() const {
+  Statement q(db_,
+              "SELECT seq, wall_time_s, 0, source FROM depth_frame UNION ALL SELECT seq, wall_time_s, 1, '' FROM "
+              "omni_frame UNION ALL SELECT seq, wall_time_s, 2, '' FROM robot_pose ORDER BY seq",
+              path_);
+  std::vector<Input> inputs;
+  while (q.row()) inputs.push_back({static_cast<Input::Kind>(q.integer(2)), q.text(3), q.real(1)});
+  return inputs;
 }
 
 fw::DepthImage MatchLogReader::depthFrame(std::int64_t seq) const {

@@ -275,7 +275,7 @@ void realFrames(const fw::Config& config, const ReportOptions& options, std::ost
   const std::string office = "realdata/pcl_single_frames/office1_depth_mm.png";
   row(office, "an office, the floor in the bottom fifth of the view", "searched", {dir + office}, 320, 240, searching);
   DetectorConfig measured = shipped;
-  measured.ground.pose = SensorPose{0.0, 0.0, 1.38, 0.0, 0.0, 0.0};
+  measured.ground.pose = fw::SensorPose{0.0, 0.0, 1.38, 0.0, 0.0, 0.0};
   row(office, "the same", "measured: level, 1.38 m up", {dir + office}, 320, 240, measured);
   std::vector<std::string> grabber;
   for (const char* stamp : {"20121214T142255.814212", "20121214T142256.068683", "20121214T142256.332395"}) {

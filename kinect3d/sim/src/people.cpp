@@ -168,7 +168,7 @@ Scene crowdScene(int seed, CrowdBall ball) {
   Scene scene;
   scene.name = std::string(crowdBallName(ball)) + "_" + std::to_string(seed);
   scene.duration_s = 1.5;
-  scene.sensor_pose = SensorPose{0.0, 0.0, uniform(0.55, 0.85), 0.0, fw::degreesToRadians(uniform(-8.0, 8.0)), 0.0};
+  scene.sensor_pose = fw::SensorPose{0.0, 0.0, uniform(0.55, 0.85), 0.0, fw::degreesToRadians(uniform(-8.0, 8.0)), 0.0};
   scene.noise.seed = static_cast<std::uint64_t>(seed);
   scene.noise.max_range_m = uniform(5.5, 9.5);
   if (uniform(0.0, 1.0) < 0.6) {  // a wall behind, or an empty hall beyond the range

@@ -5,10 +5,10 @@
 #include <cmath>
 
 #include "framework_api/config.h"
+#include "framework_api/sensor_pose.h"
 #include "kinect3d/ball_detector.h"
 #include "kinect3d/depth_frame.h"
 #include "kinect3d/sensor_calibration.h"
-#include "kinect3d/sensor_pose.h"
 #include "kinect3d/trajectory.h"
 
 namespace kinect3d {
@@ -17,7 +17,7 @@ namespace kinect3d {
 using fw::degreesToRadians;
 
 // The fixed interface {x, y, z (metres), yaw_deg, pitch_deg, roll_deg}; every key is required.
-SensorPose readSensorPose(const fw::ConfigView& pose);
+fw::SensorPose readSensorPose(const fw::ConfigView& pose);
 // {width, height, fx, fy, cx, cy}; every key is required. The caller checks for unknown keys,
 // since files such as a TUM camera.yaml keep other keys beside these.
 Intrinsics readIntrinsics(const fw::ConfigView& intrinsics);

@@ -8,15 +8,15 @@
 
 #include <Eigen/Geometry>
 
+#include "framework_api/sensor_pose.h"
 #include "kinect3d/depth_frame.h"
-#include "kinect3d/sensor_pose.h"
 
 namespace kinect3d {
 
 class GroundAligner {
  public:
   struct Config {
-    std::optional<SensorPose> pose;             // known mounting; when absent the floor is searched for
+    std::optional<fw::SensorPose> pose;         // known mounting; when absent the floor is searched for
     double max_tilt_rad = 40.0 * M_PI / 180.0;  // the floor's normal is at most this far from the image's up
     double distance_threshold_m = 0.05;         // inlier band around the plane (a depth step at 5 m)
     double max_fit_range_m = 6.0;               // fit on points nearer than this, where depth is precise

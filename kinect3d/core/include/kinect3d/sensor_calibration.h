@@ -11,9 +11,9 @@
 
 #include <Eigen/Geometry>
 
+#include "framework_api/sensor_pose.h"
 #include "kinect3d/depth_frame.h"
 #include "kinect3d/ground_aligner.h"
-#include "kinect3d/sensor_pose.h"
 
 namespace kinect3d {
 
@@ -31,7 +31,7 @@ struct CalibrationMark {
 };
 
 struct CalibrationResult {
-  SensorPose pose;
+  fw::SensorPose pose;
   bool used_floor = false;
   std::vector<double> residuals_m;  // per mark, 3D, under the final fit (a dropped mark's too)
   std::vector<bool> used;           // false: dropped as mislabelled
@@ -66,15 +66,15 @@ class FloorCalibrationCheck {
     int confirmations = 3;  // one bad fit (a robot across the floor) is not a moved sensor
   };
   // ground: the floor search's settings (its pose is ignored).
-  FloorCalibrationCheck(const Config& config, const SensorPose& calibrated, GroundAligner::Config ground);
+  FloorCalibrationCheck(const Config& config, const fw::SensorPose& calibrated, GroundAligner::Config ground);
 
   // The pose the floor now implies (the calibrated x, y and yaw; height, pitch and roll from the
   // floor) when this frame confirms that the sensor has moved; reported once per episode.
-  std::optional<SensorPose> check(const DepthFrame& frame);
+  std::optional<fw::SensorPose> check(const DepthFrame& frame);
 
  private:
   Config config_;
-  SensorPose calibrated_;
+  fw::SensorPose calibrated_;
   GroundAligner floor_;
   int frames_ = 0;
   int disagreements_ = 0;

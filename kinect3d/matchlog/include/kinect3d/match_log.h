@@ -118,6 +118,14 @@ class MatchLogReader {
     double wall_time_s;
   };
   std::vector<DepthFrameStamp> depthFrameStamps(const std::string& source, std::int64_t after_seq = 0) const;
+  // What the run took in from outside, in the order it arrived: each depth frame (with the plugin
+  // that read it), omni image and robot pose, and when it was logged. What a replay plays.
+  struct Input {
+    enum class Kind { kDepth = 0, kOmni = 1, kPose = 2 } kind;
+    std::string depth_source;  // kDepth: the plugin that read it
+    double wall_time_s;
+  };
+  std::vector<Input> inputs() const;
   // One depth frame by its seq. Throws MatchLogError naming it when it is missing or undecodable.
   fw::DepthImage depthFrame(std::int64_t seq) const;
 

@@ -8,12 +8,12 @@
 
 #include <Eigen/Core>
 
-#include "kinect3d/sensor_pose.h"
+#include "framework_api/sensor_pose.h"
 
 namespace kinect3d::sim {
 
 struct CalibrationSession {
-  SensorPose pose;                          // the truth the calibration should find
+  fw::SensorPose pose;                      // the truth the calibration should find
   std::vector<Eigen::Vector2d> marks_xy_m;  // where the ball rests, robot frame
   double seconds_per_mark = 1.0;
   std::uint64_t noise_seed = 1;

@@ -11,9 +11,9 @@
 
 #include <Eigen/Core>
 
+#include "framework_api/sensor_pose.h"
 #include "framework_api/types.h"
 #include "kinect3d/depth_frame.h"
-#include "kinect3d/sensor_pose.h"
 #include "kinect3d/sim/kinect_noise.h"
 
 namespace kinect3d::sim {
@@ -90,7 +90,7 @@ struct Scene {
   double duration_s = 2.0;
   double fps = 30.0;
   double start_time_s = 1.7e9;  // source clock of frame 0
-  SensorPose sensor_pose;       // on the carrying robot
+  fw::SensorPose sensor_pose;   // on the carrying robot
   CarrierRobot robot;
   Intrinsics intrinsics;
   KinectNoise noise;

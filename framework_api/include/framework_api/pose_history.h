@@ -7,7 +7,7 @@
 #include "framework_api/time_line.h"
 #include "framework_api/types.h"
 
-namespace fusion {
+namespace fw {
 
 class PoseHistory {
  public:
@@ -17,16 +17,17 @@ class PoseHistory {
   static constexpr double kMaxExtrapolation_s = 0.1;
 
   // Poses may arrive in any order; time is stamp.source_time_s. One whose time is not finite is
-  // left out; one whose time jumps (fw::TimeLine, by more than kKeep_s) starts the history again.
-  void add(const fw::RobotPose& pose);
+  // left out; one whose time jumps (TimeLine, by more than kKeep_s) starts the history again.
+  void add(const RobotPose& pose);
   // Interpolated between the poses around t_s; the first before them, extrapolated at constant
   // velocity at most kMaxExtrapolation_s after them (the newest for a time that is not finite).
   // Without any pose: the field origin, facing +y.
-  fw::RobotPose at(double t_s) const;
+  RobotPose at(double t_s) const;
+  bool empty() const { return poses_.empty(); }
 
  private:
-  std::deque<fw::RobotPose> poses_;  // by time, oldest first
-  fw::TimeLine time_line_{kKeep_s};
+  std::deque<RobotPose> poses_;  // by time, oldest first
+  TimeLine time_line_{kKeep_s};
 };
 
-}  // namespace fusion
+}  // namespace fw

@@ -5,7 +5,7 @@
 
 #include <Eigen/Geometry>
 
-namespace kinect3d {
+namespace fw {
 
 // The pose of the sensor's optical frame in the robot frame, in the form teams write in
 // kinect3d.sensor.pose_in_robot (angles in radians here, degrees in YAML).
@@ -32,4 +32,4 @@ struct SensorPose {
 // robot file, a message or a page shows it (0.1 mm, 0.001 deg).
 std::string poseInRobotYaml(const SensorPose& pose);
 
-}  // namespace kinect3d
+}  // namespace fw

@@ -1,10 +1,10 @@
-#include "kinect3d/sensor_pose.h"
+#include "framework_api/sensor_pose.h"
 
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
 
-namespace kinect3d {
+namespace fw {
 
 namespace {
 // The optical frame's axes in the robot frame when yaw = pitch = roll = 0: optical x (right) is
@@ -53,4 +53,4 @@ std::string poseInRobotYaml(const SensorPose& pose) {
   return text;
 }
 
-}  // namespace kinect3d
+}  // namespace fw
