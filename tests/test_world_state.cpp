@@ -181,4 +181,19 @@ TEST(WorldState, AReaderGoesPastADepthFrameWhoseBallsNeverCome) {
   EXPECT_EQ(std::get<fw::BallFrame>(late[0]).source, "kinect3d");
 }
 
+TEST(WorldState, ASourcesNewestFrameSaysWhetherItSeesTheBallNow) {
+  fw::WorldState world;
+  std::uint64_t pose_cursor = 0;
+  EXPECT_FALSE(world.newestBallFrame("kinect3d"));
+  const auto frame = [&](std::vector<fw::BallObservation> balls) {
+    world.publishBallFrame(world.arriveDepthFrame(std::nullopt, &pose_cursor).place,
+                           {{1.0, 1.0}, std::move(balls), "kinect3d"});
+  };
+  frame({ballAt(2.0, "kinect3d")});
+  ASSERT_EQ(world.newestBallFrame("kinect3d")->balls.size(), 1u);
+  frame({});  // lost it
+  EXPECT_TRUE(world.newestBallFrame("kinect3d")->balls.empty()) << "the console prints no ball, not the last one";
+  EXPECT_EQ(world.recentBalls("kinect3d").size(), 1u) << "the recent balls are still there for who wants them";
+}
+
 }  // namespace

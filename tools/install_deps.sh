@@ -1,12 +1,11 @@
 #!/usr/bin/env bash
-# Installs exactly the Debian 12 packages Kinect3D needs to build, test and benchmark.
+# Installs exactly the Debian 12 packages Kinect3D needs to build and run; with --tests also what
+# only the tests need (Chromium, clang and clang-format, the command-line tools the benchmarks use).
 # Idempotent: when everything is present it only checks and returns.
 set -euo pipefail
 
 PACKAGES=(
   build-essential cmake pkg-config
-  clang-format                  # the style test
-  clang libclang-rt-14-dev      # the sanitizer build and its fuzzers (tools/sanitize.sh, tools/fuzz.sh)
   libeigen3-dev
   libpcl-dev
   liboctomap-dev
@@ -20,9 +19,15 @@ PACKAGES=(
   libjs-chart.js                # the match report's and the viewer's charts
   libjs-three                   # the viewer's 3D view (three.js and its orbit controls)
   libcpp-httplib-dev            # the viewer's web server
-  sqlite3 curl                  # bench/viewer_live_load.sh reads the logs' health and polls the viewer as a page does
-  chromium                      # the page tests open the pages as a person would
 )
+if [ "${1:-}" = "--tests" ]; then
+  PACKAGES+=(
+    clang-format                # the style test
+    clang libclang-rt-14-dev    # the sanitizer build and its fuzzers (tools/sanitize.sh, tools/fuzz.sh)
+    sqlite3 curl                # bench/viewer_live_load.sh reads the logs' health and polls the viewer as a page does
+    chromium                    # the page tests open the pages as a person would
+  )
+fi
 
 missing=()
 for pkg in "${PACKAGES[@]}"; do

@@ -44,7 +44,7 @@ case "$mode" in
     ;;
   *) usage ;;
 esac
-tools/install_deps.sh
+tools/install_deps.sh --tests
 cmake -S . -B "$dir" "${config[@]}" -DCMAKE_CXX_FLAGS="$flags" -DCMAKE_EXE_LINKER_FLAGS="$link" \
   -DCMAKE_SHARED_LINKER_FLAGS="$link" -DCMAKE_MODULE_LINKER_FLAGS="$link"
 cmake --build "$dir" -j"$(nproc)" "${targets[@]}"
@@ -68,16 +68,4 @@ export UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
 # What they run, the tests left in run under the sanitizers too (the host with every plugin and the
 # logger, the viewer's server, the detector on each kind of scene); they all run in tools/test.sh's
 # ordinary build.
-heavy=(
-  "LoggedDemo\..*" "LiveView\..*" "CalibrationAlarm\..*"
-  "ViewedDemo\.(ThePageShowsTheLobInThreeDimensionsAndInTime|ASecondViewerOnTheSamePortIsRefusedNotShared)"
-  "Logger\.AHostKilledMidRunLeavesALogThatOpensWithEveryCommittedBatch"
-  "MatchDay\.(ALogWhoseClocksJumpReplaysInTheHostAndInReplayWithoutAStall|ADiskThatRefusesWritesMidRunIsSaidWhereRecordingResumes)"
-  "MatchDay\.LogsOpenReadOnlyOnAReadOnlyMountAndAsAnotherUserAndNothingIsWrittenBesideThem"
-  "FusionPlugins\.(TheDemoRobotFusesTheLobFlyingOverItWhileItDrives|TheAlignmentCheckFindsAKinectTurnedOnTheRobot)"
-  "TrajectoryScenario\.GoalkeeperSeesWhereAShotCrossesItsLine"
-  "BallDetector\.(FindsKicksAndShotsAndNothingElse|NoPhantomsInClutter|PeopleRoundTheRobotAreNotBallsAndABallAmongThemIsFound)"
-  "SceneMap\.(WorksInTheFieldFrameAndStartsAfreshWhenAPoseAppears|FlagsABallHungInPlaceAsStaticButNeverAFlyingOne)"
-)
-excluded="^(Install\..*|Style\..*$(printf '|%s' "${heavy[@]}"))$"
-ctest --output-on-failure -j2 -E "$excluded"
+ctest --output-on-failure -j2 -L sanitizer-safe  # the heaviest scenario tests run in the ordinary build (tests/labels.cmake)

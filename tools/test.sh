@@ -6,7 +6,8 @@
 # (tools/fuzz.sh). About 15 minutes on 2 cores, packages installed.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-KINECT3D_WERROR=ON tools/build.sh
+tools/install_deps.sh --tests
+tools/build.sh
 (cd build && ctest --output-on-failure -j2)
 tools/sanitize.sh thread
 tools/sanitize.sh address

@@ -533,6 +533,13 @@ std::string newestRun(const std::string& folder) {
   return newest;
 }
 
+// "http://10.0.0.5:8080/?live or http://localhost:8080/?live".
+std::string joined(const std::vector<std::string>& urls, const std::string& suffix) {
+  std::string text;
+  for (const std::string& url : urls) text += (text.empty() ? "" : " or ") + url + suffix;
+  return text;
+}
+
 void addView(CLI::App& app) {
   struct Options {
     std::string log, live;
@@ -566,7 +573,7 @@ void addView(CLI::App& app) {
       const std::string run = newestRun(options->log);
       kinect3d::MatchView view(run);
       const kinect3d::ViewServer server(view, options->server);
-      std::cout << "serving " << run << " on " << server.url() << " (Ctrl-C stops)" << std::endl;
+      std::cout << "serving " << run << " on " << joined(server.urls(), "") << " (Ctrl-C stops)" << std::endl;
       while (sigtimedwait(&stop_signals, nullptr, &poll) <= 0) {
       }
       return;
@@ -592,7 +599,7 @@ void addView(CLI::App& app) {
     host.start();
     kinect3d::MatchView view(newRunFolder(base, before));
     const kinect3d::ViewServer server(view, options->server);
-    std::cout << "serving the robot live on " << server.url() << "?live (Ctrl-C stops)" << std::endl;
+    std::cout << "serving the robot live on " << joined(server.urls(), "?live") << " (Ctrl-C stops)" << std::endl;
     while (sigtimedwait(&stop_signals, nullptr, &poll) <= 0) host.watch();
     host.stop(std::chrono::milliseconds(800));
   });

@@ -1,6 +1,10 @@
 #include "view_server.h"
 
+#include <arpa/inet.h>
 #include <httplib.h>
+#include <ifaddrs.h>
+#include <net/if.h>
+#include <netinet/in.h>
 #include <sys/resource.h>
 #include <sys/syscall.h>
 #include <unistd.h>
@@ -13,6 +17,7 @@
 #include <sstream>
 #include <stdexcept>
 #include <thread>
+#include <vector>
 
 namespace kinect3d {
 
@@ -131,7 +136,8 @@ ViewServer::ViewServer(MatchView& view, const ViewServerOptions& options)
                             : (server.bind_to_port(options.bind, options.port) ? options.port : -1);
   if (port_ < 0) {
     throw std::runtime_error("cannot listen on " + options.bind + ":" + std::to_string(options.port) +
-                             " (in use, or not an address of this machine)");
+                             " (in use, or not an address of this machine): give another with --port N, or --port 0 "
+                             "for any free one");
   }
   impl_->listener = std::thread([this] {
     impl_->server.listen_after_bind();
@@ -147,13 +153,24 @@ ViewServer::~ViewServer() {
   impl_->listener.join();
 }
 
-std::string ViewServer::url() const {
-  std::string host = options_.bind;
-  if (host == "0.0.0.0") {  // every interface: the name the team's laptops know this machine by
-    char name[256] = {};
-    host = gethostname(name, sizeof(name) - 1) == 0 ? name : "localhost";
+std::vector<std::string> ViewServer::urls() const {
+  const std::string port = ":" + std::to_string(port_) + "/";
+  if (options_.bind != "0.0.0.0") return {"http://" + options_.bind + port};
+  // Every interface: each address another laptop may reach it by (a host name may not resolve
+  // there), loopback last.
+  std::vector<std::string> urls;
+  ifaddrs* interfaces = nullptr;
+  if (getifaddrs(&interfaces) == 0) {
+    for (const ifaddrs* i = interfaces; i != nullptr; i = i->ifa_next) {
+      if (i->ifa_addr == nullptr || i->ifa_addr->sa_family != AF_INET || (i->ifa_flags & IFF_LOOPBACK)) continue;
+      char address[INET_ADDRSTRLEN] = {};
+      inet_ntop(AF_INET, &reinterpret_cast<const sockaddr_in*>(i->ifa_addr)->sin_addr, address, sizeof address);
+      urls.push_back("http://" + std::string(address) + port);
+    }
+    freeifaddrs(interfaces);
   }
-  return "http://" + host + ":" + std::to_string(port_) + "/";
+  urls.push_back("http://localhost" + port);
+  return urls;
 }
 
 }  // namespace kinect3d

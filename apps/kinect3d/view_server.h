@@ -11,6 +11,7 @@
 
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "match_view.h"
 
@@ -36,8 +37,8 @@ class ViewServer {
   ViewServer& operator=(const ViewServer&) = delete;
 
   int port() const { return port_; }
-  // "http://<address>:<port>/" for a person to open.
-  std::string url() const;
+  // "http://<address>:<port>/" for a person to open, one per address it can be reached at.
+  std::vector<std::string> urls() const;
 
  private:
   struct Impl;

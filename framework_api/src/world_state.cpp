@@ -44,6 +44,7 @@ std::uint64_t WorldState::takePlace(std::optional<Measurement> measurement) {
 }
 
 void WorldState::addBallFrame(BallFrame frame) {
+  newest_ball_frames_[frame.source] = frame;
   if (!frame.balls.empty()) {
     ball_frames_[frame.source].push(frame);
     journal(std::move(frame));  // a frame without a ball is in the log as its depth frame
@@ -237,6 +238,13 @@ std::vector<std::string> WorldState::ballSources() const {
   std::vector<std::string> sources;
   for (const auto& entry : ball_frames_) sources.push_back(entry.first);
   return sources;
+}
+
+std::optional<BallFrame> WorldState::newestBallFrame(const std::string& source) const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  const auto found = newest_ball_frames_.find(source);
+  if (found == newest_ball_frames_.end()) return std::nullopt;
+  return found->second;
 }
 
 std::optional<FusedBall> WorldState::fusedBall() const {

@@ -2,6 +2,7 @@
 // world's fused ball with the sources behind it), a line per change, at a fixed rate. It is how a
 // person sees what the robot believes, and the visible end of the demo.
 #include <cstdio>
+#include <optional>
 #include <string>
 
 #include "framework_api/plugin.h"
@@ -53,9 +54,10 @@ class Console : public fw::Plugin {
     const double now_s = fw::wallClockNow_s();
     std::string line;
     for (const std::string& source : world_.ballSources()) {
-      const auto recent = world_.recentBalls(source);
-      if (recent.empty() || now_s - recent.front().stamp.receive_time_s > max_age_s_) continue;
-      const fw::BallObservation& ball = recent.front();
+      // A source's ball while its newest frame has one: not the last one it saw, once it lost it.
+      const std::optional<fw::BallFrame> newest = world_.newestBallFrame(source);
+      if (!newest || newest->balls.empty() || now_s - newest->stamp.receive_time_s > max_age_s_) continue;
+      const fw::BallObservation& ball = newest->balls.front();
       line += " " + source + ": " + fw::toString(ball.state) + " " + formatPosition(ball.position_m);
       if (const auto trajectory = world_.trajectory(source)) line += describe(*trajectory);
     }

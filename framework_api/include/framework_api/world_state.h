@@ -92,6 +92,8 @@ class WorldState {
   std::vector<BallObservation> recentBalls(const std::string& source) const;
   std::vector<OmniBallObservation> recentOmniBalls(const std::string& source) const;
   std::vector<std::string> ballSources() const;
+  // A source's newest frame, with or without a ball: whether it sees the ball now.
+  std::optional<BallFrame> newestBallFrame(const std::string& source) const;
   std::optional<BallTrajectory> trajectory(const std::string& source) const;
   std::optional<FusedBall> fusedBall() const;
   std::optional<RobotPose> robotPose() const;  // the newest
@@ -135,7 +137,8 @@ class WorldState {
   static std::chrono::steady_clock::duration patience();
 
   mutable std::mutex mutex_;
-  std::map<std::string, History<BallFrame>> ball_frames_;
+  std::map<std::string, History<BallFrame>> ball_frames_;  // frames with balls
+  std::map<std::string, BallFrame> newest_ball_frames_;
   std::map<std::string, History<OmniFrame>> omni_frames_;  // frames with balls, by the balls' source
   std::map<std::string, BallTrajectory> trajectories_;
   std::optional<FusedBall> fused_ball_;

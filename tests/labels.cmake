@@ -1,0 +1,26 @@
+# ctest labels, given when ctest reads the discovered tests (TEST_INCLUDE_FILES, after the lists of
+# tests the GoogleTest executables report):
+#   unit            quick and self-contained: `ctest -L unit` runs in well under a minute
+#   scenario        runs the product end to end (the host, the command line, whole simulated scenes)
+#   browser         opens a page in headless Chromium as a person would
+#   sanitizer-safe  light enough for the AddressSanitizer build (tools/sanitize.sh address runs these)
+# A test is in exactly one of the first three.
+
+set(browser "^(LoggedDemo\\.MatchReportShowsTheLobToAPersonOpeningIt|ViewedDemo\\.ThePageShowsTheLobInThreeDimensionsAndInTime|CalibrateCommand\\.FindsASimulatedSensorsPoseAndWritesItIntoTheRobotFile)$")
+set(scenario "^(MatchDay|LoggedDemo|ViewedDemo|ViewedLog|LiveView|Logger|HostProcess|FusionPlugins|OniRecording|OpenNI2Device|CalibrateCommand|CalibrateDragCommand|CalibrationAlarm|DetectCommand|FuseCommand|TrajectoryScenario|SimSource|Kinect3dPlugin)\\.|^BallDetector\\.(FindsKicksAndShotsAndNothingElse|NoPhantomsInClutter|PeopleRoundTheRobotAreNotBallsAndABallAmongThemIsFound)$")
+# Minutes under AddressSanitizer (they run in the ordinary build).
+set(heavy "^(LoggedDemo\\..*|LiveView\\..*|CalibrationAlarm\\..*|ViewedDemo\\.(ThePageShowsTheLobInThreeDimensionsAndInTime|ASecondViewerOnTheSamePortIsRefusedNotShared)|Logger\\.AHostKilledMidRunLeavesALogThatOpensWithEveryCommittedBatch|MatchDay\\.(ALogWhoseClocksJumpReplaysInTheHostAndInReplayWithoutAStall|ADiskThatRefusesWritesMidRunIsSaidWhereRecordingResumes|LogsOpenReadOnlyOnAReadOnlyMountAndAsAnotherUserAndNothingIsWrittenBesideThem)|FusionPlugins\\.(TheDemoRobotFusesTheLobFlyingOverItWhileItDrives|TheAlignmentCheckFindsAKinectTurnedOnTheRobot)|TrajectoryScenario\\.GoalkeeperSeesWhereAShotCrossesItsLine|BallDetector\\.(FindsKicksAndShotsAndNothingElse|NoPhantomsInClutter|PeopleRoundTheRobotAreNotBallsAndABallAmongThemIsFound)|SceneMap\\.(WorksInTheFieldFrameAndStartsAfreshWhenAPoseAppears|FlagsABallHungInPlaceAsStaticButNeverAFlyingOne))$")
+
+foreach(test IN LISTS framework_tests_TESTS kinect3d_tests_TESTS fusion_tests_TESTS scene_map_tests_TESTS)
+  if(test MATCHES "${browser}")
+    set(labels browser)
+  elseif(test MATCHES "${scenario}")
+    set(labels scenario)
+  else()
+    set(labels unit)
+  endif()
+  if(NOT test MATCHES "${heavy}")
+    list(APPEND labels sanitizer-safe)
+  endif()
+  set_tests_properties("${test}" PROPERTIES LABELS "${labels}")
+endforeach()
