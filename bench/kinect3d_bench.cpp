@@ -65,7 +65,7 @@ struct Percentiles {
   double p50_ms, p99_ms;
 };
 Percentiles percentiles(const std::vector<double>& seconds) {
-  return {1e3 * kinect3d::sim::quantile(seconds, 0.5), 1e3 * kinect3d::sim::quantile(seconds, 0.99)};
+  return {1e3 * fw::quantile(seconds, 0.5), 1e3 * fw::quantile(seconds, 0.99)};
 }
 
 // Every valid pixel in the robot frame above the floor margin: what the baselines start from.

@@ -349,7 +349,7 @@ TEST(TrajectoryScenario, GoalkeeperSeesWhereAShotCrossesItsLine) {
     EXPECT_GE(early_predictions, 3) << "the crossing is known at least 0.3 s ahead";
     EXPECT_EQ(resets_before_crossing, resets_when_flying) << "the track holds from the kick to the line";
   }
-  EXPECT_LE(kinect3d::sim::quantile(errors_m, 0.5), 0.15) << "the crossing target, on balls it was not told about";
+  EXPECT_LE(fw::quantile(errors_m, 0.5), 0.15) << "the crossing target, on balls it was not told about";
 }
 
 TEST(Trajectory, RepeatedTimestampsNeverProduceNaN) {

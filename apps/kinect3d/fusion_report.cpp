@@ -52,12 +52,6 @@ struct Scored {
   }
 };
 
-double quantile(std::vector<double> values, double q) {
-  if (values.empty()) return NAN;
-  std::sort(values.begin(), values.end());
-  return values[static_cast<std::size_t>(std::lround(q * (values.size() - 1)))];
-}
-
 std::string metres(double value) {
   if (std::isnan(value)) return "-";
   char text[32];
@@ -142,13 +136,13 @@ Scored score(const Case& c, const FusionRun& run, const FusionRun& kinect_only) 
 
 std::string row(const std::string& name, const std::string& run, const Scored& s) {
   char text[512];
-  std::snprintf(text, sizeof text, "| %s | %s | %s | %s | %s | %s | %s | %.0f %% | %d | %s | %s |\n", name.c_str(),
-                run.c_str(), metres(quantile(s.air_errors, 0.5)).c_str(), metres(quantile(s.air_errors, 0.95)).c_str(),
-                metres(quantile(s.ground_errors, 0.5)).c_str(), metres(quantile(s.ground_errors, 0.95)).c_str(),
-                metres(quantile(s.ground_errors_kinect_sees, 0.5)).c_str(),
-                s.updates ? 100.0 * s.with_ball / s.updates : 0.0, s.on_phantom,
-                metres(quantile(s.kick_delays_frames, 1.0)).c_str(),
-                metres(quantile(s.landing_delays_frames, 1.0)).c_str());
+  std::snprintf(
+      text, sizeof text, "| %s | %s | %s | %s | %s | %s | %s | %.0f %% | %d | %s | %s |\n", name.c_str(), run.c_str(),
+      metres(fw::quantile(s.air_errors, 0.5)).c_str(), metres(fw::quantile(s.air_errors, 0.95)).c_str(),
+      metres(fw::quantile(s.ground_errors, 0.5)).c_str(), metres(fw::quantile(s.ground_errors, 0.95)).c_str(),
+      metres(fw::quantile(s.ground_errors_kinect_sees, 0.5)).c_str(), s.updates ? 100.0 * s.with_ball / s.updates : 0.0,
+      s.on_phantom, metres(fw::quantile(s.kick_delays_frames, 1.0)).c_str(),
+      metres(fw::quantile(s.landing_delays_frames, 1.0)).c_str());
   return text;
 }
 

@@ -40,12 +40,6 @@ struct Xyz {
   json toJson() const { return {{"x_m", x}, {"y_m", y}, {"z_m", z}}; }
 };
 
-double median(std::vector<double> values) {
-  if (values.empty()) return 0.0;
-  std::sort(values.begin(), values.end());
-  return values[values.size() / 2];
-}
-
 std::string localTime(double wall_time_s) {
   const std::time_t seconds = static_cast<std::time_t>(wall_time_s);
   std::tm local{};
@@ -118,7 +112,7 @@ void writeMatchReport(const std::string& log_folder, const std::string& out_dir)
   json events = json::array();
   double last_wall_s = start_s;
   // The depth sensor's clock against the host's, to put source times on the timeline.
-  std::optional<std::pair<double, double>> clock_pair;
+  const std::optional<double> source_minus_host_s = log.clockOffset_s(depth_source);
   for (const fw::JournalEntry& entry : entries) {
     const double t = entry.wall_time_s - start_s;
     last_wall_s = std::max(last_wall_s, entry.wall_time_s);
@@ -128,7 +122,6 @@ void writeMatchReport(const std::string& log_folder, const std::string& out_dir)
         if (ball.source != depth_source) continue;
         depth_balls.push_back(ball);
         depth_ball_t.push_back(t);
-        if (!clock_pair) clock_pair.emplace(ball.stamp.source_time_s, entry.wall_time_s);
       }
     } else if (const auto* omni = std::get_if<fw::OmniFrame>(&entry.item)) {
       for (const fw::OmniBallObservation& ball : omni->balls) seen[ball.source].push_back(t);
@@ -174,11 +167,11 @@ void writeMatchReport(const std::string& log_folder, const std::string& out_dir)
                     {"t_s", fused_t},
                     {"z_m", fused_heights.z},
                     {"line", false}});
-  if (truth.known() && clock_pair) {
+  if (truth.known() && source_minus_host_s) {
     std::vector<double> t_s, z_m;
     for (double t = 0.0; t <= last_wall_s - start_s; t += kFrame_s) {
       t_s.push_back(t);
-      z_m.push_back(truth.ball_R(clock_pair->first + (start_s + t - clock_pair->second)).z());
+      z_m.push_back(truth.ball_R(start_s + t + *source_minus_host_s).z());
     }
     height.push_back({{"label", "truth"}, {"colour", "truth"}, {"t_s", t_s}, {"z_m", z_m}, {"line", true}});
   }
@@ -186,7 +179,7 @@ void writeMatchReport(const std::string& log_folder, const std::string& out_dir)
 
   json flights_json = json::array();
   const auto to_run_s = [&](double source_time_s) {
-    return clock_pair ? source_time_s - clock_pair->first + clock_pair->second - start_s : 0.0;
+    return source_minus_host_s ? source_time_s - *source_minus_host_s - start_s : 0.0;
   };
   for (const Flight& flight : flights) {
     if (flights_json.size() >= kMaxFlights) break;
@@ -214,7 +207,7 @@ void writeMatchReport(const std::string& log_folder, const std::string& out_dir)
                        {"seconds", seconds.size()},
                        {"frames", frames},
                        {"rate_hz", seconds.empty() ? 0.0 : static_cast<double>(frames) / seconds.size()},
-                       {"p50_s", median(p50s)},
+                       {"p50_s", p50s.empty() ? 0.0 : fw::quantile(p50s, 0.5)},
                        {"p99_s", p99},
                        {"dropped_frames", dropped},
                        {"errors", errors},

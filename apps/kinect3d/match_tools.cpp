@@ -21,17 +21,6 @@ namespace {
 
 namespace fs = std::filesystem;
 
-DepthFrame toDepthFrame(const fw::DepthImage& image, const std::string& sensor_id) {
-  DepthFrame frame;
-  frame.resize({image.width, image.height, image.fx, image.fy, image.cx, image.cy});
-  frame.depth_mm = image.depth_mm;
-  frame.source_time_s = image.stamp.source_time_s;
-  frame.receive_time_s = image.stamp.receive_time_s;
-  frame.index = image.index;
-  frame.sensor_id = sensor_id;
-  return frame;
-}
-
 // The log's first depth plugin: the one whose frames are replayed or exported.
 std::string depthSource(const MatchLogReader& log) {
   const auto sources = log.depthSources();
@@ -183,7 +172,7 @@ void exportMatch(const std::string& log_folder, const ExportFiles& files) {
         flush();
         // The trajectory stands until the source withdraws it.
         pending = Pending{image.index, image.stamp.source_time_s, {}, pending ? pending->trajectory : std::nullopt};
-        if (tum) tum->write(toDepthFrame(image, "log:" + log_folder));
+        if (tum) tum->write(fromDepthImage(image));
       });
   flush();
   fw::logInfo("export", log_folder + ": " + std::to_string(omni.size()) + " omni images, " +

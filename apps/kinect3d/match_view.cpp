@@ -103,10 +103,7 @@ void MatchView::index() {
     // The page's zero, and the depth sensor's clock against the host's for what carries only a wall
     // time: fixed by the first frames, so what is indexed stays where it was drawn.
     t0_ = new_frames.front().source_time_s;
-    std::vector<double> offsets;
-    for (const auto& frame : new_frames) offsets.push_back(frame.source_time_s - frame.wall_time_s);
-    std::nth_element(offsets.begin(), offsets.begin() + offsets.size() / 2, offsets.end());
-    wall_to_source_s_ = offsets[offsets.size() / 2];
+    wall_to_source_s_ = log_->clockOffset_s(depth_source_).value_or(0.0);
   }
   Timelines& l = *timelines_;
   const auto addPoint = [&](json& series, const char* value_key, double t, double value) {
@@ -215,15 +212,7 @@ json MatchView::run() {
 }
 
 DepthFrame MatchView::depthFrame(std::size_t frame) const {
-  const fw::DepthImage image = log_->depthFrame(frames_[frame].seq);
-  DepthFrame depth;
-  depth.intrinsics = {image.width, image.height, image.fx, image.fy, image.cx, image.cy};
-  depth.depth_mm = image.depth_mm;
-  depth.source_time_s = image.stamp.source_time_s;
-  depth.receive_time_s = image.stamp.receive_time_s;
-  depth.index = image.index;
-  depth.sensor_id = image.source;
-  return depth;
+  return fromDepthImage(log_->depthFrame(frames_[frame].seq));
 }
 
 std::optional<json> MatchView::frame(std::size_t frame) {

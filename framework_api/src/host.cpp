@@ -146,9 +146,8 @@ void Host::publishHealth() {
     // A source-driven plugin's step includes its wait for the frame: its own times, when it reports them.
     if (std::vector<double> own = world_.takeProcessingTimes(h.plugin); !own.empty()) times.swap(own);
     if (!times.empty()) {
-      std::sort(times.begin(), times.end());
-      h.processing_p50_s = times[times.size() / 2];
-      h.processing_p99_s = times[std::min(times.size() - 1, static_cast<std::size_t>(0.99 * times.size()))];
+      h.processing_p50_s = quantile(times, 0.5);
+      h.processing_p99_s = quantile(times, 0.99);
     }
     h.dropped_frames = world_.droppedFrames(h.plugin);
     health.push_back(h);

@@ -25,6 +25,13 @@ void setReplayedWallClock(std::optional<double> wall_time_s) {
   replayed_wall_time_s = wall_time_s.value_or(std::numeric_limits<double>::quiet_NaN());
 }
 
+double quantile(std::vector<double> values, double q) {
+  if (values.empty()) return std::numeric_limits<double>::quiet_NaN();
+  const std::size_t rank = std::min(values.size() - 1, static_cast<std::size_t>(std::max(0.0, q) * values.size()));
+  std::nth_element(values.begin(), values.begin() + static_cast<std::ptrdiff_t>(rank), values.end());
+  return values[rank];
+}
+
 double wrapAngle(double a_rad) { return a_rad - 2.0 * M_PI * std::floor((a_rad + M_PI) / (2.0 * M_PI)); }
 
 const char* toString(Frame frame) {

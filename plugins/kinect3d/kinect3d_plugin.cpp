@@ -63,7 +63,9 @@ class Kinect3dPlugin : public fw::Plugin {
     const auto started = std::chrono::steady_clock::now();
     // The frame takes its place among the measurements now, with the poses that came before it.
     const fw::WorldState::DepthArrival arrival = world_.arriveDepthFrame(
-        world_.journalWantsDepth() ? std::optional<fw::DepthImage>(depthImage()) : std::nullopt, &pose_cursor_);
+        world_.journalWantsDepth() ? std::optional<fw::DepthImage>(kinect3d::toDepthImage(frame_, source_name_))
+                                   : std::nullopt,
+        &pose_cursor_);
     for (const fw::RobotPose& pose : arrival.poses) poses_.add(pose);
     // With a pose from localisation the scene map is kept in the field frame: the pose at the
     // frame's own time.
@@ -91,22 +93,6 @@ class Kinect3dPlugin : public fw::Plugin {
   }
 
  private:
-  fw::DepthImage depthImage() const {
-    fw::DepthImage image;
-    const kinect3d::Intrinsics& k = frame_.intrinsics;
-    image.width = k.width;
-    image.height = k.height;
-    image.fx = k.fx;
-    image.fy = k.fy;
-    image.cx = k.cx;
-    image.cy = k.cy;
-    image.depth_mm = frame_.depth_mm;
-    image.index = frame_.index;
-    image.source = source_name_;
-    image.stamp = {frame_.source_time_s, frame_.receive_time_s};
-    return image;
-  }
-
   void publishEvent(const std::string& kind, const std::string& message) {
     world_.publishEvent({source_name_, kind, message, {frame_.source_time_s, frame_.receive_time_s}});
   }

@@ -24,6 +24,10 @@ void setReplayedWallClock(std::optional<double> wall_time_s);
 // Wraps an angle into [-pi, pi).
 double wrapAngle(double a_rad);
 
+// The q-quantile of values by nearest rank: the value at index floor(q * n) of the sorted values
+// (the last for q = 1); NaN for no values. The one rank rule of every report and health figure.
+double quantile(std::vector<double> values, double q);
+
 // When a measurement was taken by its source and when this host received it. The source clock
 // may differ from the host's (a recording replays old source times); fusion uses receive time to
 // judge freshness and source time to relate measurements of the same source.

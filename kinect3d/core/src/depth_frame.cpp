@@ -46,4 +46,31 @@ DepthStats computeStats(const DepthFrame& frame) {
   return stats;
 }
 
+DepthFrame fromDepthImage(fw::DepthImage image) {
+  DepthFrame frame;
+  frame.intrinsics = {image.width, image.height, image.fx, image.fy, image.cx, image.cy};
+  frame.depth_mm = std::move(image.depth_mm);
+  frame.source_time_s = image.stamp.source_time_s;
+  frame.receive_time_s = image.stamp.receive_time_s;
+  frame.index = image.index;
+  frame.sensor_id = std::move(image.source);
+  return frame;
+}
+
+fw::DepthImage toDepthImage(const DepthFrame& frame, const std::string& source) {
+  fw::DepthImage image;
+  const Intrinsics& k = frame.intrinsics;
+  image.width = k.width;
+  image.height = k.height;
+  image.fx = k.fx;
+  image.fy = k.fy;
+  image.cx = k.cx;
+  image.cy = k.cy;
+  image.depth_mm = frame.depth_mm;
+  image.index = frame.index;
+  image.source = source;
+  image.stamp = {frame.source_time_s, frame.receive_time_s};
+  return image;
+}
+
 }  // namespace kinect3d

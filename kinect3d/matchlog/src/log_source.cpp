@@ -29,10 +29,7 @@ class LogDepthSource : public DepthSource {
     } catch (const MatchLogError& e) {
       throw DepthSourceError(e.what());
     }
-    frame.resize({image_.width, image_.height, image_.fx, image_.fy, image_.cx, image_.cy});
-    frame.depth_mm.swap(image_.depth_mm);
-    frame.source_time_s = image_.stamp.source_time_s;
-    frame.index = image_.index;
+    frame = fromDepthImage(std::move(image_));
     frame.sensor_id = "log:" + log_.folder();
     return ReadResult::kFrame;
   }

@@ -697,6 +697,22 @@ std::vector<MatchLogReader::DepthFrameStamp> MatchLogReader::depthFrameStamps(co
   return stamps;
 }
 
+std::optional<double> MatchLogReader::clockOffset_s(const std::string& source) const {
+  for (const char* table : {"depth_frame", "ball"}) {
+    Statement q(
+        db_,
+        (std::string("SELECT source_time_s - receive_time_s FROM ") + table + " WHERE source = ? ORDER BY seq LIMIT ?")
+            .c_str(),
+        path_);
+    sqlite3_bind_text(q.stmt, 1, source.c_str(), -1, SQLITE_TRANSIENT);
+    sqlite3_bind_int(q.stmt, 2, kClockOffsetFrames);
+    std::vector<double> offsets_s;
+    while (q.row()) offsets_s.push_back(q.real(0));
+    if (!offsets_s.empty()) return fw::quantile(offsets_s, 0.5);
+  }
+  return std::nullopt;
+}
+
 std::vector<MatchLogReader::Input> MatchLogReader::inputs() const {
   Statement q(db_,
               "SELECT seq, wall_time_s, 0, source FROM depth_frame UNION ALL SELECT seq, wall_time_s, 1, '' FROM "

@@ -28,7 +28,7 @@ std::string format(const char* pattern, double value) {
 // median error | p95 error.
 std::string scoreColumns(const sim::DetectionScore& score) {
   auto centimetres = [&](double q) {
-    return score.errors_m.empty() ? std::string("-") : format("%.1f cm", sim::quantile(score.errors_m, q) * 100);
+    return score.errors_m.empty() ? std::string("-") : format("%.1f cm", fw::quantile(score.errors_m, q) * 100);
   };
   std::ostringstream columns;
   columns << score.frames << " | " << score.eligible << " | " << score.found

@@ -57,12 +57,6 @@ DetectionScore scoreFrames(const std::vector<EvaluatedFrame>& frames, const Scen
   return score;
 }
 
-double quantile(std::vector<double> values, double q) {
-  if (values.empty()) return NAN;
-  std::sort(values.begin(), values.end());
-  return values[std::min(values.size() - 1, static_cast<std::size_t>(q * values.size()))];
-}
-
 void DetectionScore::add(const DetectionScore& other) {
   frames += other.frames;
   eligible += other.eligible;

@@ -175,8 +175,8 @@ void scoreFlight(const std::vector<sim::EvaluatedFrame>& frames, const sim::Scen
 std::string cell(const std::vector<double>& values, double scale, const char* unit) {
   if (values.empty()) return "-";
   char text[96];
-  std::snprintf(text, sizeof text, "%.2f / %.2f %s (n = %zu)", sim::quantile(values, 0.5) * scale,
-                sim::quantile(values, 0.9) * scale, unit, values.size());
+  std::snprintf(text, sizeof text, "%.2f / %.2f %s (n = %zu)", fw::quantile(values, 0.5) * scale,
+                fw::quantile(values, 0.9) * scale, unit, values.size());
   return text;
 }
 
@@ -282,7 +282,7 @@ void writeTrajectoryReport(const fw::Config& config, const std::string& out_path
             for (const double us : r.update_us) sum += us;
             char text[64];
             std::snprintf(text, sizeof text, "%.1f / %.1f us", sum / std::max<std::size_t>(1, r.update_us.size()),
-                          sim::quantile(r.update_us, 0.99));
+                          fw::quantile(r.update_us, 0.99));
             return std::string(text);
           },
           "<= 20 us"}});

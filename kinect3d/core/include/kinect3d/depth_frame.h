@@ -8,6 +8,8 @@
 
 #include <Eigen/Core>
 
+#include "framework_api/types.h"
+
 namespace kinect3d {
 
 // Pinhole intrinsics of the depth camera, in pixels.
@@ -51,6 +53,12 @@ struct DepthFrame {
   // Resizes depth_mm to match intrinsics and zeroes it.
   void resize(const Intrinsics& new_intrinsics);
 };
+
+// The framework's depth image (what the world state journals and the match log keeps) holds the
+// same data: the one conversion each way. The image's source (the plugin) becomes the frame's
+// sensor_id and back.
+DepthFrame fromDepthImage(fw::DepthImage image);
+fw::DepthImage toDepthImage(const DepthFrame& frame, const std::string& source);
 
 // Depth statistics used by `kinect3d info` and the tests.
 struct DepthStats {

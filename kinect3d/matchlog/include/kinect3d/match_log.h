@@ -11,6 +11,7 @@
 #include <cstdint>
 #include <map>
 #include <memory>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -126,6 +127,11 @@ class MatchLogReader {
     double wall_time_s;
   };
   std::vector<Input> inputs() const;
+  // A source's clock against the host's: the median of (source time - receive time) over its first
+  // kClockOffsetFrames depth frames, else over its first balls; nothing when it logged neither. What
+  // puts a source time on the log's wall-clock timeline (the match report, the viewer).
+  static constexpr int kClockOffsetFrames = 30;
+  std::optional<double> clockOffset_s(const std::string& source) const;
   // One depth frame by its seq. Throws MatchLogError naming it when it is missing or undecodable.
   fw::DepthImage depthFrame(std::int64_t seq) const;
 

@@ -42,9 +42,6 @@ struct DetectionScore {
   void add(const DetectionScore& other);
 };
 
-// The q-quantile (0..1) of values by rank; NaN for none.
-double quantile(std::vector<double> values, double q);
-
 bool shouldBeFound(const GroundTruth& truth, const Scene& scene, const EvaluationCriteria& criteria);
 DetectionScore scoreFrames(const std::vector<EvaluatedFrame>& frames, const Scene& scene,
                            const EvaluationCriteria& criteria);
