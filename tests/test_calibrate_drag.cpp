@@ -7,6 +7,7 @@
 #include <random>
 
 #include "framework_api/config.h"
+#include "fusion/fusion_config.h"
 #include "kinect3d/ball_physics_fit.h"
 #include "kinect3d/config_io.h"
 #include "kinect3d/sim/ball_motion.h"
@@ -75,13 +76,13 @@ TEST(CalibrateDragCommand, FitsTheDetectorsFlightsAndPrintsARobotFile) {
       runCommand(exe + " detect --source sim:" + d + "/lob.yaml --output " + d + "/detect.jsonl 2>/dev/null").first, 0);
   const auto [status, out] = runCommand(exe + " calibrate drag " + d + "/detect.jsonl 2>&1");
   ASSERT_EQ(status, 0) << out;
-  const std::size_t yaml = out.find("kinect3d:\n");
+  const std::size_t yaml = out.find("ball:\n");
   ASSERT_NE(yaml, std::string::npos) << out;
   std::ofstream(d + "/robot.yaml") << out.substr(yaml);
   const fw::Config config = fw::Config::load(std::string(PROJECT_CONFIG_DIR) + "/defaults", d + "/robot.yaml", {});
   const kinect3d::TrajectoryConfig prior = kinect3d::readTrajectoryConfig(config.block("kinect3d"));
   EXPECT_NEAR(prior.drag_per_m, 0.013, 0.004) << out;
-  EXPECT_NEAR(config.block("fusion").child("ball").getDouble("restitution", 0.0, 1.0), 0.75, 0.1) << out;
+  EXPECT_NEAR(fusion::readFusionConfig(config.block("fusion")).motion.restitution, 0.75, 0.1) << out;
 }
 
 TEST(CalibrateDragCommand, ABadLineIsNamedWithItsFileAndLine) {

@@ -172,7 +172,7 @@ void printPoseCalibration(const PoseCalibration& calibration, std::ostream& out)
 
 PoseCalibration calibratePose(const PoseCalibrationOptions& options, const fw::Config& config) {
   const fw::ConfigView block = config.block("kinect3d");
-  const double radius_m = block.child("ball").getDouble("radius_m", 0.01, 1.0);
+  const double radius_m = readDetectorConfig(block).ball.radius_m;
   const std::vector<MarkSpec> specs = readMarks(options.marks_file, radius_m);
   const auto source = cliSources().open(options.source);
   const bool live = source->frameCount() == 0;

@@ -331,7 +331,7 @@ void runCalibrateDrag(const std::vector<std::string>& files, const fw::Config& c
     const std::vector<fw::BallFrame> read = fusion::readDetectionsFile(file, "kinect3d");
     frames.insert(frames.end(), read.begin(), read.end());
   }
-  const double radius_m = config.block("kinect3d").child("ball").getDouble("radius_m", 0.01, 1.0);
+  const double radius_m = kinect3d::readTrajectoryConfig(config.block("kinect3d")).ball_radius_m;
   const kinect3d::BallPhysicsCalibration fit = kinect3d::calibrateBallPhysics(frames, radius_m);
   std::printf("%zu flights fitted (%d runs in the air too short or slow to fit), %zu bounces\n\n", fit.flights.size(),
               fit.runs_skipped, fit.bounces.size());
@@ -346,15 +346,15 @@ void runCalibrateDrag(const std::vector<std::string>& files, const fw::Config& c
                 bounce.restitution);
   }
   std::printf(
-      "\nFor the robot file (the trajectory's drag prior%s):\n\nkinect3d:\n  trajectory:\n"
-      "    drag_per_m: %.4f\n    drag_sigma_per_m: %.4f\n",
-      fit.restitution ? " and the fusion's bounce" : "", fit.drag_per_m, fit.drag_sigma_per_m);
+      "\nFor the robot file (the trajectory's drag prior and the fusion's bounce):\n\nball:\n"
+      "  drag_per_m: %.4f\n  drag_sigma_per_m: %.4f\n",
+      fit.drag_per_m, fit.drag_sigma_per_m);
   if (fit.restitution) {
-    std::printf("fusion:\n  ball:\n    drag_per_m: %.4f\n    restitution: %.2f%s\n", fit.drag_per_m, *fit.restitution,
-                fit.restitution_sigma ? ("    # +- " + std::to_string(*fit.restitution_sigma).substr(0, 4)).c_str()
-                                      : "    # from one bounce");
+    std::printf("  restitution: %.2f%s\n", *fit.restitution,
+                fit.restitution_sigma ? ("  # +- " + std::to_string(*fit.restitution_sigma).substr(0, 4)).c_str()
+                                      : "  # from one bounce");
   } else {
-    std::printf("fusion:\n  ball:\n    drag_per_m: %.4f\n# no bounce seen: restitution not measured\n", fit.drag_per_m);
+    std::printf("# no bounce seen: restitution not measured\n");
   }
 }
 

@@ -335,6 +335,8 @@ ConfigView Config::block(const std::string& name) const {
   return ConfigView(data_, name);
 }
 
+ConfigView ConfigView::block(const std::string& name) const { return Config(data_).block(name); }
+
 std::string Config::toYaml() const {
   YAML::Emitter out;
   out << data_->root;

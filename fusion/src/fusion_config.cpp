@@ -6,7 +6,7 @@ FusionConfig readFusionConfig(const fw::ConfigView& block) {
   FusionConfig config;
   config.max_delay_s = block.getDouble("max_delay_s", 0.0, 2.0);
 
-  const fw::ConfigView ball = block.child("ball");
+  const fw::ConfigView ball = block.block("ball");
   MotionConfig& motion = config.motion;
   motion.radius_m = ball.getDouble("radius_m", 0.02, 0.5);
   motion.drag_per_m = ball.getDouble("drag_per_m", 0.0, 1.0);

@@ -52,6 +52,7 @@ class Config {
   struct Data;  // parsed tree and where each value came from; defined in config.cpp
 
  private:
+  friend class ConfigView;  // its block() reaches the other top-level blocks
   explicit Config(std::shared_ptr<const Data> data) : data_(std::move(data)) {}
   std::shared_ptr<const Data> data_;
 };
@@ -73,6 +74,8 @@ class ConfigView {
   // A list of exactly `size` numbers (any size when size is 0), e.g. a position [x, y, z].
   std::vector<double> getDoubleList(const std::string& key, std::size_t size) const;
   ConfigView child(const std::string& key) const;
+  // Another top-level block of the same configuration, for what several blocks share (the ball).
+  ConfigView block(const std::string& name) const;
   // The number of entries of a list; its entries are keys "<key>.0", "<key>.1", ...
   std::size_t listSize(const std::string& key) const;
   // The maps of a list of maps, e.g. a scene's objects; their paths are "objects.0", "objects.1".

@@ -12,7 +12,7 @@ namespace fusion {
 // The ball's physics and how much the motion models may be wrong.
 struct MotionConfig {
   double radius_m = 0.11;
-  double drag_per_m = 0.024;             // quadratic air drag rho Cd A / 2m (as fw::BallTrajectory)
+  double drag_per_m = 0.02;              // quadratic air drag rho Cd A / 2m (as fw::BallTrajectory)
   double rolling_decel_mps2 = 0.4;       // a rolling ball slows by this
   double restitution = 0.6;              // vertical speed kept at a bounce
   double bounce_friction = 0.2;          // share of horizontal speed lost at a bounce

@@ -86,7 +86,7 @@ DetectorConfig readDetectorConfig(const fw::ConfigView& kinect3d) {
   config.map.static_after_s = map.getDouble("static_after_s", 0.1, 600.0);
 
   const fw::ConfigView ball = kinect3d.child("ball");
-  config.ball.radius_m = ball.getDouble("radius_m", 0.02, 0.5);
+  config.ball.radius_m = kinect3d.block("ball").getDouble("radius_m", 0.02, 0.5);
   config.ball.min_visible_fraction = ball.getDouble("min_visible_fraction", 0.0, 1.0);
   config.ball.max_size_ratio = ball.getDouble("max_size_ratio", 1.0, 10.0);
   config.ball.air_min_height_m = ball.getDouble("air_min_height_m", 0.0, 2.0);
@@ -95,13 +95,14 @@ DetectorConfig readDetectorConfig(const fw::ConfigView& kinect3d) {
 
 TrajectoryConfig readTrajectoryConfig(const fw::ConfigView& kinect3d) {
   TrajectoryConfig config;
-  config.ball_radius_m = kinect3d.child("ball").getDouble("radius_m", 0.02, 0.5);
+  const fw::ConfigView ball = kinect3d.block("ball");
+  config.ball_radius_m = ball.getDouble("radius_m", 0.02, 0.5);
+  config.drag_per_m = ball.getDouble("drag_per_m", 0.0, 1.0);
+  config.drag_sigma_per_m = ball.getDouble("drag_sigma_per_m", 0.0, 1.0);
+  config.rolling_decel_mps2 = ball.getDouble("rolling_decel_mps2", 0.0, 10.0);
   const fw::ConfigView trajectory = kinect3d.child("trajectory");
   config.mode = trajectoryModeFromString(trajectory.getChoice("mode", {"ballistic", "paper"}));
-  config.drag_per_m = trajectory.getDouble("drag_per_m", 0.0, 1.0);
-  config.drag_sigma_per_m = trajectory.getDouble("drag_sigma_per_m", 0.0, 1.0);
   config.curve_sigma_radps = trajectory.getDouble("curve_sigma_radps", 0.0, 1.0);
-  config.rolling_decel_mps2 = trajectory.getDouble("rolling_decel_mps2", 0.0, 10.0);
   config.gate_sigma = trajectory.getDouble("gate_sigma", 1.0, 20.0);
   config.model_sigma_m = trajectory.getDouble("model_sigma_m", 0.0, 1.0);
   config.max_gravity_error_mps2 = trajectory.getDouble("max_gravity_error_mps2", 0.5, 9.81);

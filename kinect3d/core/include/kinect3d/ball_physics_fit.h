@@ -1,6 +1,6 @@
 // The ball's own physics from recorded flights (`kinect3d calibrate drag`): its air drag and its
-// bounce restitution, to become the trajectory estimator's drag prior (trajectory.drag_per_m,
-// drag_sigma_per_m) and the fusion's restitution (fusion.ball.restitution).
+// bounce restitution, for the robot file's ball block (ball.drag_per_m and drag_sigma_per_m, the
+// trajectory estimator's drag prior; ball.restitution, the fusion's bounce).
 //
 // Each flight (detections in the air, no gap over 0.1 s, at least 8 of them over 0.2 s, faster
 // than 2 m/s) is fitted alone: start, velocity, drag and sidespin curve by Gauss-Newton on the

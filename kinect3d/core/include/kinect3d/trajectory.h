@@ -23,7 +23,7 @@ namespace kinect3d {
 struct TrajectoryConfig {
   enum class Mode { kBallistic, kPaper };
   Mode mode = Mode::kBallistic;
-  double ball_radius_m = 0.11;      // kinect3d.ball.radius_m: the detector's radius, read once
+  double ball_radius_m = 0.11;      // ball.radius_m, as the detector's
   double drag_per_m = 0.02;         // ballistic: quadratic drag rho Cd A / 2m, the prior's mean (size 5: 0.011-0.027)
   double drag_sigma_per_m = 0.007;  // and its 1-sigma spread; 0 = the drag is drag_per_m, not estimated
   double curve_sigma_radps = 0.15;  // ballistic: a sidespin's Magnus curve, prior 0 +- this; 0 = no curve
