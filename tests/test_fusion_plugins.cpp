@@ -124,6 +124,14 @@ TEST(FusionPlugins, OmniAndPosesReplayedFromFilesReachTheWorldBall) {
   EXPECT_GT(host.world().robotPose()->y_m, 0.3) << "the replayed robot drove forward";
 }
 
+TEST(FusionPlugins, TheFusionPluginNeedsNeitherTheDepthLibraryNorTheSimulator) {
+  // It learns where the Kinect sits from the world state, not from the depth plugin's configuration.
+  const auto [status, needed] = runCommand("readelf -d " + std::string(PRODUCT_PLUGIN_DIR) + "/fusion.so");
+  ASSERT_EQ(status, 0) << needed;
+  EXPECT_NE(needed.find("[libfusion.so]"), std::string::npos) << needed;
+  EXPECT_EQ(needed.find("libkinect3d"), std::string::npos) << needed;
+}
+
 TEST(FuseCommand, FusesFilesDeterministicallyAndFollowsTheChip) {
   const ScopedTempDir dir;
   const std::string exe = KINECT3D_EXE, d = dir.path().string();
