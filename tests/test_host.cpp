@@ -65,6 +65,33 @@ TEST(Host, ReportsEndOfStream) {
   EXPECT_EQ(host.world().recentBalls("tp_producer").size(), 3u);
 }
 
+TEST(Host, ReplayStepsEachInputsPluginThenTheRatedOnesAtTheRobotsMoment) {
+  fw::Host host(exchangeConfig({"host.plugins=[tp_producer, tp_consumer]", "tp_producer.frames=3"}), TEST_PLUGIN_DIR);
+  host.replay({{"tp_producer", 1000.0}, {"tp_producer", 1000.5}});
+  const auto balls = host.world().recentBalls("tp_producer");
+  ASSERT_EQ(balls.size(), 2u);
+  EXPECT_DOUBLE_EQ(balls[0].stamp.receive_time_s, 1000.5) << "stamped with the replayed wall clock";
+  EXPECT_DOUBLE_EQ(balls[1].stamp.receive_time_s, 1000.0);
+  ASSERT_TRUE(host.world().fusedBall());
+  EXPECT_DOUBLE_EQ(host.world().fusedBall()->stamp.receive_time_s, 1000.5) << "the consumer stepped after it";
+  EXPECT_EQ(summaryOf(host.summaries(), "tp_consumer").steps, 2u) << "once per input";
+  EXPECT_GT(fw::wallClockNow_s(), 1.7e9) << "the system clock again after the replay";
+
+  try {
+    host.replay({{"tp_producer", 1001.0}, {"tp_producer", 1001.5}});
+    FAIL() << "the producer had one frame left for two inputs";
+  } catch (const fw::PluginError& e) {
+    EXPECT_NE(std::string(e.what()).find("'tp_producer' has no input left"), std::string::npos) << e.what();
+  }
+  try {
+    host.replay({{"tp_nobody", 1002.0}});
+    FAIL() << "no such plugin";
+  } catch (const fw::PluginError& e) {
+    EXPECT_NE(std::string(e.what()).find("no plugin 'tp_nobody' is loaded"), std::string::npos) << e.what();
+  }
+  EXPECT_GT(fw::wallClockNow_s(), 1.7e9);
+}
+
 TEST(Host, APluginThatKeepsFailingBacksOffThenGivesUp) {
   fw::Host host(exchangeConfig({"host.plugins=[tp_faulty]", "host.max_consecutive_errors=4"}), TEST_PLUGIN_DIR);
   const auto started = Clock::now();

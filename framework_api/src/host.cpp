@@ -271,6 +271,10 @@ void Host::replay(const std::vector<ReplayStep>& steps) {
   // A source that skips what it cannot use (a frame without a time stamp) hands out nothing on a
   // step: it is stepped again, but never without end.
   constexpr int kMaxStepsPerItem = 1000;
+  // However the replay ends, the host's wall clock is the system's again.
+  struct ClockRestorer {
+    ~ClockRestorer() { setReplayedWallClock(std::nullopt); }
+  } restore_clock;
   for (std::size_t i = 0; i < steps.size(); ++i) {
     const auto found = by_name.find(steps[i].plugin);
     if (found == by_name.end()) {
@@ -285,7 +289,6 @@ void Host::replay(const std::vector<ReplayStep>& steps) {
       if (!result) break;  // counted and logged: the input is lost, as it would be on the robot
     }
     if (result == StepResult::kEndOfStream || result == StepResult::kIdle) {
-      setReplayedWallClock(std::nullopt);
       throw PluginError("replay step " + std::to_string(i) + ": '" + steps[i].plugin +
                         "' has no input left to hand out; its source is not the log being replayed");
     }
@@ -293,7 +296,6 @@ void Host::replay(const std::vector<ReplayStep>& steps) {
       if (plugin->rate_hz > 0.0) stepOnce(*plugin, start);
     }
   }
-  setReplayedWallClock(std::nullopt);
 }
 
 std::string formatSummary(const PluginSummary& summary) {
