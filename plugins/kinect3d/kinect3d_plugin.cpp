@@ -71,7 +71,16 @@ class Kinect3dPlugin : public fw::Plugin {
     // frame's own time.
     std::optional<Eigen::Isometry3d> T_F_R;
     if (!poses_.empty()) T_F_R = poses_.at(frame_.source_time_s).T_F_R();
-    detector_.detect(frame_, detections_, T_F_R);
+    const fw::Stamp stamp{frame_.source_time_s, frame_.receive_time_s};
+    try {
+      detector_.detect(frame_, detections_, T_F_R);
+    } catch (...) {
+      // The frame's place is filled all the same, without a ball, so the fusion does not wait for it.
+      world_.publishBallFrame(arrival.place, {stamp, {}, source_name_});
+      throw;
+    }
+    // Every frame, with or without a ball: the fusion reads a frame without one as evidence.
+    world_.publishBallFrame(arrival.place, {stamp, detections_.balls, source_name_});
     if (detections_.aligned && !reported_alignment_) {
       fw::logInfo(source_name_, "sensor aligned with the floor; detecting");
       publishEvent("floor_found", "sensor aligned with the floor; detecting");
@@ -79,9 +88,6 @@ class Kinect3dPlugin : public fw::Plugin {
     }
     reportSourceCounters();
     checkCalibration();
-    // Every frame, with or without a ball: the fusion reads a frame without one as evidence.
-    world_.publishBallFrame(arrival.place,
-                            {{frame_.source_time_s, frame_.receive_time_s}, detections_.balls, source_name_});
     if (const auto trajectory = trajectory_->update(frame_.source_time_s, detections_.balls)) {
       world_.publishTrajectory(*trajectory);
     } else {
