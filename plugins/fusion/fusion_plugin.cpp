@@ -42,23 +42,21 @@ class FusionPlugin : public fw::Plugin {
         fusion_.addPose(*pose);
       } else if (const auto* frame = std::get_if<fw::BallFrame>(&measurement)) {
         if (frame->source != config_.kinect.source) continue;
-        publish(fusion_.addKinectFrame(frame->stamp.source_time_s, frame->balls));
         if (alignmentCheck()) alignment_->addKinectFrame(frame->stamp.source_time_s, frame->balls);
+        publish(fusion_.addKinectFrame(frame->stamp.source_time_s, frame->balls));
         updated = true;
       } else if (const auto* omni = std::get_if<fw::OmniFrame>(&measurement)) {
         if (omni->source != config_.omni.source) continue;
-        publish(fusion_.addOmniFrame(omni->stamp.source_time_s, omni->balls));
         if (alignmentCheck()) alignment_->addOmniFrame(omni->stamp.source_time_s, omni->balls);
+        publish(fusion_.addOmniFrame(omni->stamp.source_time_s, omni->balls));
         updated = true;
       }
     }
-    if (!updated) return fw::StepResult::kIdle;
-    reportLatency();
-    checkAlignment(fusion_.latest().time_s);
-    return fw::StepResult::kProcessed;
+    return updated ? fw::StepResult::kProcessed : fw::StepResult::kIdle;
   }
 
  private:
+  // The world ball after one image, and what the image told the checks: per image, not per step.
   void publish(const fusion::FusionUpdate& update) {
     if (update.ball) {
       fw::FusedBall ball = *update.ball;
@@ -67,6 +65,8 @@ class FusionPlugin : public fw::Plugin {
     } else {
       world_.clearFusedBall();
     }
+    reportLatency();
+    checkAlignment(update.time_s);
   }
 
   // The check that the Kinect still sits where its pose_in_robot says, made when its first
