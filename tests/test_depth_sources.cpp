@@ -12,8 +12,8 @@
 #include "kinect3d/sim/kinect_simulator.h"
 #include "kinect3d/sim/sequence_writer.h"
 #include "kinect3d/sim/sim_sources.h"
+#include "real_data.h"
 #include "scoped_temp_dir.h"
-#include "shared_data.h"
 
 namespace {
 
@@ -78,8 +78,8 @@ TEST_F(TumDir, ReadsAFrameAtItsStampWithTumsDefaults) {
 }
 
 TEST_F(TumDir, ReadsTheRealKinectFrame) {
-  const std::optional<std::string> real = sharedDataFile("real-depth/tum_depth.png");
-  if (!real) GTEST_SKIP() << noSharedData("real-depth/tum_depth.png");
+  const std::optional<std::string> real = realDataFile("real-depth/tum_depth.png");
+  if (!real) GTEST_SKIP() << noRealData("real-depth/tum_depth.png");
   const DepthFrame frame = readTheOnlyFrame(*real);
   const kinect3d::DepthStats stats = kinect3d::computeStats(frame);
   EXPECT_NEAR(stats.invalid_fraction, 0.19, 0.01);
@@ -222,8 +222,8 @@ TEST(RawDisparity, ConvertsTheRealNyuFrame) {
   const ScopedTempDir temp;
   EXPECT_THROW(kinect3d::loadRawDisparityPgm(writeTumFrame(temp.path() / "frame.png")), DepthSourceError)
       << "a PNG is not a raw-disparity PGM";
-  const std::optional<std::string> nyu = sharedDataFile("real-depth/nyu_raw_disparity.pgm");
-  if (!nyu) GTEST_SKIP() << noSharedData("real-depth/nyu_raw_disparity.pgm");
+  const std::optional<std::string> nyu = realDataFile("real-depth/nyu_raw_disparity.pgm");
+  if (!nyu) GTEST_SKIP() << noRealData("real-depth/nyu_raw_disparity.pgm");
   const DepthFrame frame = kinect3d::loadRawDisparityPgm(*nyu);
   const kinect3d::DepthStats stats = kinect3d::computeStats(frame);
   EXPECT_NEAR(stats.invalid_fraction, 0.07, 0.02);

@@ -13,8 +13,8 @@
 #include "kinect3d/sim/evaluation.h"
 #include "kinect3d/sim/people.h"
 #include "kinect3d/sim/sim_sources.h"
+#include "real_data.h"
 #include "scoped_temp_dir.h"
-#include "shared_data.h"
 #include "sim_test_scenes.h"
 
 namespace {
@@ -270,9 +270,9 @@ TEST(BallDetector, NoPhantomsInClutter) {
 }
 
 TEST(BallDetector, NoPhantomsOnRealKinectFrames) {
-  const std::optional<std::string> tum_file = sharedDataFile("real-depth/tum_depth.png"),
-                                   nyu_file = sharedDataFile("real-depth/nyu_raw_disparity.pgm");
-  if (!tum_file || !nyu_file) GTEST_SKIP() << noSharedData("real-depth");
+  const std::optional<std::string> tum_file = realDataFile("real-depth/tum_depth.png"),
+                                   nyu_file = realDataFile("real-depth/nyu_raw_disparity.pgm");
+  if (!tum_file || !nyu_file) GTEST_SKIP() << noRealData("real-depth");
   DetectorConfig config = kinect3d::readDetectorConfig(shippedConfig().block("kinect3d"));  // floor search
   const ScopedTempDir temp;
   const std::string dir = temp.path().string();
@@ -295,8 +295,8 @@ TEST(BallDetector, NoPhantomsOnThePclGrabberFramesOfAFloorWithALaptopAndABox) {
   std::vector<std::string> images;
   for (const char* stamp : {"20121214T142255.814212", "20121214T142256.068683", "20121214T142256.332395"}) {
     const std::string name = std::string("realdata/pcl_grabber_sequences/frame_") + stamp + "_depth.tiff";
-    const std::optional<std::string> image = sharedDataFile(name);
-    if (!image) GTEST_SKIP() << noSharedData(name);
+    const std::optional<std::string> image = realDataFile(name);
+    if (!image) GTEST_SKIP() << noRealData(name);
     images.push_back(*image);
   }
   const DetectorConfig config = kinect3d::readDetectorConfig(shippedConfig().block("kinect3d"));  // floor search
@@ -307,8 +307,8 @@ TEST(BallDetector, NoPhantomsOnThePclGrabberFramesOfAFloorWithALaptopAndABox) {
 }
 
 TEST(BallDetector, NoPhantomsInARealOfficeWithItsFloorFoundOrItsMountingGiven) {
-  const std::optional<std::string> office = sharedDataFile("realdata/pcl_single_frames/office1_depth_mm.png");
-  if (!office) GTEST_SKIP() << noSharedData("realdata/pcl_single_frames/office1_depth_mm.png");
+  const std::optional<std::string> office = realDataFile("realdata/pcl_single_frames/office1_depth_mm.png");
+  if (!office) GTEST_SKIP() << noRealData("realdata/pcl_single_frames/office1_depth_mm.png");
   DetectorConfig config = kinect3d::readDetectorConfig(shippedConfig().block("kinect3d"));  // floor search
   const sim::RealFramesResult found = sim::detectOnDepthImages({*office}, 320, 240, config);
   EXPECT_EQ(found.balls, 0);
@@ -321,8 +321,8 @@ TEST(BallDetector, NoPhantomsOnARealFrameOfFivePeopleWalkingDownACorridor) {
   // People close to the sensor and cut by the view's edge, a wall's strip between a person and
   // the sensor's dead band on the right, a wall's edge between two heads: each was a ball.
   const std::string name = "realdata/pcl_single_frames/five_people_depth_mm.png";
-  const std::optional<std::string> people = sharedDataFile(name);
-  if (!people) GTEST_SKIP() << noSharedData(name);
+  const std::optional<std::string> people = realDataFile(name);
+  if (!people) GTEST_SKIP() << noRealData(name);
   const DetectorConfig config = kinect3d::readDetectorConfig(shippedConfig().block("kinect3d"));  // floor search
   const sim::RealFramesResult found = sim::detectOnDepthImages({*people}, 319.5, 239.5, config);
   EXPECT_EQ(found.balls, 0);

@@ -11,8 +11,8 @@
 #include "kinect3d/config_io.h"
 #include "kinect3d/depth_source.h"
 #include "kinect3d/sim/kinect_simulator.h"
+#include "real_data.h"
 #include "scoped_temp_dir.h"
-#include "shared_data.h"
 
 namespace {
 
@@ -206,8 +206,8 @@ TEST(GroundAligner, TheFloorIsTheLowestPlaneNotATableTopAboveIt) {
 
 TEST(GroundAligner, FindsTheFloorOfARealOfficeThatFillsTheBottomFifthOfTheView) {
   // PCL's office1: a level camera 1.38 m up, the floor seen from 3 m on, below desks and cupboards.
-  const std::optional<std::string> office = sharedDataFile("realdata/pcl_single_frames/office1_depth_mm.png");
-  if (!office) GTEST_SKIP() << noSharedData("realdata/pcl_single_frames/office1_depth_mm.png");
+  const std::optional<std::string> office = realDataFile("realdata/pcl_single_frames/office1_depth_mm.png");
+  if (!office) GTEST_SKIP() << noRealData("realdata/pcl_single_frames/office1_depth_mm.png");
   const ScopedTempDir dir;
   std::ofstream(dir.path() / "depth.txt") << "0 " << *office << "\n";
   std::ofstream(dir.path() / "camera.yaml")

@@ -14,7 +14,7 @@
 #include "scoped_temp_dir.h"
 #include "sim_test_scenes.h"
 
-#include "shared_data.h"
+#include "real_data.h"
 
 namespace {
 
@@ -116,8 +116,8 @@ TEST(Simulator, ProjectorShadowFallsOnTheSideTheRealSensorShows) {
 
   // The real frame: runs of missing depth bounded by a near surface on one side and a far one on
   // the other have the near surface on their right far more often than on their left.
-  const std::optional<std::string> tum = sharedDataFile("real-depth/tum_depth.png");
-  if (!tum) GTEST_SKIP() << "the simulated half ran; " << noSharedData("real-depth/tum_depth.png");
+  const std::optional<std::string> tum = realDataFile("real-depth/tum_depth.png");
+  if (!tum) GTEST_SKIP() << "the simulated half ran; " << noRealData("real-depth/tum_depth.png");
   const cv::Mat real = cv::imread(*tum, cv::IMREAD_UNCHANGED);
   ASSERT_FALSE(real.empty());
   int near_right = 0, near_left = 0;
