@@ -502,19 +502,10 @@ void addExport(CLI::App& app) {
 namespace fs = std::filesystem;
 
 // The run folder the logger of a host started after `before` writes, once it holds a readable log.
-std::string newRunFolder(const fs::path& base, const std::set<fs::path>& before) {
+std::string newRunFolder(const fs::path& base, const std::set<std::string>& before) {
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
   while (std::chrono::steady_clock::now() < deadline) {
-    std::error_code error;
-    for (const fs::directory_entry& entry : fs::directory_iterator(base, error)) {
-      if (before.count(entry.path()) != 0) continue;
-      try {
-        kinect3d::MatchLogReader check(entry.path().string());
-        return entry.path().string();
-      } catch (const kinect3d::MatchLogError&) {
-        // still being created
-      }
-    }
+    if (const std::optional<std::string> run = kinect3d::newRunIn(base.string(), before)) return *run;
     std::this_thread::sleep_for(std::chrono::milliseconds(100));
   }
   throw std::runtime_error(base.string() + ": the logger started no run there within 20 s");
@@ -592,9 +583,7 @@ void addView(CLI::App& app) {
       config = fw::Config::load(options->config.defaults_dir, options->live, overrides);
     }
     const fs::path base = config.block("logger").getString("folder");
-    std::set<fs::path> before;
-    std::error_code error;
-    for (const fs::directory_entry& entry : fs::directory_iterator(base, error)) before.insert(entry.path());
+    const std::set<std::string> before = kinect3d::entriesOf(base.string());
     fw::Host host(config, fw::defaultPluginDir());
     host.start();
     kinect3d::MatchView view(newRunFolder(base, before));

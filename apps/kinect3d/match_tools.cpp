@@ -101,8 +101,7 @@ void replayMatch(const std::string& log_folder, const std::string& defaults_dir,
   replay_overrides.insert(replay_overrides.end(), overrides.begin(), overrides.end());
   const fw::Config config = fw::Config::load(defaults_dir, robot, replay_overrides);
 
-  std::set<fs::path> before;
-  if (fs::is_directory(output)) before.insert(fs::directory_iterator(output), fs::directory_iterator());
+  const std::set<std::string> before = entriesOf(output);
   {
     fw::Host host(config, fw::defaultPluginDir());
     host.replay(steps);
@@ -110,14 +109,9 @@ void replayMatch(const std::string& log_folder, const std::string& defaults_dir,
       if (summary.errors > 0) fw::logWarn("replay", fw::formatSummary(summary));
     }
   }  // the logger records its last batch as the host unloads it
-  for (const fs::directory_entry& entry : fs::directory_iterator(output)) {
-    if (!before.count(entry.path()) && fs::exists(entry.path() / kMatchLogFile)) {
-      fw::logInfo("replay", log_folder + " -> " + entry.path().string() + ": " + std::to_string(steps.size()) +
-                                " inputs replayed");
-      return;
-    }
-  }
-  throw MatchLogError(output + ": the replay was not recorded there (the logger's messages above say why)");
+  const std::optional<std::string> run = newRunIn(output, before);
+  if (!run) throw MatchLogError(output + ": the replay was not recorded there (the logger's messages above say why)");
+  fw::logInfo("replay", log_folder + " -> " + *run + ": " + std::to_string(steps.size()) + " inputs replayed");
 }
 
 void exportMatch(const std::string& log_folder, const ExportFiles& files) {

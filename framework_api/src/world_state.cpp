@@ -4,6 +4,16 @@
 
 namespace fw {
 
+namespace {
+// The value under key, if there is one.
+template <typename Map>
+std::optional<typename Map::mapped_type> valueAt(const Map& map, const std::string& key) {
+  const auto found = map.find(key);
+  if (found == map.end()) return std::nullopt;
+  return found->second;
+}
+}  // namespace
+
 template <typename T>
 void WorldState::History<T>::push(T value) {
   newest_first.push_front(std::move(value));
@@ -114,9 +124,7 @@ void WorldState::publishSensorPose(const std::string& source, const SensorPose& 
 
 std::optional<SensorPose> WorldState::sensorPose(const std::string& source) const {
   std::lock_guard<std::mutex> lock(mutex_);
-  const auto found = sensor_poses_.find(source);
-  if (found == sensor_poses_.end()) return std::nullopt;
-  return found->second;
+  return valueAt(sensor_poses_, source);
 }
 
 void WorldState::clearFusedBall() {
@@ -145,9 +153,7 @@ void WorldState::clearTrajectory(const std::string& source) {
 
 std::optional<BallTrajectory> WorldState::trajectory(const std::string& source) const {
   std::lock_guard<std::mutex> lock(mutex_);
-  const auto found = trajectories_.find(source);
-  if (found == trajectories_.end()) return std::nullopt;
-  return found->second;
+  return valueAt(trajectories_, source);
 }
 
 void WorldState::publishFusedBall(const FusedBall& ball) {
@@ -242,9 +248,7 @@ std::vector<std::string> WorldState::ballSources() const {
 
 std::optional<BallFrame> WorldState::newestBallFrame(const std::string& source) const {
   std::lock_guard<std::mutex> lock(mutex_);
-  const auto found = newest_ball_frames_.find(source);
-  if (found == newest_ball_frames_.end()) return std::nullopt;
-  return found->second;
+  return valueAt(newest_ball_frames_, source);
 }
 
 std::optional<FusedBall> WorldState::fusedBall() const {

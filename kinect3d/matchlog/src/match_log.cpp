@@ -11,6 +11,7 @@
 #include <map>
 #include <opencv2/imgcodecs.hpp>
 #include <optional>
+#include <set>
 #include <variant>
 
 #include "kinect3d/depth_frame.h"
@@ -162,6 +163,28 @@ Eigen::Matrix3d symmetric(const Statement& q, int first) {
 }
 
 }  // namespace
+
+std::set<std::string> entriesOf(const std::string& base) {
+  std::set<std::string> entries;
+  std::error_code error;
+  for (const std::filesystem::directory_entry& entry : std::filesystem::directory_iterator(base, error)) {
+    entries.insert(entry.path().string());
+  }
+  return entries;
+}
+
+std::optional<std::string> newRunIn(const std::string& base, const std::set<std::string>& before) {
+  for (const std::string& entry : entriesOf(base)) {
+    if (before.count(entry) != 0) continue;
+    try {
+      MatchLogReader check(entry);
+      return entry;
+    } catch (const MatchLogError&) {
+      // not a log, or one still being created
+    }
+  }
+  return std::nullopt;
+}
 
 std::string claimRunFolder(const std::string& base, const std::string& robot, double wall_time_s) {
   const std::time_t seconds = static_cast<std::time_t>(wall_time_s);

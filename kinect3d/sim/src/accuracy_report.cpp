@@ -44,6 +44,11 @@ DetectorConfig configFor(const fw::Config& config, const sim::Scene& scene) {
   return detector;
 }
 
+// The detector, configured so, run over the scene and scored against its truth.
+sim::DetectionScore scoreScene(const fw::Config& config, const sim::Scene& scene) {
+  return sim::scoreFrames(sim::runDetectorOnScene(scene, configFor(config, scene)), scene, {});
+}
+
 // The paper's Table 1: measured distance (m) and its standard deviation (m) for 2..6 m.
 struct PaperRow {
   double y_m, y_std_m;
@@ -133,7 +138,7 @@ void kicks(const fw::Config& config, const ReportOptions& options, std::ostream&
     for (int seed = 1; seed <= options.seeds; ++seed) {
       sim::Scene scene = sim::loadScene(name);
       scene.noise.seed = static_cast<std::uint64_t>(seed);
-      score.add(sim::scoreFrames(sim::runDetectorOnScene(scene, configFor(config, scene)), scene, criteria));
+      score.add(scoreScene(config, scene));
     }
     total.add(score);
     md << "| `" << name << "` | " << scoreColumns(score) << " |\n";
@@ -165,7 +170,7 @@ void people(const fw::Config& config, const ReportOptions& options, std::ostream
     sim::DetectionScore score;
     for (int seed = 1; seed <= options.people_seeds; ++seed) {
       const sim::Scene scene = sim::crowdScene(seed, kind);
-      score.add(sim::scoreFrames(sim::runDetectorOnScene(scene, configFor(config, scene)), scene, criteria));
+      score.add(scoreScene(config, scene));
     }
     if (kind == sim::CrowdBall::kNone) {
       phantoms_without_ball = score.reported;
@@ -183,7 +188,6 @@ void people(const fw::Config& config, const ReportOptions& options, std::ostream
 }
 
 void sensorEffects(const fw::Config& config, const ReportOptions& options, std::ostream& md) {
-  const sim::EvaluationCriteria criteria;
   md << "## What dark panels, another Kinect and speed cost\n\n"
      << "The kicks above, each with one more effect, " << options.seeds
      << " noise seeds each; frames counted as above. *Dark panels*: a classic ball's 12 black pentagons (28 % of "
@@ -202,7 +206,7 @@ void sensorEffects(const fw::Config& config, const ReportOptions& options, std::
         sim::Scene scene = sim::loadScene(name);
         scene.noise.seed = static_cast<std::uint64_t>(seed);
         change(scene);
-        score.add(sim::scoreFrames(sim::runDetectorOnScene(scene, configFor(config, scene)), scene, criteria));
+        score.add(scoreScene(config, scene));
       }
     }
     md << "| " << effect << " | " << (names.size() == 1 ? "`" + names.front() + "`" : std::string("the five kicks"))
@@ -223,8 +227,7 @@ void phantoms(const fw::Config& config, const ReportOptions& options, std::ostre
      << "| data | frames | balls reported | per 1,000 frames | target |\n|---|---|---|---|---|\n";
   sim::Scene clutter = sim::loadScene("clutter");
   clutter.duration_s = options.clutter_frames / clutter.fps;
-  const sim::DetectionScore score =
-      sim::scoreFrames(sim::runDetectorOnScene(clutter, configFor(config, clutter)), clutter, {});
+  const sim::DetectionScore score = scoreScene(config, clutter);
   const double per_1000 = 1000.0 * score.reported / std::max(score.frames, 1);
   md << "| `clutter` (robots driving, people walking, goal, wall, no ball) | " << score.frames << " | "
      << score.reported << " | " << format("%.2f", per_1000) << " | <= 1: " << (per_1000 <= 1.0 ? "met" : "**not met**")
@@ -235,7 +238,7 @@ void phantoms(const fw::Config& config, const ReportOptions& options, std::ostre
       {"corners_doors", "room corner, pillar, doorway with an open door, wall end"}};
   for (const auto& [name, what] : structures) {
     const sim::Scene scene = sim::loadScene(name);
-    const sim::DetectionScore s = sim::scoreFrames(sim::runDetectorOnScene(scene, configFor(config, scene)), scene, {});
+    const sim::DetectionScore s = scoreScene(config, scene);
     md << "| `" << name << "` (" << what << ") | " << s.frames << " | " << s.reported
        << " | - | 0: " << (s.reported == 0 ? "met" : "**not met**") << " |\n";
   }

@@ -425,16 +425,16 @@ struct KinectSimulator::Renderer {
   //     scenes without such surfaces render as before.
   static constexpr int kDarkPatch_px = 8;
   std::vector<float> block_draw;
+  int blocks_across = 0;
   std::size_t blockOf(std::size_t pixel) const {
     const int u = static_cast<int>(pixel % width()), v = static_cast<int>(pixel / width());
-    const int blocks_across = (width() + kDarkPatch_px - 1) / kDarkPatch_px;
     return static_cast<std::size_t>(v / kDarkPatch_px) * blocks_across + u / kDarkPatch_px;
   }
   void drawDarkPatches(std::uint64_t seed, int frame_index) {
     Random patches(seed ^ 0xDA4C9A7C4E5ULL, static_cast<std::uint64_t>(frame_index));
-    const int across = (width() + kDarkPatch_px - 1) / kDarkPatch_px,
-              down = (height() + kDarkPatch_px - 1) / kDarkPatch_px;
-    block_draw.resize(static_cast<std::size_t>(across) * down);
+    blocks_across = (width() + kDarkPatch_px - 1) / kDarkPatch_px;
+    const int down = (height() + kDarkPatch_px - 1) / kDarkPatch_px;
+    block_draw.resize(static_cast<std::size_t>(blocks_across) * down);
     for (float& draw : block_draw) draw = static_cast<float>(patches.uniform());
   }
 

@@ -12,6 +12,7 @@
 #include <map>
 #include <memory>
 #include <optional>
+#include <set>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -52,6 +53,12 @@ struct RunInfo {
 // within the same second, two robots sharing a base): the folder is created here, so no two callers
 // ever get the same one. Throws MatchLogError naming base and the reason when it cannot create it.
 std::string claimRunFolder(const std::string& base, const std::string& robot, double wall_time_s);
+
+// What a program that starts a logger uses to find the run folder it made: the entries of base
+// before it starts (none when base does not exist yet), then a folder under base not among them
+// that holds a readable match log, if there is one yet.
+std::set<std::string> entriesOf(const std::string& base);
+std::optional<std::string> newRunIn(const std::string& base, const std::set<std::string>& before);
 
 // A prepared statement, finalised with its owner.
 struct Statement;
