@@ -199,17 +199,20 @@ TEST(DepthSource, UnknownSchemeAndMissingPaths) {
   EXPECT_NE(errorOf("tum:/nonexistent").find("'/nonexistent' does not exist"), std::string::npos);
   EXPECT_NE(errorOf("/nonexistent/rec.oni").find("recording '/nonexistent/rec.oni' does not exist"), std::string::npos);
   EXPECT_NE(errorOf("sim:no_such_scene").find("no built-in scene 'no_such_scene'"), std::string::npos);
-  EXPECT_NE(errorOf("/tmp").find("neither an .oni file nor a folder holding depth.txt"), std::string::npos);
+  EXPECT_NE(errorOf("/tmp").find("neither an .oni file nor a folder holding depth.txt or INDEX.txt"),
+            std::string::npos);
 }
 
 TEST(DepthSourceTable, HoldsOnlyWhatTheApplicationAdds) {
   kinect3d::DepthSourceTable table = kinect3d::DepthSourceTable::core();
-  EXPECT_EQ(table.schemes(), (std::vector<std::string>{"oni", "openni2", "tum"}));
+  EXPECT_EQ(table.schemes(), (std::vector<std::string>{"fakenect", "freenect", "oni", "openni2", "tum"}));
   try {
     table.open("sim:hung_3m");
     FAIL() << "the core alone opened the simulator";
   } catch (const DepthSourceError& e) {
-    EXPECT_NE(std::string(e.what()).find("expected one of oni:, openni2:, tum:"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("expected one of fakenect:, freenect:, oni:, openni2:, tum:"),
+              std::string::npos)
+        << e.what();
   }
   kinect3d::sim::addSimulatorSource(table);
   EXPECT_EQ(table.open("sim:hung_3m")->describe(), "sim:hung_3m");
@@ -217,8 +220,9 @@ TEST(DepthSourceTable, HoldsOnlyWhatTheApplicationAdds) {
 }
 
 TEST(RawDisparity, ConvertsTheRealNyuFrame) {
-  EXPECT_EQ(kinect3d::rawDisparityToMetres(2047), 0.0);
-  EXPECT_NEAR(kinect3d::rawDisparityToMetres(700), 1.0 / (700 * -0.0030711016 + 3.3309495161), 1e-12);
+  const kinect3d::DisparityModel model;
+  EXPECT_EQ(model.metres(2047), 0.0);
+  EXPECT_NEAR(model.metres(700), 1.0 / (700 * -0.0030711016 + 3.3309495161), 1e-12);
   const ScopedTempDir temp;
   EXPECT_THROW(kinect3d::loadRawDisparityPgm(writeTumFrame(temp.path() / "frame.png")), DepthSourceError)
       << "a PNG is not a raw-disparity PGM";

@@ -10,6 +10,7 @@ PACKAGES=(
   libpcl-dev
   liboctomap-dev
   libopenni2-dev
+  libfreenect-dev               # the Kinect v1 (freenect:), and fakenect, its replay library, for the tests
   libopencv-dev
   libyaml-cpp-dev
   libcli11-dev

@@ -174,8 +174,21 @@ struct FusedBall {
   double sigmaHorizontal_m() const;
 };
 
+// The colour image a depth sensor paired with a depth image (the one nearest in time): 8-bit RGB,
+// row-major, with its own camera's pinhole intrinsics and where that camera sits in the depth
+// camera's optical frame (same orientation; the Kinect v1's is 2.5 cm to its right).
+struct ColourImage {
+  int width = 0;
+  int height = 0;
+  double fx = 0.0, fy = 0.0, cx = 0.0, cy = 0.0;
+  Eigen::Vector3d offset_S_m = Eigen::Vector3d::Zero();
+  std::vector<std::uint8_t> rgb;  // width * height * 3
+  double source_time_s = 0.0;     // on the depth image's clock
+};
+
 // One depth image as a depth plugin received it, for the match log and the viewer: uint16 millimetres
-// along the optical axis (0 = no data), row-major, with the pinhole intrinsics that back-project it.
+// along the optical axis (0 = no data), row-major, with the pinhole intrinsics that back-project it,
+// and what else the sensor measured with it.
 struct DepthImage {
   int width = 0;
   int height = 0;
@@ -184,6 +197,9 @@ struct DepthImage {
   std::uint64_t index = 0;  // the source's frame counter
   std::string source;       // the plugin that read it
   Stamp stamp;
+  // Gravity in the sensor optical frame, m/s^2, from the sensor's accelerometer (Kinect v1).
+  std::optional<Eigen::Vector3d> gravity_S_mps2;
+  std::optional<ColourImage> colour;
 };
 
 // Something a person reading the log after the match wants to find on the timeline: a sensor lost

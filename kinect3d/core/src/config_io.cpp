@@ -123,4 +123,13 @@ FloorCalibrationCheck::Config readCalibrationCheckConfig(const fw::ConfigView& k
   return config;
 }
 
+GravityCalibrationCheck::Config readGravityCheckConfig(const fw::ConfigView& kinect3d) {
+  const fw::ConfigView check = kinect3d.child("calibration_check");
+  GravityCalibrationCheck::Config config;
+  config.window_s = check.getDouble("gravity_window_s", 0.1, 60.0);
+  config.max_tilt_error_rad = degreesToRadians(check.getDouble("max_tilt_error_deg", 0.05, 45.0));
+  config.confirmations = check.getInt("confirmations", 1, 1000);
+  return config;
+}
+
 }  // namespace kinect3d

@@ -24,6 +24,8 @@ bool Intrinsics::operator==(const Intrinsics& other) const {
 void DepthFrame::resize(const Intrinsics& new_intrinsics) {
   intrinsics = new_intrinsics;
   depth_mm.assign(static_cast<std::size_t>(intrinsics.width) * intrinsics.height, 0);
+  gravity_S_mps2.reset();
+  colour.reset();
 }
 
 DepthStats computeStats(const DepthFrame& frame) {
@@ -54,6 +56,8 @@ DepthFrame fromDepthImage(fw::DepthImage image) {
   frame.receive_time_s = image.stamp.receive_time_s;
   frame.index = image.index;
   frame.sensor_id = std::move(image.source);
+  frame.gravity_S_mps2 = image.gravity_S_mps2;
+  frame.colour = std::move(image.colour);
   return frame;
 }
 
@@ -70,6 +74,8 @@ fw::DepthImage toDepthImage(const DepthFrame& frame, const std::string& source) 
   image.index = frame.index;
   image.source = source;
   image.stamp = {frame.source_time_s, frame.receive_time_s};
+  image.gravity_S_mps2 = frame.gravity_S_mps2;
+  image.colour = frame.colour;
   return image;
 }
 

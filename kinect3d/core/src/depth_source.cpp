@@ -104,6 +104,8 @@ DepthSourceTable DepthSourceTable::core() {
   table.add("openni2", openOpenNI2Device);
   table.add("oni", openOniRecording);
   table.add("tum", openTumSequence);
+  table.add("freenect", openFreenectDevice);
+  table.add("fakenect", openFakenectRecording);
   return table;
 }
 
@@ -133,7 +135,8 @@ std::unique_ptr<DepthSource> DepthSourceTable::open(const std::string& uri, cons
     // A bare path: recognised by what it is.
     if (fs::path(uri).extension() == ".oni") return open("oni:" + uri, options);
     if (fs::is_directory(uri) && fs::exists(fs::path(uri) / "depth.txt")) return open("tum:" + uri, options);
-    throw DepthSourceError("'" + uri + "' is neither an .oni file nor a folder holding depth.txt; " +
+    if (fs::is_directory(uri) && fs::exists(fs::path(uri) / "INDEX.txt")) return open("fakenect:" + uri, options);
+    throw DepthSourceError("'" + uri + "' is neither an .oni file nor a folder holding depth.txt or INDEX.txt; " +
                            "use a URI with one of the schemes " + listSchemes());
   }
   const auto opener = openers_.find(scheme);

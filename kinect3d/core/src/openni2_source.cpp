@@ -6,10 +6,10 @@
 #include <filesystem>
 #include <mutex>
 #include <optional>
-#include <thread>
 
 #include "framework_api/log.h"
 #include "kinect3d/oni_recording.h"
+#include "live_device.h"
 #include "sources.h"
 
 namespace kinect3d {
@@ -139,24 +139,11 @@ class OpenNI2Stream {
   int fps_ = 30;
 };
 
-// A live device. If it fails, or sends nothing for a second (an unplugged Kinect goes quiet rather
-// than failing), it is reported and reopened every second, delivering no frames meanwhile,
-// without stopping the host. With wait_for_device, one that is absent at start is handled the same
-// way: waited for, and opened when it appears.
-class OpenNI2Device : public DepthSource {
+// A live OpenNI2 device; absence, loss and silence as every live device (live_device.h).
+class OpenNI2Device : public LiveDevice {
  public:
-  OpenNI2Device(std::string uri, const SourceOptions& options) : DepthSource(options), uri_(std::move(uri)) {
-    try {
-      stream_.open(uri_, describe());
-    } catch (const DepthSourceError& e) {
-      if (!options.wait_for_device) throw;
-      fw::logWarn("openni2", std::string(e.what()) + "; waiting for the device, trying every second");
-      waiting_since_ = Clock::now();
-      next_attempt_ = Clock::now() + kReopenInterval;
-      next_waiting_message_ = Clock::now() + kWaitingMessageInterval;
-      return;
-    }
-    opened();
+  OpenNI2Device(std::string uri, const SourceOptions& options) : LiveDevice("openni2", options), uri_(std::move(uri)) {
+    start();
   }
   ~OpenNI2Device() override { stream_.close(); }
 
@@ -164,72 +151,13 @@ class OpenNI2Device : public DepthSource {
   std::string describe() const override { return "openni2:" + uri_; }
 
  private:
-  static constexpr std::chrono::seconds kSilenceLimit{1};
-  static constexpr std::chrono::seconds kReopenInterval{1};
-  static constexpr std::chrono::seconds kWaitingMessageInterval{5};
-
-  void opened() {
-    last_frame_ = Clock::now();
-    ever_opened_ = true;
-    fw::logInfo("openni2", describe() + ": streaming " + std::to_string(stream_.intrinsics().width) + "x" +
-                               std::to_string(stream_.intrinsics().height));
-  }
-
-  ReadResult readFrame(DepthFrame& frame) override {
-    const int wait_ms = static_cast<int>(options().max_wait_s * 1000.0);
-    if (!stream_.isOpen()) return reopen(wait_ms);
-    try {
-      if (!stream_.read(frame, wait_ms, describe())) {
-        if (Clock::now() - last_frame_ > kSilenceLimit) lose("no frame for a second");
-        return ReadResult::kNoFrameYet;
-      }
-    } catch (const DepthSourceError& e) {
-      lose(e.what());
-      return ReadResult::kNoFrameYet;
-    }
-    last_frame_ = Clock::now();
-    frame.sensor_id = describe();
-    return ReadResult::kFrame;
-  }
-
-  void lose(const std::string& why) {
-    fw::logError("openni2", describe() + ": " + why + "; reopening every second");
-    stream_.close();
-    next_attempt_ = Clock::now() + kReopenInterval;
-  }
-
-  ReadResult reopen(int wait_ms) {
-    if (Clock::now() < next_attempt_) {
-      std::this_thread::sleep_for(
-          std::min(std::chrono::milliseconds(wait_ms),
-                   std::chrono::duration_cast<std::chrono::milliseconds>(next_attempt_ - Clock::now())));
-      return ReadResult::kNoFrameYet;
-    }
-    try {
-      stream_.open(uri_, describe());
-      if (ever_opened_) {
-        reportReconnected();
-        fw::logInfo("openni2", describe() + ": reopened");
-      }
-      opened();
-    } catch (const DepthSourceError&) {
-      next_attempt_ = Clock::now() + kReopenInterval;
-      if (!ever_opened_ && Clock::now() >= next_waiting_message_) {
-        const auto waited = std::chrono::duration_cast<std::chrono::seconds>(Clock::now() - waiting_since_);
-        fw::logWarn("openni2",
-                    describe() + ": still waiting for the device (" + std::to_string(waited.count()) + " s)");
-        next_waiting_message_ = Clock::now() + kWaitingMessageInterval;
-      }
-    }
-    return ReadResult::kNoFrameYet;
-  }
+  void openDevice() override { stream_.open(uri_, describe()); }
+  void closeDevice() override { stream_.close(); }
+  bool deviceOpen() const override { return stream_.isOpen(); }
+  bool readDevice(DepthFrame& frame, int wait_ms) override { return stream_.read(frame, wait_ms, describe()); }
 
   std::string uri_;
   OpenNI2Stream stream_;
-  Clock::time_point last_frame_;
-  Clock::time_point next_attempt_{};
-  bool ever_opened_ = false;
-  Clock::time_point waiting_since_{}, next_waiting_message_{};
 };
 
 class OniRecording : public DepthSource {

@@ -5,6 +5,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "kinect3d/kinect_disparity.h"
+
 namespace kinect3d {
 
 namespace {
@@ -246,6 +248,54 @@ std::optional<fw::SensorPose> FloorCalibrationCheck::check(const DepthFrame& fra
   moved.z_m = floor.z_m;
   moved.pitch_rad = floor.pitch_rad;
   moved.roll_rad = floor.roll_rad;
+  return moved;
+}
+
+GravityCalibrationCheck::GravityCalibrationCheck(const Config& config, const fw::SensorPose& calibrated)
+    : config_(config),
+      calibrated_(calibrated),
+      expected_down_S_(calibrated.T_R_S().linear().transpose() * -Eigen::Vector3d::UnitZ()) {}
+
+std::optional<fw::SensorPose> GravityCalibrationCheck::check(const DepthFrame& frame) {
+  if (!frame.gravity_S_mps2) return std::nullopt;
+  const Eigen::Vector3d& gravity = *frame.gravity_S_mps2;
+  if (std::abs(gravity.norm() - kStandardGravity_mps2) > kMaxMagnitudeError * kStandardGravity_mps2) {
+    return std::nullopt;  // the robot is accelerating
+  }
+  if (window_.empty()) window_start_s_ = frame.source_time_s;
+  window_.push_back(gravity.normalized());
+  if (frame.source_time_s - window_start_s_ < config_.window_s) return std::nullopt;
+  // The median of each component: a burst of acceleration inside the window moves it little.
+  Eigen::Vector3d down_S;
+  for (int axis = 0; axis < 3; ++axis) {
+    std::vector<double> values;
+    for (const Eigen::Vector3d& reading : window_) values.push_back(reading[axis]);
+    std::nth_element(values.begin(), values.begin() + values.size() / 2, values.end());
+    down_S[axis] = values[values.size() / 2];
+  }
+  down_S.normalize();
+  window_.clear();
+  const auto angle = [](const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
+    return std::acos(std::clamp(a.dot(b), -1.0, 1.0));
+  };
+  if (!reference_down_S_) {
+    reference_down_S_ = angle(down_S, expected_down_S_) <= kAccelerometerAccuracy_rad ? down_S : expected_down_S_;
+  }
+  if (angle(down_S, *reference_down_S_) <= config_.max_tilt_error_rad) {
+    disagreements_ = 0;
+    alarmed_ = false;
+    return std::nullopt;
+  }
+  if (++disagreements_ < config_.confirmations || alarmed_) return std::nullopt;
+  alarmed_ = true;
+  // The sensor turned by the rotation that takes the reference down direction to the measured one.
+  const Eigen::Matrix3d turn_S = Eigen::Quaterniond::FromTwoVectors(*reference_down_S_, down_S).toRotationMatrix();
+  Eigen::Isometry3d T_R_S = calibrated_.T_R_S();
+  T_R_S.linear() = T_R_S.linear() * turn_S.transpose();
+  fw::SensorPose moved = calibrated_;
+  const fw::SensorPose tilted = fw::SensorPose::fromTransform(T_R_S);
+  moved.pitch_rad = tilted.pitch_rad;
+  moved.roll_rad = tilted.roll_rad;
   return moved;
 }
 

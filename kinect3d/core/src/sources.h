@@ -12,5 +12,7 @@ namespace kinect3d {
 std::unique_ptr<DepthSource> openTumSequence(const std::string& dir, const SourceOptions& options);
 std::unique_ptr<DepthSource> openOpenNI2Device(const std::string& device_uri, const SourceOptions& options);
 std::unique_ptr<DepthSource> openOniRecording(const std::string& path, const SourceOptions& options);
+std::unique_ptr<DepthSource> openFreenectDevice(const std::string& index, const SourceOptions& options);
+std::unique_ptr<DepthSource> openFakenectRecording(const std::string& dir, const SourceOptions& options);
 
 }  // namespace kinect3d

@@ -1,14 +1,18 @@
 // TUM RGB-D style sequences: depth.txt lists "timestamp filename" per frame, depth images are
-// 16-bit PNGs in units of 1/depth_scale metres (TUM: 5000 per metre).
+// 16-bit PNGs in units of 1/depth_scale metres (TUM: 5000 per metre). With rgb.txt beside it, in
+// the same layout, each depth frame gets the colour image nearest in time, as TUM's associate.py
+// pairs them: none when the nearest is more than 0.02 s away.
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
 
-#include "framework_api/config.h"
-#include "kinect3d/config_io.h"
+#include "framework_api/log.h"
+#include "kinect3d/camera_file.h"
 #include "sources.h"
 
 namespace kinect3d {
@@ -23,25 +27,16 @@ struct TumEntry {
   int line;
 };
 
-struct TumCamera {
-  Intrinsics intrinsics{640, 480, 525.0, 525.0, 319.5, 239.5};  // TUM's defaults
-  double depth_scale = 5000.0;                                  // image units per metre
-};
-
-TumCamera readCamera(const fs::path& dir) {
-  TumCamera camera;
-  const fs::path file = dir / "camera.yaml";
-  if (!fs::exists(file)) return camera;
-  try {
-    const fw::ConfigView root = fw::Config::loadDocument(file.string()).root();
-    root.requireOnlyKeys({"width", "height", "fx", "fy", "cx", "cy", "depth_scale"});
-    camera.intrinsics = readIntrinsics(root);
-    camera.depth_scale = root.getDouble("depth_scale", 1e-3, 1e7);
-  } catch (const fw::ConfigError& e) {
-    throw DepthSourceError(e.what());
-  }
+// TUM's defaults: its Kinects' depth is registered to the colour camera (no offset).
+CameraFile tumDefaults() {
+  CameraFile camera;
+  camera.depth = Intrinsics{640, 480, 525.0, 525.0, 319.5, 239.5};
+  camera.depth_scale = 5000.0;  // image units per metre
   return camera;
 }
+
+// rgb.txt's colour images may be 8-bit colour or grey images of any format OpenCV reads.
+constexpr double kMaxColourMismatch_s = 0.02;
 
 std::vector<TumEntry> readIndex(const fs::path& list) {
   std::ifstream in(list);
@@ -72,7 +67,17 @@ std::vector<TumEntry> readIndex(const fs::path& list) {
 class TumSequence : public DepthSource {
  public:
   TumSequence(const fs::path& dir, const SourceOptions& options)
-      : DepthSource(options), dir_(dir), camera_(readCamera(dir)), entries_(readIndex(dir / "depth.txt")) {}
+      : DepthSource(options),
+        dir_(dir),
+        camera_(readCameraFile(dir.string(), tumDefaults(), true)),
+        entries_(readIndex(dir / "depth.txt")) {
+    if (options.colour && fs::exists(dir / "rgb.txt")) {
+      colour_entries_ = readIndex(dir / "rgb.txt");
+      std::stable_sort(colour_entries_.begin(), colour_entries_.end(),
+                       [](const TumEntry& a, const TumEntry& b) { return a.timestamp_s < b.timestamp_s; });
+      for (const TumEntry& entry : colour_entries_) colour_times_s_.push_back(entry.timestamp_s);
+    }
+  }
 
   std::uint64_t frameCount() const override { return entries_.size(); }
   double frameRate_hz() const override {
@@ -95,6 +100,7 @@ class TumSequence : public DepthSource {
       frame.index = index;
       frame.source_time_s = entry.timestamp_s;
       frame.sensor_id = describe();
+      attachColour(frame);
       return ReadResult::kFrame;
     }
     if (counters().frames == 0) {
@@ -110,7 +116,7 @@ class TumSequence : public DepthSource {
     const cv::Mat image = cv::imread(path.string(), cv::IMREAD_UNCHANGED);
     if (image.empty()) return "not a readable image";
     if (image.type() != CV_16UC1) return "not a 16-bit single-channel image";
-    const Intrinsics& in = camera_.intrinsics;
+    const Intrinsics& in = camera_.depth;
     if (image.cols != in.width || image.rows != in.height) {
       return "image is " + std::to_string(image.cols) + "x" + std::to_string(image.rows) + ", expected " +
              std::to_string(in.width) + "x" + std::to_string(in.height);
@@ -128,9 +134,33 @@ class TumSequence : public DepthSource {
     return "";
   }
 
+  // The colour image nearest the frame in time, if one is near enough and readable (one that is
+  // not is reported and the frame goes on without colour).
+  void attachColour(DepthFrame& frame) {
+    if (colour_times_s_.empty()) return;
+    const TumEntry& entry = colour_entries_[nearestInTime(colour_times_s_, frame.source_time_s)];
+    if (std::abs(entry.timestamp_s - frame.source_time_s) > kMaxColourMismatch_s) return;
+    const fs::path path = dir_ / entry.file;
+    const cv::Mat image = cv::imread(path.string(), cv::IMREAD_COLOR);
+    const Intrinsics& in = camera_.colour.intrinsics;
+    if (image.empty() || image.depth() != CV_8U || image.cols != in.width || image.rows != in.height) {
+      fw::logWarn("depth", describe() + ": colour image " + path.string() + " (rgb.txt line " +
+                               std::to_string(entry.line) + ") is not a readable " + std::to_string(in.width) + "x" +
+                               std::to_string(in.height) + " 8-bit image; frame " + std::to_string(frame.index) +
+                               " goes on without colour");
+      return;
+    }
+    std::vector<std::uint8_t> rgb(static_cast<std::size_t>(in.width) * in.height * 3);
+    cv::Mat rgb_view(in.height, in.width, CV_8UC3, rgb.data());
+    cv::cvtColor(image, rgb_view, cv::COLOR_BGR2RGB);
+    frame.colour = camera_.colour.image(std::move(rgb), entry.timestamp_s);
+  }
+
   fs::path dir_;
-  TumCamera camera_;
+  CameraFile camera_;
   std::vector<TumEntry> entries_;
+  std::vector<TumEntry> colour_entries_;  // rgb.txt, in time order
+  std::vector<double> colour_times_s_;
   std::size_t next_ = 0;
 };
 

@@ -28,5 +28,6 @@ DetectorConfig readDetectorConfig(const fw::ConfigView& kinect3d);
 TrajectoryConfig readTrajectoryConfig(const fw::ConfigView& kinect3d);
 // The running calibration check's, from kinect3d.calibration_check.
 FloorCalibrationCheck::Config readCalibrationCheckConfig(const fw::ConfigView& kinect3d);
+GravityCalibrationCheck::Config readGravityCheckConfig(const fw::ConfigView& kinect3d);
 
 }  // namespace kinect3d

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -46,11 +47,15 @@ struct DepthFrame {
   double receive_time_s = 0.0;          // host wall clock when the frame arrived
   std::uint64_t index = 0;              // the source's frame counter; gaps are dropped frames
   std::string sensor_id;                // device URI, file or scene name
+  // What else the sensor measured with this frame, where it can: gravity in the sensor optical
+  // frame, m/s^2 (the Kinect v1's accelerometer), and the colour image nearest in time.
+  std::optional<Eigen::Vector3d> gravity_S_mps2;
+  std::optional<fw::ColourImage> colour;
 
   int width() const { return intrinsics.width; }
   int height() const { return intrinsics.height; }
   std::uint16_t at(int u, int v) const { return depth_mm[static_cast<std::size_t>(v) * width() + u]; }
-  // Resizes depth_mm to match intrinsics and zeroes it.
+  // Resizes depth_mm to match intrinsics and zeroes it; forgets gravity and colour: a new frame.
   void resize(const Intrinsics& new_intrinsics);
 };
 

@@ -1,11 +1,14 @@
-// Where depth frames come from. The pipeline cannot tell sources apart: a live OpenNI2 device, an
-// .oni recording, a TUM RGB-D sequence and the simulator all deliver DepthFrames through read().
+// Where depth frames come from. The pipeline cannot tell sources apart: a live OpenNI2 device or
+// Kinect v1, an .oni recording, a TUM RGB-D sequence, a fakenect recording and the simulator all
+// deliver DepthFrames through read().
 //
 // Sources are opened by URI through a DepthSourceTable (see docs/depth-sources.md). The core
 // implements these schemes:
 //   openni2:            first OpenNI2 device       openni2:<device-uri>   a given device
+//   freenect:           first Kinect v1 (libfreenect)  freenect:<index>   a given one
 //   oni:<file>          OpenNI2 recording          <path>.oni             the same
 //   tum:<dir>           TUM RGB-D sequence         <dir with depth.txt>   the same
+//   fakenect:<dir>      fakenect-record folder     <dir with INDEX.txt>   the same
 // An application adds others to its table, e.g. the simulator's sim:<scene> (kinect3d/sim).
 #pragma once
 
@@ -45,6 +48,9 @@ struct SourceOptions {
   // Live devices: one that cannot be opened yet (slow USB enumeration at boot) is waited for and
   // opened when it appears, as the robot wants; otherwise opening it is an error, as a command wants.
   bool wait_for_device = false;
+  // Deliver each depth frame's colour image where the source has one (a live device then opens its
+  // colour stream too).
+  bool colour = false;
 };
 
 struct SourceCounters {
@@ -110,14 +116,14 @@ class DepthSourceTable {
   // Opens the part of the URI after "<scheme>:". Throws DepthSourceError when it cannot.
   using Opener = std::function<std::unique_ptr<DepthSource>(const std::string& rest, const SourceOptions& options)>;
 
-  // openni2:, oni: and tum:.
+  // openni2:, freenect:, oni:, tum: and fakenect:.
   static DepthSourceTable core();
 
   // Throws std::invalid_argument when the scheme is already in the table.
   void add(const std::string& scheme, Opener opener);
   std::vector<std::string> schemes() const;
 
-  // Opens the source a URI names; a bare path is an .oni file or a folder holding depth.txt.
+  // Opens the source a URI names; a bare path is an .oni file or a folder holding depth.txt or INDEX.txt.
   // Throws DepthSourceError for an unknown scheme or a source that cannot be opened, naming the
   // URI and the cause.
   std::unique_ptr<DepthSource> open(const std::string& uri, const SourceOptions& options = {}) const;

@@ -81,6 +81,41 @@ class FloorCalibrationCheck {
   bool alarmed_ = false;
 };
 
+// While the robot plays, from the sensor's accelerometer (Kinect v1): does gravity still fall where
+// it did? It needs no floor in view, so a sensor knocked while robots hide the floor is noticed too.
+// A unit's accelerometer can sit up to kAccelerometerAccuracy off its depth camera, so the first
+// window of readings becomes the reference when it agrees with the calibrated pose within that;
+// when it does not, the calibrated pose is the reference (and the sensor was moved before the
+// start). The robot's own accelerations tilt single readings (2 m/s^2 of braking: 11 degrees), so
+// readings whose magnitude is off g by more than kMaxMagnitudeError are ignored and the check
+// compares the median direction of each window_s of readings.
+class GravityCalibrationCheck {
+ public:
+  static constexpr double kAccelerometerAccuracy_rad = 3.0 * M_PI / 180.0;
+  static constexpr double kMaxMagnitudeError = 0.05;
+  struct Config {
+    double window_s = 1.0;
+    double max_tilt_error_rad = 2.0 * M_PI / 180.0;
+    int confirmations = 3;  // windows in a row
+  };
+  GravityCalibrationCheck(const Config& config, const fw::SensorPose& calibrated);
+
+  // The pose gravity now implies (the calibrated position and yaw, which gravity cannot see; pitch
+  // and roll turned by the tilt measured) when this frame confirms that the sensor has moved;
+  // reported once per episode. Frames without gravity are passed over.
+  std::optional<fw::SensorPose> check(const DepthFrame& frame);
+
+ private:
+  Config config_;
+  fw::SensorPose calibrated_;
+  Eigen::Vector3d expected_down_S_;  // by the calibrated pose
+  std::optional<Eigen::Vector3d> reference_down_S_;
+  std::vector<Eigen::Vector3d> window_;  // unit vectors
+  double window_start_s_ = 0.0;
+  int disagreements_ = 0;
+  bool alarmed_ = false;
+};
+
 // The centre of a ball of radius_m whose surface the user picked at pixel (u, v): the depth within
 // the ball's image around the pixel, fitted with a sphere of that radius. Nothing when the pixel
 // has no depth near it.
