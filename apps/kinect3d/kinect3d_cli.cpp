@@ -254,7 +254,7 @@ void addSimulate(CLI::App& app) {
   command->add_option("scene", options->scene, "Built-in scene name or scene file (.yaml)")->required();
   command->add_option("--out", options->out_dir, "Output folder")->required();
   command->add_option("--format", options->format, "Sequence format")
-      ->check(CLI::IsMember({"tum", "oni"}))
+      ->check(CLI::IsMember({"tum", "fakenect", "oni"}))
       ->capture_default_str();
   command->add_option("--frames", options->frames, "Number of frames (default: the scene's duration)")
       ->check(CLI::PositiveNumber);

@@ -5,7 +5,9 @@
 #include <cmath>
 #include <limits>
 
+#include "kinect3d/camera_file.h"
 #include "kinect3d/depth_noise.h"
+#include "kinect3d/kinect_disparity.h"
 
 namespace kinect3d::sim {
 
@@ -470,6 +472,41 @@ struct KinectSimulator::Renderer {
     }
     return ball_pixels;
   }
+
+  // 8. Colour, as the Kinect v1's colour camera beside the depth camera sees it: each surface the
+  //    depth camera hit is carried into the colour image (nearest wins); what it did not see is the
+  //    dark hall. A flat colour per thing, darker with distance, the ball orange with its dark
+  //    panels black: enough to see a scene and its ball by eye, not a model of a camera's light and noise.
+  std::vector<std::uint8_t> colour(const ColourCamera& camera) const {
+    const Intrinsics& in = camera.intrinsics;
+    const std::size_t pixels = static_cast<std::size_t>(in.width) * in.height;
+    std::vector<std::uint8_t> rgb(pixels * 3);
+    for (std::size_t i = 0; i < pixels; ++i) rgb[3 * i] = 45, rgb[3 * i + 1] = 45, rgb[3 * i + 2] = 50;
+    std::vector<float> nearest(pixels, kNoHit);
+    const int W = width();
+    for (std::size_t i = 0; i < id.size(); ++i) {
+      const std::int16_t what = id[i];
+      if (what == kIdNone) continue;
+      // Through the pixel's centre, without the depth camera's lateral noise: the colour camera has none of it.
+      const Eigen::Vector3d p_C =
+          scene->intrinsics.backProject(static_cast<double>(i % W), static_cast<double>(i / W), depth_m[i]) -
+          camera.offset_S_m;
+      if (p_C.z() <= 0.0) continue;
+      const Eigen::Vector2d pixel = in.project(p_C);
+      const long u = std::lround(pixel.x()), v = std::lround(pixel.y());
+      if (u < 0 || v < 0 || u >= in.width || v >= in.height) continue;
+      const std::size_t k = static_cast<std::size_t>(v) * in.width + static_cast<std::size_t>(u);
+      if (depth_m[i] >= nearest[k]) continue;
+      nearest[k] = depth_m[i];
+      std::array<int, 3> base{40, 125, 50};  // the floor
+      if (what == kIdBall || what == kIdTrail) base = {240, 120, 25};
+      if (what == kIdBallDark) base = {20, 20, 20};
+      if (what > 0 && what < kIdBall) base = {90 + 41 * what % 110, 90 + 67 * what % 110, 90 + 23 * what % 110};
+      const double shade = std::clamp(1.2 - 0.08 * depth_m[i], 0.4, 1.0);
+      for (int c = 0; c < 3; ++c) rgb[3 * k + c] = static_cast<std::uint8_t>(base[c] * shade);
+    }
+    return rgb;
+  }
 };
 
 namespace {
@@ -558,7 +595,7 @@ void KinectSimulator::render(int frame_index, DepthFrame& frame, GroundTruth& tr
   Random random(scene_.noise.seed, static_cast<std::uint64_t>(frame_index));
   const double t = frame_index / scene_.fps;
   r.jitterRays(random);
-  r.T_F_S = scene_.robot.poseAt(t).T_F_R() * scene_.sensor_pose.T_R_S();
+  r.T_F_S = scene_.robot.poseAt(t).T_F_R() * scene_.sensorPoseAt(t).T_R_S();
   r.castGeometry(t);
   truth = truthAt(frame_index, t);
   if (ball_motion_) r.castBall(*ball_motion_, t, random);
@@ -572,6 +609,13 @@ void KinectSimulator::render(int frame_index, DepthFrame& frame, GroundTruth& tr
   r.drawDarkPatches(scene_.noise.seed, frame_index);
   truth.visible_pixels = r.toDepth(random, frame);
   addInterference(scene_, frame_index, frame);
+  // What the Kinect v1's accelerometer reads on a level robot: gravity alone (the robot's own
+  // accelerations are left out).
+  frame.gravity_S_mps2 = r.T_F_S.linear().transpose() * Eigen::Vector3d(0.0, 0.0, -kStandardGravity_mps2);
+  if (colour_) {
+    const ColourCamera camera = ColourCamera::kinectV1();
+    frame.colour = camera.image(r.colour(camera), frame.source_time_s);
+  }
 }
 
 }  // namespace kinect3d::sim

@@ -168,8 +168,13 @@ Scene readScene(const fw::ConfigView& root) {
   readOptional(root, "start_time_s", scene.start_time_s, 0.0, 1e10);
   if (root.has("robot")) scene.robot = readCarrier(root.child("robot"));
   const fw::ConfigView sensor = root.child("sensor");
-  sensor.requireOnlyKeys({"pose_in_robot", "intrinsics"});
+  sensor.requireOnlyKeys({"pose_in_robot", "intrinsics", "knocked"});
   scene.sensor_pose = readSensorPose(sensor.child("pose_in_robot"));
+  if (sensor.has("knocked")) {
+    const fw::ConfigView knocked = sensor.child("knocked");
+    knocked.requireOnlyKeys({"at_s", "pose_in_robot"});
+    scene.knock = SensorKnock{knocked.getDouble("at_s", 0.0, 3600.0), readSensorPose(knocked.child("pose_in_robot"))};
+  }
   if (sensor.has("intrinsics")) {
     sensor.child("intrinsics").requireOnlyKeys({"width", "height", "fx", "fy", "cx", "cy"});
     scene.intrinsics = readIntrinsics(sensor.child("intrinsics"));

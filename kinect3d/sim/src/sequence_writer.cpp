@@ -10,6 +10,9 @@
 #include <memory>
 
 #include "framework_api/log.h"
+#include "kinect3d/camera_file.h"
+#include "kinect3d/fakenect_recording.h"
+#include "kinect3d/kinect_disparity.h"
 #include "kinect3d/oni_recording.h"
 #include "kinect3d/sim/sim_sources.h"
 
@@ -103,12 +106,48 @@ void renderToDisk(const Scene& scene, const std::string& out_dir, bool with_dept
 
 void writeTumSequence(const Scene& scene, const std::string& out_dir) { renderToDisk(scene, out_dir, true); }
 
+void writeFakenectRecording(const Scene& scene, const std::string& out_dir) {
+  if (!(scene.intrinsics.width == kFakenectWidth && scene.intrinsics.height == kFakenectHeight)) {
+    throw std::runtime_error("scene '" + scene.name + "' is " + std::to_string(scene.intrinsics.width) + "x" +
+                             std::to_string(scene.intrinsics.height) + "; a fakenect recording is 640x480");
+  }
+  KinectSimulator simulator(scene);
+  simulator.setColour(true);
+  FakenectWriter writer(out_dir);
+  writeCameraFile(out_dir, scene.intrinsics, ColourCamera::kinectV1(), std::nullopt);
+  const DisparityModel disparity;
+  std::vector<GroundTruth> truth(simulator.frameCount());
+  std::vector<std::uint16_t> raw;
+  DepthFrame frame;
+  for (int i = 0; i < simulator.frameCount(); ++i) {
+    simulator.render(i, frame, truth[i]);
+    raw.resize(frame.depth_mm.size());
+    for (std::size_t p = 0; p < raw.size(); ++p) raw[p] = disparity.raw(frame.depth_mm[p] / 1000.0);
+    // The device's 60 MHz stamps start kStampFramesBeforeWrap frames before their 32-bit wrap, so
+    // that every recording crosses it; the host's clock is the scene's.
+    const std::uint64_t first_stamp =
+        (std::uint64_t{1} << 32) -
+        static_cast<std::uint64_t>(kStampFramesBeforeWrap * KinectStampClock::kTicksPerFrame);
+    const auto stamp = static_cast<std::uint32_t>(
+        first_stamp + static_cast<std::uint64_t>(std::llround(i * KinectStampClock::kTicksPerSecond / scene.fps)));
+    // In the order fakenect-record writes them: depth, colour, then the accelerometer.
+    writer.depth(frame.source_time_s, stamp, raw);
+    writer.colour(frame.source_time_s, stamp, frame.colour->rgb);
+    writer.accelerometer(frame.source_time_s, stamp, accelerometerFromGravity(*frame.gravity_S_mps2));
+  }
+  writeTruthJson(out_dir + "/truth.json", scene, truth);
+}
+
 void writeSimulatedSequence(const std::string& scene_name, const std::string& out_dir, const std::string& format,
                             int frames, int seed) {
   Scene scene = loadScene(scene_name);
   if (seed >= 0) scene.noise.seed = static_cast<std::uint64_t>(seed);
   if (frames > 0) scene.duration_s = frames / scene.fps;
-  renderToDisk(scene, out_dir, format == "tum");
+  if (format == "fakenect") {
+    writeFakenectRecording(scene, out_dir);
+  } else {
+    renderToDisk(scene, out_dir, format == "tum");
+  }
   if (format == "oni") {
     // The device plays in real time; allow the scene's length and a margin for OpenNI2's start-up.
     constexpr double kStartupMargin_s = 10.0;

@@ -9,7 +9,9 @@ namespace {
 // sim:<scene>: frame by frame, as the simulator renders them.
 class Simulation : public DepthSource {
  public:
-  Simulation(Scene scene, const SourceOptions& options) : DepthSource(options), simulator_(std::move(scene)) {}
+  Simulation(Scene scene, const SourceOptions& options) : DepthSource(options), simulator_(std::move(scene)) {
+    simulator_.setColour(options.colour);
+  }
 
   std::uint64_t frameCount() const override { return simulator_.frameCount(); }
   double frameRate_hz() const override { return simulator_.scene().fps; }

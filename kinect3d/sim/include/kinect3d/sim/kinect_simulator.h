@@ -36,8 +36,11 @@ class KinectSimulator {
   const Scene& scene() const { return scene_; }
   int frameCount() const { return scene_.frameCount(); }
 
-  // Renders frame i; the same scene and seed always give the same frame i, in any order.
+  // Renders frame i; the same scene and seed always give the same frame i, in any order. Every
+  // frame carries gravity in the sensor frame, and with colour on, the image of the Kinect v1's
+  // colour camera (ColourCamera::kinectV1()).
   void render(int frame_index, DepthFrame& frame, GroundTruth& truth);
+  void setColour(bool on) { colour_ = on; }
 
  private:
   struct Renderer;
@@ -45,6 +48,7 @@ class KinectSimulator {
   Scene scene_;
   std::unique_ptr<BallMotion> ball_motion_;
   std::unique_ptr<Renderer> renderer_;
+  bool colour_ = false;
 };
 
 }  // namespace kinect3d::sim

@@ -85,12 +85,19 @@ struct BallLaunch {
   bool dark_panels = false;    // a classic ball's 12 black pentagons (28 % of it), returning no depth
 };
 
+// The sensor knocked on its mount during the scene: from at_s on it sits at pose.
+struct SensorKnock {
+  double at_s = 0.0;
+  fw::SensorPose pose;
+};
+
 struct Scene {
   std::string name;
   double duration_s = 2.0;
   double fps = 30.0;
   double start_time_s = 1.7e9;  // source clock of frame 0
   fw::SensorPose sensor_pose;   // on the carrying robot
+  std::optional<SensorKnock> knock;
   CarrierRobot robot;
   Intrinsics intrinsics;
   KinectNoise noise;
@@ -100,6 +107,10 @@ struct Scene {
   BallPhysics physics;
 
   int frameCount() const;
+  // Where the sensor sits on the robot at scene time t.
+  const fw::SensorPose& sensorPoseAt(double t_s) const {
+    return knock && t_s >= knock->at_s ? knock->pose : sensor_pose;
+  }
 };
 
 // Loads a built-in scene by name, or a scene file by path (anything ending in .yaml).

@@ -27,10 +27,17 @@ void writeTruthJson(const std::string& path, const Scene& scene, const std::vect
 // A scene (as loaded, or changed in code) rendered to out_dir as a TUM sequence with truth.json.
 void writeTumSequence(const Scene& scene, const std::string& out_dir);
 
+// A scene (640x480) rendered to out_dir as fakenect-record writes a Kinect v1: raw disparity by
+// the default disparity model, colour, the accelerometer, and 60 MHz stamps that start
+// kStampFramesBeforeWrap frames before their wrap; with camera.yaml and truth.json.
+constexpr int kStampFramesBeforeWrap = 10;
+void writeFakenectRecording(const Scene& scene, const std::string& out_dir);
+
 // `kinect3d simulate`: the scene (built-in name or file) written to out_dir as a TUM sequence
-// (format "tum", frames rendered directly) or as an .oni recording (format "oni", frames served by
-// the simulated OpenNI2 device and recorded by OpenNI2's Recorder in real time), with truth.json
-// either way. frames 0: the scene's length; seed -1: the scene's own.
+// (format "tum", frames rendered directly), as a fakenect recording (format "fakenect") or as an
+// .oni recording (format "oni", frames served by the simulated OpenNI2 device and recorded by
+// OpenNI2's Recorder in real time), with truth.json each way. frames 0: the scene's length; seed
+// -1: the scene's own.
 void writeSimulatedSequence(const std::string& scene_name, const std::string& out_dir, const std::string& format,
                             int frames, int seed);
 
