@@ -33,6 +33,7 @@ class Kinect3dPlugin : public fw::Plugin {
     kinect3d::SourceOptions options;
     options.realtime = context.config.getBool("realtime");
     options.wait_for_device = true;  // a Kinect still enumerating at boot is waited for, not fatal
+    options.colour = context.config.getBool("colour");
     const std::string uri = context.config.getString("source");
     try {
       kinect3d::DepthSourceTable sources = kinect3d::sim::sourcesWithSimulator();
@@ -48,6 +49,7 @@ class Kinect3dPlugin : public fw::Plugin {
       world_.publishSensorPose(source_name_, *calibrated_);
       calibration_check_.emplace(kinect3d::readCalibrationCheckConfig(context.config), *detector_config.ground.pose,
                                  detector_config.ground);
+      gravity_check_.emplace(kinect3d::readGravityCheckConfig(context.config), *detector_config.ground.pose);
     }
   }
 
@@ -115,20 +117,29 @@ class Kinect3dPlugin : public fw::Plugin {
   }
 
   // A sensor knocked since its calibration: loud in the log and in the world state, with the pose
-  // the floor now implies.
+  // the floor (or gravity) now implies.
   void checkCalibration() {
-    if (!calibration_check_) return;
-    const std::optional<fw::SensorPose> moved = calibration_check_->check(frame_);
-    if (!moved) return;
+    if (calibration_check_) {
+      if (const std::optional<fw::SensorPose> moved = calibration_check_->check(frame_))
+        alarm("the floor", *moved, true);
+    }
+    if (gravity_check_) {
+      if (const std::optional<fw::SensorPose> moved = gravity_check_->check(frame_)) alarm("gravity", *moved, false);
+    }
+  }
+
+  void alarm(const std::string& evidence, const fw::SensorPose& moved, bool with_height) {
     const double deg = 180.0 / M_PI;
+    char height[64] = "";
+    if (with_height) std::snprintf(height, sizeof height, "z %.3f m, ", moved.z_m);
     char comparison[256];
-    std::snprintf(comparison, sizeof comparison,
-                  "the floor puts it at z %.3f m, pitch %.2f deg, roll %.2f deg; pose_in_robot says z %.3f m, "
-                  "pitch %.2f deg, roll %.2f deg",
-                  moved->z_m, moved->pitch_rad * deg, moved->roll_rad * deg, calibrated_->z_m,
-                  calibrated_->pitch_rad * deg, calibrated_->roll_rad * deg);
-    const std::string message = "THE SENSOR HAS MOVED since its calibration: " + std::string(comparison) +
-                                ". Estimated pose_in_robot: " + fw::poseInRobotYaml(*moved) +
+    std::snprintf(
+        comparison, sizeof comparison,
+        " puts it at %spitch %.2f deg, roll %.2f deg; pose_in_robot says z %.3f m, pitch %.2f deg, roll %.2f deg",
+        height, moved.pitch_rad * deg, moved.roll_rad * deg, calibrated_->z_m, calibrated_->pitch_rad * deg,
+        calibrated_->roll_rad * deg);
+    const std::string message = "THE SENSOR HAS MOVED since its calibration: " + evidence + comparison +
+                                ". Estimated pose_in_robot: " + fw::poseInRobotYaml(moved) +
                                 ". Recalibrate (docs/calibration.md)";
     fw::logError(source_name_, message);
     publishEvent("calibration_alarm", message);
@@ -146,6 +157,7 @@ class Kinect3dPlugin : public fw::Plugin {
   bool reported_alignment_ = false;
   std::optional<fw::SensorPose> calibrated_;  // pose_in_robot, when configured
   std::optional<kinect3d::FloorCalibrationCheck> calibration_check_;
+  std::optional<kinect3d::GravityCalibrationCheck> gravity_check_;
   std::uint64_t reported_reconnects_ = 0;
 };
 
