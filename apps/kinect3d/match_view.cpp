@@ -225,6 +225,9 @@ std::optional<json> MatchView::frame(std::size_t frame) {
   Detections detections;
   detector_->detect(depth, detections);
   json scene = {{"frame", frame}, {"t_s", rounded(t - t0_)}, {"frame_index", depth.index}};
+  // What else the sensor measured: a colour image (api/colour/<n>.png), gravity in its frame.
+  scene["colour"] = depth.colour.has_value();
+  scene["gravity_S_mps2"] = depth.gravity_S_mps2 ? xyz(*depth.gravity_S_mps2) : json(nullptr);
 
   // The sensor and the depth points it saw (robot frame), while it knows where the floor is.
   json points = json::array();
@@ -334,8 +337,6 @@ std::optional<std::string> MatchView::depthPng(std::size_t frame) {
   const std::lock_guard<std::mutex> lock(mutex_);
   if (frame >= frames_.size()) return std::nullopt;
   const DepthFrame depth = depthFrame(frame);
-  Detections detections;
-  detector_->detect(depth, detections);  // where the sensor is, when it finds the floor itself
   const Intrinsics& k = depth.intrinsics;
   // Range to colour: near is warm, far is cold, no depth is black.
   const cv::Mat depth_mm(k.height, k.width, CV_16UC1, const_cast<std::uint16_t*>(depth.depth_mm.data()));
@@ -345,25 +346,46 @@ std::optional<std::string> MatchView::depthPng(std::size_t frame) {
   depth_mm.convertTo(scaled, CV_8UC1, -255.0 / (far_mm - near_mm), 255.0 * far_mm / (far_mm - near_mm));
   cv::applyColorMap(scaled, image, cv::COLORMAP_JET);
   image.setTo(cv::Scalar(0, 0, 0), depth_mm == 0);
-
-  // The balls the robot saw then, where they fall in the image, with the ball's size there.
-  const std::optional<Eigen::Isometry3d> T_R_S = detector_->T_R_S();
-  const fw::BallFrame* balls = latestAt(published_->kinect, depth.source_time_s, kRecent_s);
-  if (T_R_S && balls != nullptr) {
-    for (const fw::BallObservation& ball : balls->balls) {
-      const Eigen::Vector3d p_S = T_R_S->inverse() * ball.position_m;
-      if (p_S.z() <= 0.0) continue;
-      const cv::Point centre(static_cast<int>(k.cx + k.fx * p_S.x() / p_S.z()),
-                             static_cast<int>(k.cy + k.fy * p_S.y() / p_S.z()));
-      const int radius = static_cast<int>(k.fx * detector_config_.ball.radius_m / p_S.z());
-      cv::circle(image, centre, radius + 2, cv::Scalar(255, 255, 255), 2, cv::LINE_AA);
-      cv::putText(image, ball.state == fw::BallState::kAir ? "air" : "ground", centre + cv::Point(radius + 4, 0),
-                  cv::FONT_HERSHEY_SIMPLEX, 0.5, cv::Scalar(255, 255, 255), 1, cv::LINE_AA);
-    }
-  }
+  drawSeenBalls(image, depth, k, Eigen::Vector3d::Zero());
   std::vector<unsigned char> png;
   cv::imencode(".png", image, png);
   return std::string(png.begin(), png.end());
+}
+
+std::optional<std::string> MatchView::colourPng(std::size_t frame) {
+  const std::lock_guard<std::mutex> lock(mutex_);
+  if (frame >= frames_.size()) return std::nullopt;
+  const DepthFrame depth = depthFrame(frame);
+  if (!depth.colour) return std::nullopt;
+  const fw::ColourImage& colour = *depth.colour;
+  cv::Mat image;
+  cv::cvtColor(cv::Mat(colour.height, colour.width, CV_8UC3, const_cast<std::uint8_t*>(colour.rgb.data())), image,
+               cv::COLOR_RGB2BGR);
+  drawSeenBalls(image, depth, {colour.width, colour.height, colour.fx, colour.fy, colour.cx, colour.cy},
+                colour.offset_S_m);
+  std::vector<unsigned char> png;
+  cv::imencode(".png", image, png);
+  return std::string(png.begin(), png.end());
+}
+
+void MatchView::drawSeenBalls(cv::Mat& image, const DepthFrame& depth, const Intrinsics& camera,
+                              const Eigen::Vector3d& camera_in_S_m) {
+  Detections detections;
+  detector_->detect(depth, detections);  // where the sensor is, when it finds the floor itself
+  // The balls the robot saw then, where they fall in the image, with the ball's size there.
+  const std::optional<Eigen::Isometry3d> T_R_S = detector_->T_R_S();
+  const fw::BallFrame* balls = latestAt(published_->kinect, depth.source_time_s, kRecent_s);
+  if (!T_R_S || balls == nullptr) return;
+  for (const fw::BallObservation& ball : balls->balls) {
+    const Eigen::Vector3d p_C = T_R_S->inverse() * ball.position_m - camera_in_S_m;
+    if (p_C.z() <= 0.0) continue;
+    const Eigen::Vector2d pixel = camera.project(p_C);
+    const cv::Point centre(static_cast<int>(pixel.x()), static_cast<int>(pixel.y()));
+    const int radius = static_cast<int>(camera.fx * detector_config_.ball.radius_m / p_C.z());
+    cv::circle(image, centre, radius + 2, cv::Scalar(255, 255, 255), 2, cv::LINE_AA);
+    cv::putText(image, ball.state == fw::BallState::kAir ? "air" : "ground", centre + cv::Point(radius + 4, 0),
+                cv::FONT_HERSHEY_SIMPLEX, 0.5, cv::Scalar(255, 255, 255), 1, cv::LINE_AA);
+  }
 }
 
 }  // namespace kinect3d

@@ -12,6 +12,7 @@
 #pragma once
 
 #include <nlohmann/json.hpp>
+#include <opencv2/core/mat.hpp>
 
 #include <memory>
 #include <mutex>
@@ -41,6 +42,8 @@ class MatchView {
   std::optional<nlohmann::json> frame(std::size_t frame);
   // Its depth image, coloured by range, with every ball the robot saw then drawn on it (PNG).
   std::optional<std::string> depthPng(std::size_t frame);
+  // Its colour image with the same balls drawn (PNG); nothing when it has none.
+  std::optional<std::string> colourPng(std::size_t frame);
 
  private:
   struct Published;
@@ -49,6 +52,10 @@ class MatchView {
   void reloadIfGrown();
   void index();  // reads what was logged since the last call
   DepthFrame depthFrame(std::size_t frame) const;
+  // The balls the robot saw at the depth frame's time, drawn into an image of `camera`, whose
+  // origin is at camera_in_S_m in the depth camera's optical frame.
+  void drawSeenBalls(cv::Mat& image, const DepthFrame& depth, const Intrinsics& camera,
+                     const Eigen::Vector3d& camera_in_S_m);
 
   std::string folder_;
   std::unique_ptr<MatchLogReader> log_;

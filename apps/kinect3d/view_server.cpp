@@ -105,6 +105,15 @@ ViewServer::ViewServer(MatchView& view, const ViewServerOptions& options)
     }
     response.set_content(*png, "image/png");
   });
+  server.Get(R"(/api/colour/(\d+)\.png)", [&view](const httplib::Request& request, httplib::Response& response) {
+    const std::optional<std::size_t> frame = frameNumber(request);
+    const std::optional<std::string> png = frame ? view.colourPng(*frame) : std::nullopt;
+    if (!png) {
+      response.status = 404;
+      return;
+    }
+    response.set_content(*png, "image/png");
+  });
   // A bad log frame (a damaged PNG) answers 500 with the reason; the server goes on.
   server.set_exception_handler([](const httplib::Request&, httplib::Response& response, std::exception_ptr error) {
     try {

@@ -10,6 +10,7 @@
 #include <filesystem>
 #include <map>
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 #include <optional>
 #include <set>
 #include <variant>
@@ -53,8 +54,12 @@ CREATE TABLE health (seq INTEGER PRIMARY KEY, wall_time_s REAL NOT NULL, plugin 
   errors INTEGER, stuck INTEGER, second_end_wall_time_s REAL);
 CREATE TABLE depth_frame (seq INTEGER PRIMARY KEY, wall_time_s REAL NOT NULL, source TEXT NOT NULL,
   frame_index INTEGER NOT NULL, source_time_s REAL NOT NULL, receive_time_s REAL NOT NULL,
-  width INTEGER NOT NULL, height INTEGER NOT NULL, fx REAL, fy REAL, cx REAL, cy REAL, png BLOB NOT NULL);
+  width INTEGER NOT NULL, height INTEGER NOT NULL, fx REAL, fy REAL, cx REAL, cy REAL, png BLOB NOT NULL,
+  gravity_x_S_mps2 REAL, gravity_y_S_mps2 REAL, gravity_z_S_mps2 REAL);
 CREATE INDEX depth_frame_by_source ON depth_frame (source, seq);
+CREATE TABLE colour_frame (seq INTEGER PRIMARY KEY, source_time_s REAL NOT NULL, width INTEGER NOT NULL,
+  height INTEGER NOT NULL, fx REAL, fy REAL, cx REAL, cy REAL, offset_x_S_m REAL, offset_y_S_m REAL,
+  offset_z_S_m REAL, jpeg BLOB NOT NULL);
 )sql";
 
 struct Statement {
@@ -366,9 +371,24 @@ void MatchLogWriter::write(const fw::JournalEntry& entry) {
             std::vector<unsigned char> png;
             // Level 1: a third of the raw size on Kinect depth at a fraction of the default's time.
             cv::imencode(".png", depth, png, {cv::IMWRITE_PNG_COMPRESSION, 1});
-            statement("INSERT INTO depth_frame VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)")
+            const auto gravity = [&](int axis) {
+              return image.gravity_S_mps2 ? std::optional<double>((*image.gravity_S_mps2)[axis]) : std::nullopt;
+            };
+            statement("INSERT INTO depth_frame VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)")
                 .run(seq, wall, image.source, image.index, image.stamp.source_time_s, image.stamp.receive_time_s,
-                     image.width, image.height, image.fx, image.fy, image.cx, image.cy, png);
+                     image.width, image.height, image.fx, image.fy, image.cx, image.cy, png, gravity(0), gravity(1),
+                     gravity(2));
+            if (image.colour) {
+              const fw::ColourImage& colour = *image.colour;
+              cv::Mat bgr;
+              cv::cvtColor(cv::Mat(colour.height, colour.width, CV_8UC3, const_cast<std::uint8_t*>(colour.rgb.data())),
+                           bgr, cv::COLOR_RGB2BGR);
+              std::vector<unsigned char> jpeg;
+              cv::imencode(".jpg", bgr, jpeg, {cv::IMWRITE_JPEG_QUALITY, kColourJpegQuality});
+              statement("INSERT INTO colour_frame VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)")
+                  .run(seq, colour.source_time_s, colour.width, colour.height, colour.fx, colour.fy, colour.cx,
+                       colour.cy, colour.offset_S_m.x(), colour.offset_S_m.y(), colour.offset_S_m.z(), jpeg);
+            }
           },
           [&](const fw::Event& e) {
             statement("INSERT INTO event VALUES (?, ?, ?, ?, ?, ?, ?)")
@@ -685,15 +705,21 @@ std::vector<std::pair<std::string, std::uint64_t>> MatchLogReader::depthSources(
 }
 
 namespace {
+// A depth frame's row with its colour image's, when it has one.
 constexpr const char* kDepthColumns =
-    "seq, wall_time_s, frame_index, source_time_s, receive_time_s, width, height, fx, fy, cx, cy, png";
+    "d.seq, d.wall_time_s, d.frame_index, d.source_time_s, d.receive_time_s, d.width, d.height, d.fx, d.fy, d.cx, "
+    "d.cy, d.png, d.gravity_x_S_mps2, d.gravity_y_S_mps2, d.gravity_z_S_mps2, c.source_time_s, c.width, c.height, "
+    "c.fx, c.fy, c.cx, c.cy, c.offset_x_S_m, c.offset_y_S_m, c.offset_z_S_m, c.jpeg";
+constexpr const char* kDepthTables = " FROM depth_frame d LEFT JOIN colour_frame c ON c.seq = d.seq ";
+constexpr int kDepthSourceColumn = 26;  // d.source, after kDepthColumns
 }  // namespace
 
 MatchLogReader::DepthFrames::DepthFrames(const MatchLogReader& log, const std::string& source)
     : log_(log),
       source_(source),
       query_(std::make_unique<Statement>(
-          log.db_, (std::string("SELECT ") + kDepthColumns + " FROM depth_frame WHERE source = ? ORDER BY seq").c_str(),
+          log.db_,
+          (std::string("SELECT ") + kDepthColumns + kDepthTables + "WHERE d.source = ? ORDER BY d.seq").c_str(),
           log.path_)) {
   sqlite3_bind_text(query_->stmt, 1, source.c_str(), -1, SQLITE_TRANSIENT);
 }
@@ -747,13 +773,14 @@ std::vector<MatchLogReader::Input> MatchLogReader::inputs() const {
 }
 
 fw::DepthImage MatchLogReader::depthFrame(std::int64_t seq) const {
-  Statement q(db_, (std::string("SELECT ") + kDepthColumns + ", source FROM depth_frame WHERE seq = ?").c_str(), path_);
+  Statement q(db_, (std::string("SELECT ") + kDepthColumns + ", d.source" + kDepthTables + "WHERE d.seq = ?").c_str(),
+              path_);
   sqlite3_bind_int64(q.stmt, 1, seq);
   if (!q.row()) fail("no depth frame at seq " + std::to_string(seq));
   fw::DepthImage image;
   double wall_time_s = 0.0;
   decodeDepthRow(q, image, wall_time_s);
-  image.source = q.text(12);
+  image.source = q.text(kDepthSourceColumn);
   return image;
 }
 
@@ -795,6 +822,33 @@ void MatchLogReader::decodeDepthRow(Statement& q, fw::DepthImage& image, double&
     fail(not_png);
   }
   image.depth_mm.assign(depth.ptr<std::uint16_t>(), depth.ptr<std::uint16_t>() + depth.total());
+  image.gravity_S_mps2.reset();
+  if (!q.isNull(12)) image.gravity_S_mps2 = Eigen::Vector3d(q.real(12), q.real(13), q.real(14));
+  image.colour.reset();
+  if (!q.isNull(15)) image.colour = decodeColour(q, frame);
+}
+
+fw::ColourImage MatchLogReader::decodeColour(Statement& q, const std::string& frame) const {
+  fw::ColourImage colour;
+  colour.source_time_s = q.real(15);
+  colour.width = static_cast<int>(q.integer(16));
+  colour.height = static_cast<int>(q.integer(17));
+  colour.fx = q.real(18);
+  colour.fy = q.real(19);
+  colour.cx = q.real(20);
+  colour.cy = q.real(21);
+  colour.offset_S_m = {q.real(22), q.real(23), q.real(24)};
+  const auto* bytes = static_cast<const unsigned char*>(sqlite3_column_blob(q.stmt, 25));
+  const int size = sqlite3_column_bytes(q.stmt, 25);
+  const auto within = [](int side) { return side >= Intrinsics::kMinSide_px && side <= Intrinsics::kMaxSide_px; };
+  const std::string not_jpeg = frame + ": its colour image is not a " + std::to_string(colour.width) + "x" +
+                               std::to_string(colour.height) + " colour JPEG";
+  if (!within(colour.width) || !within(colour.height) || size <= 0) fail(not_jpeg);
+  const cv::Mat bgr = cv::imdecode(cv::Mat(1, size, CV_8UC1, const_cast<unsigned char*>(bytes)), cv::IMREAD_COLOR);
+  if (bgr.empty() || bgr.cols != colour.width || bgr.rows != colour.height) fail(not_jpeg);
+  colour.rgb.resize(static_cast<std::size_t>(colour.width) * colour.height * 3);
+  cv::cvtColor(bgr, cv::Mat(colour.height, colour.width, CV_8UC3, colour.rgb.data()), cv::COLOR_BGR2RGB);
+  return colour;
 }
 
 }  // namespace kinect3d

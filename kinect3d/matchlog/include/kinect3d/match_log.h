@@ -24,7 +24,9 @@ struct sqlite3_stmt;
 
 namespace kinect3d {
 
-constexpr int kMatchLogSchemaVersion = 1;
+constexpr int kMatchLogSchemaVersion = 2;
+// Colour images are kept as JPEG at this quality (docs/match-log.md: size and time per frame).
+constexpr int kColourJpegQuality = 90;
 constexpr const char* kMatchLogFile = "match.sqlite";
 
 // A log that cannot be written or read: names the file and the reason.
@@ -164,6 +166,8 @@ class MatchLogReader {
   [[noreturn]] void fail(const std::string& reason) const;
   // A depth_frame row's columns (seq, wall_time_s, frame_index, ... png) into image.
   void decodeDepthRow(Statement& row, fw::DepthImage& image, double& wall_time_s) const;
+  // The colour columns of the same row; frame names the depth frame in errors.
+  fw::ColourImage decodeColour(Statement& row, const std::string& frame) const;
   std::string path_;
   std::string folder_;
   sqlite3* db_ = nullptr;
