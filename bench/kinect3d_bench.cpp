@@ -323,8 +323,9 @@ std::string colourCodecTable(int repeats) {
     images.emplace_back("simulated (kick_away)", bgr);
   }
   if (const char* real = std::getenv("KINECT3D_REAL_DATA")) {
-    for (const char* file : {"realdata/pcl_single_frames/five_people_rgb.png", "realdata/pcl_single_frames/office1_rgb.png",
-                             "realdata/pcl_grabber_sequences/frame_20121214T142255.814212_rgb.tiff"}) {
+    for (const char* file :
+         {"realdata/pcl_single_frames/five_people_rgb.png", "realdata/pcl_single_frames/office1_rgb.png",
+          "realdata/pcl_grabber_sequences/frame_20121214T142255.814212_rgb.tiff"}) {
       const cv::Mat image = cv::imread(std::string(real) + "/" + file, cv::IMREAD_COLOR);
       if (!image.empty()) images.emplace_back(std::string("real: ") + file, image);
     }
