@@ -19,6 +19,7 @@
 #include "kinect3d/sim/scene.h"
 #include "kinect3d/sim/sequence_writer.h"
 #include "real_data.h"
+#include "run_command.h"
 #include "scoped_temp_dir.h"
 
 namespace {
@@ -211,6 +212,20 @@ TEST(FreenectOverFakenect, TheKinectPathPlaysARecordingIntoTheHostAndGravityAlon
   }
   EXPECT_EQ(alarms, 1);
   EXPECT_GE(balls_right, 20) << "the ball where the simulator hung it, before the knock";
+
+  // Exported, the colour comes along: a TUM folder with rgb.txt that plays with its colour.
+  const fs::path tum = temp.path() / "tum";
+  const auto [status, export_output] =
+      runCommand(std::string(KINECT3D_EXE) + " export " + log.string() + " --tum " + tum.string() + " 2>&1");
+  ASSERT_EQ(status, 0) << export_output;
+  kinect3d::SourceOptions options;
+  options.colour = true;
+  auto exported = kinect3d::DepthSourceTable::core().open("tum:" + tum.string(), options);
+  DepthFrame frame;
+  for (int i = 0; i <= 10; ++i) ASSERT_EQ(exported->read(frame), ReadResult::kFrame);
+  ASSERT_TRUE(frame.colour.has_value());
+  EXPECT_NEAR(frame.colour->offset_S_m.x(), 0.025, 1e-9) << "the colour camera in camera.yaml";
+  EXPECT_EQ(frame.colour->rgb.size(), image.colour->rgb.size());
 }
 
 // Gravity readings from a sensor with a bias, noise and a robot that brakes now and then.

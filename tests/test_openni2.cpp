@@ -174,6 +174,37 @@ TEST(OpenNI2Device, CountsDroppedFrames) {
   EXPECT_EQ(source->counters().frames, 9u);
 }
 
+TEST(OpenNI2Device, DeliversTheColourStreamPairedByTimeWithTheBallWhereTheDepthPutsIt) {
+  kinect3d::SourceOptions options;
+  options.colour = true;
+  auto source = kinect3d::sim::sourcesWithSimulator().open("openni2:kinect3d-sim://hung_3m?frames=15", options);
+  const std::vector<DepthFrame> frames = readFrames(*source, 15);
+  ASSERT_EQ(frames.size(), 15u);
+  int with_colour = 0, ball_orange = 0;
+  const Eigen::Vector3d ball_S(0.0, 0.7 - 1.0, 3.0);  // hung_3m: the ball 3 m ahead, 1 m up; the sensor 0.7 m up
+  for (const DepthFrame& frame : frames) {
+    if (!frame.colour) continue;
+    ++with_colour;
+    const fw::ColourImage& colour = *frame.colour;
+    EXPECT_LE(std::abs(colour.source_time_s - frame.source_time_s), 1.5 / 30.0);
+    // The simulated device is unregistered: the colour camera 2.5 cm to the right, fx about 525.
+    EXPECT_NEAR(colour.offset_S_m.x(), 0.025, 1e-9);
+    EXPECT_NEAR(colour.fx, 525.0, 1.0);
+    const Eigen::Vector3d p_C = ball_S - colour.offset_S_m;
+    const int u = static_cast<int>(std::lround(colour.cx + colour.fx * p_C.x() / p_C.z()));
+    const int v = static_cast<int>(std::lround(colour.cy + colour.fy * p_C.y() / p_C.z()));
+    const std::uint8_t* rgb = &colour.rgb[(static_cast<std::size_t>(v) * colour.width + u) * 3];
+    ball_orange += rgb[0] > 150 && rgb[1] < 150 && rgb[2] < 80;
+  }
+  EXPECT_GE(with_colour, 12) << "of 15 depth frames";
+  EXPECT_EQ(ball_orange, with_colour) << "the ball's centre, projected through the colour camera, is orange";
+  kinect3d::SourceOptions depth_only;
+  auto without = kinect3d::sim::sourcesWithSimulator().open("openni2:kinect3d-sim://hung_3m?frames=3", depth_only);
+  const std::vector<DepthFrame> plain = readFrames(*without, 3);
+  ASSERT_EQ(plain.size(), 3u);
+  EXPECT_FALSE(plain.back().colour.has_value()) << "colour off: the stream is not opened";
+}
+
 TEST(OpenNI2Device, QuietDeviceIsReopenedWithoutStoppingTheReader) {
   // The device sends 3 frames and goes quiet, as an unplugged Kinect does; after a second of
   // silence the source reopens it and frames flow again, counted from the start.

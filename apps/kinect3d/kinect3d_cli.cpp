@@ -108,15 +108,18 @@ kinect3d::DepthFrame readFrame(kinect3d::DepthSource& source, const std::string&
 
 // One frame of each source (frame_numbers: one for all, or one per source), colour-mapped on one
 // fixed 0-8 m scale (no data in black), side by side in one PNG, so simulated and real frames can
-// be compared by eye.
+// be compared by eye; where a source has colour, its colour image under its depth.
 void writeDepthPanels(const std::vector<std::string>& uris, const std::vector<int>& frame_numbers,
                       const std::string& out) {
   constexpr double kMaxDepth_mm = 8000.0;
-  std::vector<cv::Mat> panels;
+  kinect3d::SourceOptions options;
+  options.colour = true;
+  std::vector<cv::Mat> depth_panels, colour_panels;
+  bool any_colour = false;
   for (std::size_t i = 0; i < uris.size(); ++i) {
     const std::string& uri = uris[i];
     const int index = frame_numbers.empty() ? 0 : frame_numbers[frame_numbers.size() > 1 ? i : 0];
-    kinect3d::DepthFrame frame = readFrame(*kinect3d::cliSources().open(uri), uri, index);
+    kinect3d::DepthFrame frame = readFrame(*kinect3d::cliSources().open(uri, options), uri, index);
     cv::Mat depth(frame.height(), frame.width(), CV_16UC1, frame.depth_mm.data());
     cv::Mat scaled, coloured;
     depth.convertTo(scaled, CV_8UC1, 255.0 / kMaxDepth_mm);
@@ -124,10 +127,24 @@ void writeDepthPanels(const std::vector<std::string>& uris, const std::vector<in
     coloured.setTo(cv::Scalar(0, 0, 0), depth == 0);
     cv::putText(coloured, uri.substr(uri.find_last_of('/') + 1), {10, 25}, cv::FONT_HERSHEY_SIMPLEX, 0.7,
                 cv::Scalar(255, 255, 255), 2);
-    panels.push_back(coloured);
+    cv::Mat colour(coloured.size(), CV_8UC3, cv::Scalar(0, 0, 0));
+    if (frame.colour) {
+      any_colour = true;
+      cv::Mat bgr;
+      cv::cvtColor(cv::Mat(frame.colour->height, frame.colour->width, CV_8UC3, frame.colour->rgb.data()), bgr,
+                   cv::COLOR_RGB2BGR);
+      cv::resize(bgr, colour, coloured.size());
+    }
+    depth_panels.push_back(coloured);
+    colour_panels.push_back(colour);
   }
   cv::Mat joined;
-  cv::hconcat(panels, joined);
+  cv::hconcat(depth_panels, joined);
+  if (any_colour) {
+    cv::Mat colours;
+    cv::hconcat(colour_panels, colours);
+    cv::vconcat(joined, colours, joined);
+  }
   if (!cv::imwrite(out, joined)) throw std::runtime_error("cannot write '" + out + "'");
 }
 
@@ -287,7 +304,9 @@ void addSnapshot(CLI::App& app) {
   };
   auto options = std::make_shared<Options>();
   CLI::App* command = app.add_subcommand(
-      "snapshot", "Colour-map one frame of each source side by side (--out), or save the scene map (--bt)");
+      "snapshot",
+      "Colour-map one frame of each source side by side, its colour image under it where it has one (--out), or "
+      "save the scene map (--bt)");
   command->add_option("sources", options->uris, "Depth source URIs")->required();
   command->add_option("--frame", options->frames, "Frame number (0 = first): one for all sources, or one per source")
       ->check(CLI::NonNegativeNumber);

@@ -33,6 +33,10 @@ fw::ColourImage ColourCamera::image(std::vector<std::uint8_t> rgb, double source
   return image;
 }
 
+ColourCamera ColourCamera::of(const fw::ColourImage& image) {
+  return {Intrinsics{image.width, image.height, image.fx, image.fy, image.cx, image.cy}, image.offset_S_m};
+}
+
 CameraFile readCameraFile(const std::string& dir, const CameraFile& defaults, bool allow_depth_scale) {
   CameraFile camera = defaults;
   const fs::path file = fs::path(dir) / "camera.yaml";
@@ -76,7 +80,7 @@ CameraFile readCameraFile(const std::string& dir, const CameraFile& defaults, bo
   return camera;
 }
 
-void writeCameraFile(const std::string& dir, const Intrinsics& depth, const ColourCamera& colour,
+void writeCameraFile(const std::string& dir, const Intrinsics& depth, const std::optional<ColourCamera>& colour,
                      std::optional<double> depth_scale) {
   const std::string path = (fs::path(dir) / "camera.yaml").string();
   std::ofstream out(path);
@@ -84,10 +88,12 @@ void writeCameraFile(const std::string& dir, const Intrinsics& depth, const Colo
   out << "width: " << depth.width << "\nheight: " << depth.height << "\nfx: " << depth.fx << "\nfy: " << depth.fy
       << "\ncx: " << depth.cx << "\ncy: " << depth.cy << "\n";
   if (depth_scale) out << "depth_scale: " << *depth_scale << "\n";
-  const Intrinsics& in = colour.intrinsics;
-  out << "rgb_width: " << in.width << "\nrgb_height: " << in.height << "\nrgb_fx: " << in.fx << "\nrgb_fy: " << in.fy
-      << "\nrgb_cx: " << in.cx << "\nrgb_cy: " << in.cy << "\nrgb_offset_x_m: " << colour.offset_S_m.x()
-      << "\nrgb_offset_y_m: " << colour.offset_S_m.y() << "\nrgb_offset_z_m: " << colour.offset_S_m.z() << "\n";
+  if (colour) {
+    const Intrinsics& in = colour->intrinsics;
+    out << "rgb_width: " << in.width << "\nrgb_height: " << in.height << "\nrgb_fx: " << in.fx << "\nrgb_fy: " << in.fy
+        << "\nrgb_cx: " << in.cx << "\nrgb_cy: " << in.cy << "\nrgb_offset_x_m: " << colour->offset_S_m.x()
+        << "\nrgb_offset_y_m: " << colour->offset_S_m.y() << "\nrgb_offset_z_m: " << colour->offset_S_m.z() << "\n";
+  }
   if (!out) throw std::runtime_error("cannot write '" + path + "'");
 }
 

@@ -185,7 +185,7 @@ class FreenectDevice : public LiveDevice {
     DepthFrame& frame = *self->target_;
     const KinectStampClock::Time time = self->timeOf(stamp);
     frame.resize(self->intrinsics_);
-    self->disparity_.convert(static_cast<const std::uint16_t*>(raw), frame);
+    self->disparity_.convert(raw, frame);
     frame.source_time_s = *self->anchor_s_ + time.seconds;
     frame.index = static_cast<std::uint64_t>(std::max<std::int64_t>(time.index, 0));
     self->arrived_ = true;

@@ -1,6 +1,7 @@
 #include "kinect3d/kinect_disparity.h"
 
 #include <cmath>
+#include <cstring>
 #include <fstream>
 
 #include "kinect3d/depth_source.h"
@@ -38,8 +39,15 @@ DisparityTable::DisparityTable(const DisparityModel& model) {
   }
 }
 
-void DisparityTable::convert(const std::uint16_t* raw, DepthFrame& frame) const {
-  for (std::size_t i = 0; i < frame.depth_mm.size(); ++i) frame.depth_mm[i] = table_[raw[i] & 0x7FF];
+void DisparityTable::convert(const void* raw, DepthFrame& frame) const {
+  // Read sample by sample with memcpy: fakenect hands out its buffer right after the PGM header,
+  // at an odd address.
+  const auto* bytes = static_cast<const unsigned char*>(raw);
+  for (std::size_t i = 0; i < frame.depth_mm.size(); ++i) {
+    std::uint16_t value;
+    std::memcpy(&value, bytes + 2 * i, sizeof value);
+    frame.depth_mm[i] = table_[value & 0x7FF];
+  }
 }
 
 KinectStampClock::Time KinectStampClock::next(std::uint32_t stamp) {

@@ -2,12 +2,14 @@
 #include <OpenNI.h>
 
 #include <chrono>
+#include <cmath>
 #include <cstring>
 #include <filesystem>
 #include <mutex>
 #include <optional>
 
 #include "framework_api/log.h"
+#include "kinect3d/camera_file.h"
 #include "kinect3d/oni_recording.h"
 #include "live_device.h"
 #include "sources.h"
@@ -43,8 +45,10 @@ class OpenNI2Stream {
  public:
   // Opens uri (a device URI, a file, or empty for the first device) and starts depth at VGA 30 Hz
   // in millimetres where the device offers that mode. With start false the stream is created but
-  // not started (so a recorder can be attached before the first frame); call start() then.
-  void open(const std::string& uri, const std::string& label, bool start = true) {
+  // not started (so a recorder can be attached before the first frame); call start() then. With
+  // colour, a live device's colour stream too (VGA RGB), depth registered to it where the device
+  // can do that; a device without colour is said once and streams depth alone.
+  void open(const std::string& uri, const std::string& label, bool start = true, bool colour = false) {
     close();
     if (device_.open(uri.empty() ? openni::ANY_DEVICE : uri.c_str()) != openni::STATUS_OK) {
       throw DepthSourceError(label + ": cannot open: " + lastError());
@@ -54,6 +58,7 @@ class OpenNI2Stream {
       throw DepthSourceError(label + ": has no depth stream: " + lastError());
     }
     if (!device_.isFile()) selectVgaMillimetres(label);
+    if (colour && !device_.isFile()) openColour(label);
     if (start) this->start(label);
   }
 
@@ -71,9 +76,29 @@ class OpenNI2Stream {
     intrinsics_ = Intrinsics::fromFieldOfView(mode.getResolutionX(), mode.getResolutionY(),
                                               stream_.getHorizontalFieldOfView(), stream_.getVerticalFieldOfView());
     fps_ = mode.getFps() > 0 ? mode.getFps() : 30;
+    if (colour_stream_.isValid()) {
+      if (colour_stream_.start() != openni::STATUS_OK) {
+        close();
+        throw DepthSourceError(label + ": cannot start the colour stream: " + lastError());
+      }
+      const openni::VideoMode colour_mode = colour_stream_.getVideoMode();
+      // Registered depth is seen from the colour camera: one camera. Otherwise the colour camera
+      // sits beside the depth camera as on a Kinect v1 (PrimeSense's layout, 2.5 cm).
+      colour_camera_ = ColourCamera::kinectV1();
+      colour_camera_.intrinsics = Intrinsics::fromFieldOfView(
+          colour_mode.getResolutionX(), colour_mode.getResolutionY(), colour_stream_.getHorizontalFieldOfView(),
+          colour_stream_.getVerticalFieldOfView());
+      if (registered_) colour_camera_.offset_S_m.setZero();
+    }
   }
 
   void close() {
+    if (colour_stream_.isValid()) {
+      colour_stream_.stop();
+      colour_stream_.destroy();
+    }
+    colour_.reset();
+    registered_ = false;
     if (stream_.isValid()) {
       stream_.stop();
       stream_.destroy();
@@ -107,6 +132,7 @@ class OpenNI2Stream {
     }
     frame.index = static_cast<std::uint64_t>(ref.getFrameIndex());
     frame.source_time_s = ref.getTimestamp() * 1e-6;  // microseconds on the device clock
+    if (colour_stream_.isValid()) attachColour(frame, label);
     return true;
   }
 
@@ -117,6 +143,54 @@ class OpenNI2Stream {
   bool isOpen() const { return stream_.isValid(); }
 
  private:
+  void openColour(const std::string& label) {
+    if (!device_.hasSensor(openni::SENSOR_COLOR) ||
+        colour_stream_.create(device_, openni::SENSOR_COLOR) != openni::STATUS_OK) {
+      fw::logWarn("openni2", label + ": has no colour stream; depth only");
+      return;
+    }
+    const auto& modes = colour_stream_.getSensorInfo().getSupportedVideoModes();
+    for (int i = 0; i < modes.getSize(); ++i) {
+      if (modes[i].getResolutionX() == 640 && modes[i].getResolutionY() == 480 &&
+          modes[i].getPixelFormat() == openni::PIXEL_FORMAT_RGB888) {
+        colour_stream_.setVideoMode(modes[i]);
+        break;
+      }
+    }
+    if (colour_stream_.getVideoMode().getPixelFormat() != openni::PIXEL_FORMAT_RGB888) {
+      fw::logWarn("openni2", label + ": its colour stream offers no RGB888 mode; depth only");
+      colour_stream_.destroy();
+      return;
+    }
+    registered_ = device_.isImageRegistrationModeSupported(openni::IMAGE_REGISTRATION_DEPTH_TO_COLOR) &&
+                  device_.setImageRegistrationMode(openni::IMAGE_REGISTRATION_DEPTH_TO_COLOR) == openni::STATUS_OK;
+  }
+
+  // The newest colour frame (read without waiting), kept; given to the depth frame when it is
+  // within 1.5 frame periods of it (both streams run on the device clock at the same rate).
+  void attachColour(DepthFrame& frame, const std::string& label) {
+    openni::VideoStream* streams[] = {&colour_stream_};
+    int ready = -1;
+    while (openni::OpenNI::waitForAnyStream(streams, 1, &ready, 0) == openni::STATUS_OK) {
+      openni::VideoFrameRef ref;
+      if (colour_stream_.readFrame(&ref) != openni::STATUS_OK || !ref.isValid()) break;
+      const Intrinsics& in = colour_camera_.intrinsics;
+      if (ref.getWidth() != in.width || ref.getHeight() != in.height || ref.getStrideInBytes() < in.width * 3) {
+        fw::logWarn("openni2", label + ": a colour frame of another size; skipped");
+        continue;
+      }
+      std::vector<std::uint8_t> rgb(static_cast<std::size_t>(in.width) * in.height * 3);
+      const auto* rows = static_cast<const std::uint8_t*>(ref.getData());
+      for (int v = 0; v < in.height; ++v) {
+        std::memcpy(&rgb[static_cast<std::size_t>(v) * in.width * 3],
+                    rows + static_cast<std::size_t>(v) * ref.getStrideInBytes(),
+                    static_cast<std::size_t>(in.width) * 3);
+      }
+      colour_ = colour_camera_.image(std::move(rgb), ref.getTimestamp() * 1e-6);
+    }
+    if (colour_ && std::abs(colour_->source_time_s - frame.source_time_s) <= 1.5 / fps_) frame.colour = *colour_;
+  }
+
   void selectVgaMillimetres(const std::string& label) {
     const openni::SensorInfo& info = stream_.getSensorInfo();
     const auto& modes = info.getSupportedVideoModes();
@@ -137,6 +211,10 @@ class OpenNI2Stream {
   openni::VideoStream stream_;
   Intrinsics intrinsics_;
   int fps_ = 30;
+  openni::VideoStream colour_stream_;
+  bool registered_ = false;  // depth registered to the colour camera by the device
+  ColourCamera colour_camera_;
+  std::optional<fw::ColourImage> colour_;  // the newest colour frame
 };
 
 // A live OpenNI2 device; absence, loss and silence as every live device (live_device.h).
@@ -151,7 +229,7 @@ class OpenNI2Device : public LiveDevice {
   std::string describe() const override { return "openni2:" + uri_; }
 
  private:
-  void openDevice() override { stream_.open(uri_, describe()); }
+  void openDevice() override { stream_.open(uri_, describe(), true, options().colour); }
   void closeDevice() override { stream_.close(); }
   bool deviceOpen() const override { return stream_.isOpen(); }
   bool readDevice(DepthFrame& frame, int wait_ms) override { return stream_.read(frame, wait_ms, describe()); }

@@ -4,7 +4,9 @@
 // so "openni2:" (the first device) can never pick it on a robot.
 //
 // The frames are those KinectSimulator renders for the scene, at the scene's frame rate; after
-// `frames` frames (default: the scene's length) the stream goes quiet, as an unplugged camera.
+// `frames` frames (default: the scene's length) the stream goes quiet, as an unplugged camera. The
+// device has a depth stream and a colour stream (RGB888, the Kinect v1's colour camera beside the
+// depth camera, unregistered: it offers no image registration).
 #include <Driver/OniDriverAPI.h>
 
 #include <atomic>
@@ -16,6 +18,7 @@
 #include <string>
 #include <thread>
 
+#include "kinect3d/camera_file.h"
 #include "kinect3d/sim/kinect_simulator.h"
 
 // ONI_EXPORT_DRIVER uses OpenNI's internal allocation macros.
@@ -55,14 +58,28 @@ bool parseUri(const std::string& uri, kinect3d::sim::Scene& scene, StreamOptions
   return true;
 }
 
+// The colour camera's intrinsics (ColourCamera::kinectV1()).
+const kinect3d::Intrinsics& colourIntrinsics() {
+  static const kinect3d::Intrinsics intrinsics = kinect3d::ColourCamera::kinectV1().intrinsics;
+  return intrinsics;
+}
+
+OniVideoMode modeOf(OniSensorType type, const kinect3d::sim::Scene& scene) {
+  const int fps = static_cast<int>(scene.fps + 0.5);
+  if (type == ONI_SENSOR_COLOR)
+    return {ONI_PIXEL_FORMAT_RGB888, colourIntrinsics().width, colourIntrinsics().height, fps};
+  return {ONI_PIXEL_FORMAT_DEPTH_1_MM, scene.intrinsics.width, scene.intrinsics.height, fps};
+}
+
 class SimStream : public oni::driver::StreamBase {
  public:
-  SimStream(const kinect3d::sim::Scene& scene, const StreamOptions& options)
-      : simulator_(scene),
+  SimStream(OniSensorType type, const kinect3d::sim::Scene& scene, const StreamOptions& options)
+      : type_(type),
+        simulator_(scene),
         frames_(options.frames > 0 ? std::min(options.frames, simulator_.frameCount()) : simulator_.frameCount()),
-        drop_every_(options.drop_every) {
-    const kinect3d::Intrinsics& in = scene.intrinsics;
-    mode_ = {ONI_PIXEL_FORMAT_DEPTH_1_MM, in.width, in.height, static_cast<int>(scene.fps + 0.5)};
+        drop_every_(options.drop_every),
+        mode_(modeOf(type, scene)) {
+    simulator_.setColour(type == ONI_SENSOR_COLOR);
   }
   ~SimStream() override { stop(); }
 
@@ -84,13 +101,13 @@ class SimStream : public oni::driver::StreamBase {
   }
 
   OniStatus getProperty(int id, void* data, int* size) override {
-    const kinect3d::Intrinsics& in = simulator_.scene().intrinsics;
+    const kinect3d::Intrinsics& in = type_ == ONI_SENSOR_COLOR ? colourIntrinsics() : simulator_.scene().intrinsics;
     switch (id) {
       case ONI_STREAM_PROPERTY_VIDEO_MODE:
         return copyOut(mode_, data, size);
       // OpenNI2's file player drops every frame of a recording that lacks stride or cropping.
       case ONI_STREAM_PROPERTY_STRIDE:
-        return copyOut(in.width * 2, data, size);
+        return copyOut(in.width * bytesPerPixel(), data, size);
       case ONI_STREAM_PROPERTY_CROPPING:
         return copyOut(OniCropping{FALSE, 0, 0, in.width, in.height}, data, size);
       case ONI_STREAM_PROPERTY_HORIZONTAL_FOV:
@@ -98,7 +115,8 @@ class SimStream : public oni::driver::StreamBase {
       case ONI_STREAM_PROPERTY_VERTICAL_FOV:
         return copyOut(static_cast<float>(2.0 * std::atan(in.height / (2.0 * in.fy))), data, size);
       case ONI_STREAM_PROPERTY_MAX_VALUE:
-        return copyOut(static_cast<int>(simulator_.scene().noise.max_range_m * 1000), data, size);
+        return copyOut(type_ == ONI_SENSOR_COLOR ? 255 : static_cast<int>(simulator_.scene().noise.max_range_m * 1000),
+                       data, size);
       case ONI_STREAM_PROPERTY_MIN_VALUE:
         return copyOut(0, data, size);
       case ONI_STREAM_PROPERTY_MIRRORING:
@@ -120,6 +138,8 @@ class SimStream : public oni::driver::StreamBase {
   }
 
  private:
+  int bytesPerPixel() const { return type_ == ONI_SENSOR_COLOR ? 3 : 2; }
+
   template <typename T>
   static OniStatus copyOut(const T& value, void* data, int* size) {
     if (*size < static_cast<int>(sizeof(T))) return ONI_STATUS_BAD_PARAMETER;
@@ -143,61 +163,66 @@ class SimStream : public oni::driver::StreamBase {
       simulator_.render(i, depth, truth);
       OniFrame* frame = getServices().acquireFrame();
       if (frame == nullptr) break;
-      const int bytes = depth.width() * depth.height() * 2;
+      const void* pixels = type_ == ONI_SENSOR_COLOR ? static_cast<const void*>(depth.colour->rgb.data())
+                                                     : static_cast<const void*>(depth.depth_mm.data());
+      const int bytes = mode_.resolutionX * mode_.resolutionY * bytesPerPixel();
       if (frame->dataSize < bytes) {
         getServices().releaseFrame(frame);
         break;
       }
-      std::memcpy(frame->data, depth.depth_mm.data(), bytes);
+      std::memcpy(frame->data, pixels, bytes);
       frame->dataSize = bytes;
-      frame->sensorType = ONI_SENSOR_DEPTH;
+      frame->sensorType = type_;
       frame->frameIndex = i + 1;  // OpenNI devices count from 1
       // A device clock in microseconds since the stream started, as real devices stamp frames
       // (OpenNI2's file player paces playback from zero, so epoch times would stall it).
       frame->timestamp = static_cast<uint64_t>((i + 1) * 1e6 / simulator_.scene().fps);
-      frame->width = depth.width();
-      frame->height = depth.height();
+      frame->width = mode_.resolutionX;
+      frame->height = mode_.resolutionY;
       frame->videoMode = mode_;
       frame->croppingEnabled = FALSE;
       frame->cropOriginX = frame->cropOriginY = 0;
-      frame->stride = depth.width() * 2;
+      frame->stride = mode_.resolutionX * bytesPerPixel();
       raiseNewFrame(frame);
       getServices().releaseFrame(frame);
       std::this_thread::sleep_until(next);
     }
   }
 
+  const OniSensorType type_;
   kinect3d::sim::KinectSimulator simulator_;
   const int frames_;
   const int drop_every_;
-  OniVideoMode mode_;
+  const OniVideoMode mode_;
   std::atomic<bool> running_{false};
   std::thread thread_;
 };
 
 class SimDevice : public oni::driver::DeviceBase {
  public:
-  SimDevice(kinect3d::sim::Scene scene, const StreamOptions& options) : scene_(std::move(scene)), options_(options) {
-    const kinect3d::Intrinsics& in = scene_.intrinsics;
-    mode_ = {ONI_PIXEL_FORMAT_DEPTH_1_MM, in.width, in.height, static_cast<int>(scene_.fps + 0.5)};
-    sensor_ = {ONI_SENSOR_DEPTH, 1, &mode_};
+  SimDevice(kinect3d::sim::Scene scene, const StreamOptions& options)
+      : scene_(std::move(scene)),
+        options_(options),
+        modes_{modeOf(ONI_SENSOR_DEPTH, scene_), modeOf(ONI_SENSOR_COLOR, scene_)} {
+    sensors_[0] = {ONI_SENSOR_DEPTH, 1, &modes_[0]};
+    sensors_[1] = {ONI_SENSOR_COLOR, 1, &modes_[1]};
   }
 
   OniStatus getSensorInfoList(OniSensorInfo** sensors, int* count) override {
-    *sensors = &sensor_;
-    *count = 1;
+    *sensors = sensors_;
+    *count = 2;
     return ONI_STATUS_OK;
   }
   oni::driver::StreamBase* createStream(OniSensorType type) override {
-    return type == ONI_SENSOR_DEPTH ? new SimStream(scene_, options_) : nullptr;
+    return type == ONI_SENSOR_DEPTH || type == ONI_SENSOR_COLOR ? new SimStream(type, scene_, options_) : nullptr;
   }
   void destroyStream(oni::driver::StreamBase* stream) override { delete stream; }
 
  private:
   kinect3d::sim::Scene scene_;
   StreamOptions options_;
-  OniVideoMode mode_;
-  OniSensorInfo sensor_;
+  OniVideoMode modes_[2];
+  OniSensorInfo sensors_[2];
 };
 
 class SimDriver : public oni::driver::DriverBase {

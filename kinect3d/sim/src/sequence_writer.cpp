@@ -2,6 +2,7 @@
 
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include <cmath>
 #include <cstdio>
@@ -31,13 +32,32 @@ TumSequenceWriter::TumSequenceWriter(const std::string& dir) : dir_(dir) {
 
 void TumSequenceWriter::write(const DepthFrame& frame) {
   const Intrinsics& in = frame.intrinsics;
-  if (!camera_written_) {
-    std::ofstream camera(fs::path(dir_) / "camera.yaml");
-    camera.precision(10);
-    camera << "width: " << in.width << "\nheight: " << in.height << "\nfx: " << in.fx << "\nfy: " << in.fy
-           << "\ncx: " << in.cx << "\ncy: " << in.cy << "\ndepth_scale: 5000\n";
-    if (!camera) throw std::runtime_error("cannot write '" + dir_ + "/camera.yaml'");
+  if (!camera_written_ || (frame.colour && !colour_started_)) {
+    // The first frame with colour starts rgb.txt and rgb/, as TUM's own, and adds the colour camera.
+    std::optional<ColourCamera> colour;
+    if (frame.colour) {
+      colour = ColourCamera::of(*frame.colour);
+      fs::create_directories(fs::path(dir_) / "rgb");
+      std::ofstream(fs::path(dir_) / "rgb.txt") << "# colour images written by kinect3d\n# timestamp filename\n";
+      colour_started_ = true;
+    }
+    writeCameraFile(dir_, in, colour, 5000.0);
     camera_written_ = true;
+  }
+  if (frame.colour) {
+    char name[64];
+    std::snprintf(name, sizeof name, "rgb/%06llu.png", static_cast<unsigned long long>(frame.index));
+    cv::Mat bgr;
+    cv::cvtColor(cv::Mat(frame.colour->height, frame.colour->width, CV_8UC3,
+                         const_cast<std::uint8_t*>(frame.colour->rgb.data())),
+                 bgr, cv::COLOR_RGB2BGR);
+    std::ofstream list(fs::path(dir_) / "rgb.txt", std::ios::app);
+    char line[128];
+    std::snprintf(line, sizeof line, "%.6f %s\n", frame.colour->source_time_s, name);
+    list << line;
+    if (!cv::imwrite((fs::path(dir_) / name).string(), bgr) || !list) {
+      throw std::runtime_error("cannot write '" + dir_ + "/" + name + "'");
+    }
   }
   // TUM stores 1/5000 m: millimetres times five (9.5 m max range fits in 16 bits).
   cv::Mat image(in.height, in.width, CV_16UC1);

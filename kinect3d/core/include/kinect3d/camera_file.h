@@ -28,6 +28,8 @@ struct ColourCamera {
   static ColourCamera kinectV1();
   // A colour image from this camera: rgb is width * height * 3 bytes.
   fw::ColourImage image(std::vector<std::uint8_t> rgb, double source_time_s) const;
+  // The camera that took an image.
+  static ColourCamera of(const fw::ColourImage& image);
 };
 
 struct CameraFile {
@@ -40,8 +42,9 @@ struct CameraFile {
 // whether the folder type stores scaled depth (TUM) or not (fakenect). Throws DepthSourceError
 // naming the file, line and key.
 CameraFile readCameraFile(const std::string& dir, const CameraFile& defaults, bool allow_depth_scale);
-// Writes dir/camera.yaml with every key (depth_scale when given). Throws std::runtime_error naming the file.
-void writeCameraFile(const std::string& dir, const Intrinsics& depth, const ColourCamera& colour,
+// Writes dir/camera.yaml: the depth camera, depth_scale and the colour camera when given. Throws
+// std::runtime_error naming the file.
+void writeCameraFile(const std::string& dir, const Intrinsics& depth, const std::optional<ColourCamera>& colour,
                      std::optional<double> depth_scale);
 
 // The pairing rule for a sensor's second stream (colour, accelerometer): of the times given in

@@ -44,8 +44,9 @@ class DisparityTable {
  public:
   explicit DisparityTable(const DisparityModel& model = {});
   std::uint16_t millimetres(std::uint16_t raw) const { return raw < table_.size() ? table_[raw] : 0; }
-  // raw: width * height values (the upper five bits ignored); frame.depth_mm must already have that size.
-  void convert(const std::uint16_t* raw, DepthFrame& frame) const;
+  // raw: width * height uint16 values in the host's byte order, at any alignment (the upper five
+  // bits ignored); frame.depth_mm must already have that size.
+  void convert(const void* raw, DepthFrame& frame) const;
 
  private:
   std::array<std::uint16_t, 2048> table_{};

@@ -1,5 +1,6 @@
 // Writes simulated sequences to disk: depth as a TUM sequence (depth.txt, 16-bit PNGs at 5000 units
-// per metre, camera.yaml) and the ground truth as truth.json.
+// per metre, camera.yaml; rgb.txt and colour PNGs when the frames have colour) and the ground
+// truth as truth.json.
 #pragma once
 
 #include <string>
@@ -19,6 +20,7 @@ class TumSequenceWriter {
  private:
   std::string dir_;
   bool camera_written_ = false;
+  bool colour_started_ = false;
 };
 
 // truth.json: the scene name and one object per frame (see docs/simulator.md).
