@@ -3,6 +3,8 @@
 // library inside vision_host, colour from TUM folders, and the moved-sensor alarm from gravity.
 #include <gtest/gtest.h>
 
+#include <opencv2/imgcodecs.hpp>
+
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -18,6 +20,7 @@
 #include "kinect3d/sensor_calibration.h"
 #include "kinect3d/sim/scene.h"
 #include "kinect3d/sim/sequence_writer.h"
+#include "match_view.h"
 #include "real_data.h"
 #include "run_command.h"
 #include "scoped_temp_dir.h"
@@ -212,6 +215,18 @@ TEST(FreenectOverFakenect, TheKinectPathPlaysARecordingIntoTheHostAndGravityAlon
   }
   EXPECT_EQ(alarms, 1);
   EXPECT_GE(balls_right, 20) << "the ball where the simulator hung it, before the knock";
+
+  // The viewer shows the colour image and the gravity reading of a frame.
+  kinect3d::MatchView view(log.string());
+  const std::optional<nlohmann::json> shown = view.frame(10);
+  ASSERT_TRUE(shown.has_value());
+  EXPECT_TRUE(shown->at("colour").get<bool>());
+  EXPECT_NEAR(shown->at("gravity_S_mps2").at(1).get<double>(), kinect3d::kStandardGravity_mps2, 0.05);
+  const std::optional<std::string> colour_png = view.colourPng(10);
+  ASSERT_TRUE(colour_png.has_value());
+  const cv::Mat shown_colour =
+      cv::imdecode(std::vector<unsigned char>(colour_png->begin(), colour_png->end()), cv::IMREAD_COLOR);
+  EXPECT_EQ(shown_colour.cols, 640);
 
   // Exported, the colour comes along: a TUM folder with rgb.txt that plays with its colour.
   const fs::path tum = temp.path() / "tum";

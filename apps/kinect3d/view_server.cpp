@@ -96,24 +96,21 @@ ViewServer::ViewServer(MatchView& view, const ViewServerOptions& options)
     }
     response.set_content(scene->dump(), "application/json");
   });
-  server.Get(R"(/api/depth/(\d+)\.png)", [&view](const httplib::Request& request, httplib::Response& response) {
-    const std::optional<std::size_t> frame = frameNumber(request);
-    const std::optional<std::string> png = frame ? view.depthPng(*frame) : std::nullopt;
-    if (!png) {
-      response.status = 404;
-      return;
-    }
-    response.set_content(*png, "image/png");
-  });
-  server.Get(R"(/api/colour/(\d+)\.png)", [&view](const httplib::Request& request, httplib::Response& response) {
-    const std::optional<std::size_t> frame = frameNumber(request);
-    const std::optional<std::string> png = frame ? view.colourPng(*frame) : std::nullopt;
-    if (!png) {
-      response.status = 404;
-      return;
-    }
-    response.set_content(*png, "image/png");
-  });
+  // A frame's image: depth (always) or colour (when the robot logged it); 404 when there is none.
+  using FrameImage = std::optional<std::string> (MatchView::*)(std::size_t);
+  for (const auto& [pattern, image] :
+       {std::pair<const char*, FrameImage>{R"(/api/depth/(\d+)\.png)", &MatchView::depthPng},
+        std::pair<const char*, FrameImage>{R"(/api/colour/(\d+)\.png)", &MatchView::colourPng}}) {
+    server.Get(pattern, [&view, image = image](const httplib::Request& request, httplib::Response& response) {
+      const std::optional<std::size_t> frame = frameNumber(request);
+      const std::optional<std::string> png = frame ? (view.*image)(*frame) : std::nullopt;
+      if (!png) {
+        response.status = 404;
+        return;
+      }
+      response.set_content(*png, "image/png");
+    });
+  }
   // A bad log frame (a damaged PNG) answers 500 with the reason; the server goes on.
   server.set_exception_handler([](const httplib::Request&, httplib::Response& response, std::exception_ptr error) {
     try {

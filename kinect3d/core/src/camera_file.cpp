@@ -63,13 +63,7 @@ CameraFile readCameraFile(const std::string& dir, const CameraFile& defaults, bo
     if (root.has("width")) camera.depth = readIntrinsics(root);
     if (allow_depth_scale && root.has("depth_scale")) camera.depth_scale = root.getDouble("depth_scale", 1e-3, 1e7);
     if (root.has("rgb_width")) {
-      Intrinsics& in = camera.colour.intrinsics;
-      in.width = root.getInt("rgb_width", Intrinsics::kMinSide_px, Intrinsics::kMaxSide_px);
-      in.height = root.getInt("rgb_height", Intrinsics::kMinSide_px, Intrinsics::kMaxSide_px);
-      in.fx = root.getDouble("rgb_fx", 10.0, 1e5);
-      in.fy = root.getDouble("rgb_fy", 10.0, 1e5);
-      in.cx = root.getDouble("rgb_cx", 0.0, in.width);
-      in.cy = root.getDouble("rgb_cy", 0.0, in.height);
+      camera.colour.intrinsics = readIntrinsics(root, "rgb_");
       camera.colour.offset_S_m = {root.getDouble("rgb_offset_x_m", -1.0, 1.0),
                                   root.getDouble("rgb_offset_y_m", -1.0, 1.0),
                                   root.getDouble("rgb_offset_z_m", -1.0, 1.0)};

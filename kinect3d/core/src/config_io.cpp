@@ -16,14 +16,15 @@ fw::SensorPose readSensorPose(const fw::ConfigView& pose) {
   return result;
 }
 
-Intrinsics readIntrinsics(const fw::ConfigView& intrinsics) {
+Intrinsics readIntrinsics(const fw::ConfigView& intrinsics, const std::string& key_prefix) {
+  const auto key = [&](const char* name) { return key_prefix + name; };
   Intrinsics result;
-  result.width = intrinsics.getInt("width", Intrinsics::kMinSide_px, Intrinsics::kMaxSide_px);
-  result.height = intrinsics.getInt("height", Intrinsics::kMinSide_px, Intrinsics::kMaxSide_px);
-  result.fx = intrinsics.getDouble("fx", 10.0, 1e5);
-  result.fy = intrinsics.getDouble("fy", 10.0, 1e5);
-  result.cx = intrinsics.getDouble("cx", 0.0, result.width);
-  result.cy = intrinsics.getDouble("cy", 0.0, result.height);
+  result.width = intrinsics.getInt(key("width"), Intrinsics::kMinSide_px, Intrinsics::kMaxSide_px);
+  result.height = intrinsics.getInt(key("height"), Intrinsics::kMinSide_px, Intrinsics::kMaxSide_px);
+  result.fx = intrinsics.getDouble(key("fx"), 10.0, 1e5);
+  result.fy = intrinsics.getDouble(key("fy"), 10.0, 1e5);
+  result.cx = intrinsics.getDouble(key("cx"), 0.0, result.width);
+  result.cy = intrinsics.getDouble(key("cy"), 0.0, result.height);
   return result;
 }
 

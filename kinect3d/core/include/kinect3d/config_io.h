@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cmath>
+#include <string>
 
 #include "framework_api/config.h"
 #include "framework_api/sensor_pose.h"
@@ -20,7 +21,7 @@ using fw::degreesToRadians;
 fw::SensorPose readSensorPose(const fw::ConfigView& pose);
 // {width, height, fx, fy, cx, cy}; every key is required. The caller checks for unknown keys,
 // since files such as a TUM camera.yaml keep other keys beside these.
-Intrinsics readIntrinsics(const fw::ConfigView& intrinsics);
+Intrinsics readIntrinsics(const fw::ConfigView& intrinsics, const std::string& key_prefix = "");
 
 // The detector's settings from the kinect3d block of a robot configuration.
 DetectorConfig readDetectorConfig(const fw::ConfigView& kinect3d);
