@@ -36,19 +36,6 @@ std::string readWhole(const std::string& path) {
   return bytes.str();
 }
 
-// The payload of a PGM/PPM as fakenect-record writes it: the exact header line, then `bytes` bytes.
-std::string payload(const std::string& path, const std::string& header, std::size_t bytes) {
-  const std::string data = readWhole(path);
-  if (data.compare(0, header.size(), header) != 0) {
-    throw DepthSourceError(path + ": expected the header '" + header.substr(0, header.size() - 1) + "'");
-  }
-  if (data.size() != header.size() + bytes) {
-    throw DepthSourceError(path + ": " + std::to_string(data.size() - header.size()) + " bytes of pixels, expected " +
-                           std::to_string(bytes));
-  }
-  return data.substr(header.size());
-}
-
 const std::string& depthHeader() {
   static const std::string header = "P5 640 480 65535\n";
   return header;
@@ -82,7 +69,7 @@ std::vector<FakenectEntry> readFakenectIndex(const std::string& dir) {
                              "' is not a fakenect file name (<type>-<host seconds>-<stamp>.<ext>)");
     }
     const std::string extension = text.substr(static_cast<std::size_t>(consumed));
-    const std::map<char, std::string> extensions = {{'d', "pgm"}, {'r', "ppm"}, {'a', "dump"}};
+    static const std::map<char, std::string> extensions = {{'d', "pgm"}, {'r', "ppm"}, {'a', "dump"}};
     const auto expected = extensions.find(type);
     if (expected == extensions.end() || expected->second != extension) {
       throw DepthSourceError(where + "'" + text + "': expected d-*.pgm, r-*.ppm or a-*.dump");
@@ -96,17 +83,20 @@ std::vector<FakenectEntry> readFakenectIndex(const std::string& dir) {
   return entries;
 }
 
-std::vector<std::uint16_t> readFakenectDepth(const std::string& path) {
-  const std::string bytes = payload(path, depthHeader(), kDepthBytes);
-  std::vector<std::uint16_t> raw(kDepthBytes / 2);
-  // Little-endian on disk, the host's order on every machine the product runs on (x86-64, arm64).
-  std::memcpy(raw.data(), bytes.data(), kDepthBytes);
-  return raw;
-}
-
 std::vector<std::uint8_t> readFakenectColour(const std::string& path) {
-  const std::string bytes = payload(path, colourHeader(), kColourBytes);
-  return std::vector<std::uint8_t>(bytes.begin(), bytes.end());
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw DepthSourceError("cannot open '" + path + "'");
+  std::string header(colourHeader().size(), '\0');
+  if (!in.read(header.data(), static_cast<std::streamsize>(header.size())) || header != colourHeader()) {
+    throw DepthSourceError(path + ": expected the header '" + colourHeader().substr(0, colourHeader().size() - 1) +
+                           "'");
+  }
+  std::vector<std::uint8_t> rgb(kColourBytes);
+  in.read(reinterpret_cast<char*>(rgb.data()), static_cast<std::streamsize>(rgb.size()));
+  if (in.gcount() != static_cast<std::streamsize>(rgb.size()) || in.peek() != std::char_traits<char>::eof()) {
+    throw DepthSourceError(path + ": not " + std::to_string(kColourBytes) + " bytes of pixels after its header");
+  }
+  return rgb;
 }
 
 std::array<std::int16_t, 3> readFakenectAccelerometer(const std::string& path) {
@@ -213,9 +203,7 @@ class FakenectRecording : public DepthSource {
     while (next_ < depth_.size()) {
       const Depth& depth = depth_[next_++];
       try {
-        const std::vector<std::uint16_t> raw = readFakenectDepth(pathOf(depth.entry));
-        frame.resize(camera_.depth);
-        disparity_.convert(raw.data(), frame);
+        frame = loadRawDisparityPgm(pathOf(depth.entry), camera_.depth, disparity_);
       } catch (const DepthSourceError& e) {
         reportSkipped(std::string(e.what()) + " (INDEX.txt line " + std::to_string(entries_[depth.entry].line) + ")");
         continue;

@@ -75,7 +75,7 @@ std::array<std::int16_t, 3> accelerometerFromGravity(const Eigen::Vector3d& grav
   return {count(counts.x()), count(counts.y()), count(-counts.z())};
 }
 
-DepthFrame loadRawDisparityPgm(const std::string& path, const Intrinsics& intrinsics, const DisparityModel& model) {
+DepthFrame loadRawDisparityPgm(const std::string& path, const Intrinsics& intrinsics, const DisparityTable& table) {
   std::ifstream in(path, std::ios::binary);
   if (!in) throw DepthSourceError("cannot open raw disparity file '" + path + "'");
   std::string magic;
@@ -98,7 +98,7 @@ DepthFrame loadRawDisparityPgm(const std::string& path, const Intrinsics& intrin
   DepthFrame frame;
   frame.resize(intrinsics);
   frame.sensor_id = path;
-  DisparityTable(model).convert(raw.data(), frame);
+  table.convert(raw.data(), frame);
   return frame;
 }
 

@@ -33,8 +33,8 @@ struct FakenectEntry {
 // missing). Throws DepthSourceError naming the folder, line and file.
 std::vector<FakenectEntry> readFakenectIndex(const std::string& dir);
 
-// The payloads. Each throws DepthSourceError naming the file when it is not what its type says.
-std::vector<std::uint16_t> readFakenectDepth(const std::string& path);  // 640x480 raw disparity
+// The payloads (depth: loadRawDisparityPgm, kinect3d/kinect_disparity.h). Each throws
+// DepthSourceError naming the file when it is not what its type says.
 std::vector<std::uint8_t> readFakenectColour(const std::string& path);  // 640x480x3 RGB
 std::array<std::int16_t, 3> readFakenectAccelerometer(const std::string& path);
 

@@ -88,6 +88,6 @@ std::array<std::int16_t, 3> accelerometerFromGravity(const Eigen::Vector3d& grav
 // little-endian samples (the layout of the NYU toolbox and of fakenect-record, which breaks PGM's
 // big-endian rule), and converts it to millimetres. Throws DepthSourceError naming the file on any problem.
 DepthFrame loadRawDisparityPgm(const std::string& path, const Intrinsics& intrinsics = {},
-                               const DisparityModel& model = {});
+                               const DisparityTable& table = DisparityTable());
 
 }  // namespace kinect3d
