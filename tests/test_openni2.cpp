@@ -196,8 +196,8 @@ TEST(OpenNI2Device, DeliversTheColourStreamPairedByTimeWithTheBallWhereTheDepthP
     const std::uint8_t* rgb = &colour.rgb[(static_cast<std::size_t>(v) * colour.width + u) * 3];
     ball_orange += rgb[0] > 150 && rgb[1] < 150 && rgb[2] < 80;
   }
-  // How many pair depends on the machine: each stream renders on its own thread, and a colour
-  // stream that falls behind (a slow or sanitized build) is not paired beyond 1.5 frame periods.
+  // How many pair depends on the machine: the streams deliver on their own threads, and a colour
+  // frame that comes late (a busy or sanitized build) is not paired beyond 1.5 frame periods.
   EXPECT_GE(with_colour, 1) << "of 15 depth frames";
   EXPECT_EQ(ball_orange, with_colour) << "the ball's centre, projected through the colour camera, is orange";
   kinect3d::SourceOptions depth_only;

@@ -14,6 +14,8 @@
 #include <cstring>
 #include <map>
 #include <memory>
+#include <mutex>
+#include <optional>
 #include <sstream>
 #include <string>
 #include <thread>
@@ -71,15 +73,56 @@ OniVideoMode modeOf(OniSensorType type, const kinect3d::sim::Scene& scene) {
   return {ONI_PIXEL_FORMAT_DEPTH_1_MM, scene.intrinsics.width, scene.intrinsics.height, fps};
 }
 
+// A device's frames on one clock, rendered once per frame index and handed to each of its
+// streams, so that depth and colour come out in step as from one camera, however busy the machine
+// and whenever each stream started.
+class SharedFrames {
+ public:
+  using Clock = std::chrono::steady_clock;
+
+  explicit SharedFrames(const kinect3d::sim::Scene& scene) : simulator_(scene) {}
+  const kinect3d::sim::Scene& scene() const { return simulator_.scene(); }
+  int frameCount() const { return simulator_.frameCount(); }
+  // Called when the device's colour stream is created: from then on frames carry colour.
+  void withColour() {
+    const std::lock_guard<std::mutex> lock(mutex_);
+    simulator_.setColour(true);
+    colour_ = true;
+  }
+  // The device clock's start: the first stream's start.
+  Clock::time_point start() {
+    const std::lock_guard<std::mutex> lock(mutex_);
+    if (!start_) start_ = Clock::now();
+    return *start_;
+  }
+  void get(int index, kinect3d::DepthFrame& frame) {
+    const std::lock_guard<std::mutex> lock(mutex_);
+    if (index != index_ || (colour_ && !frame_.colour)) {
+      simulator_.render(index, frame_, truth_);
+      index_ = index;
+    }
+    frame = frame_;
+  }
+
+ private:
+  std::mutex mutex_;
+  kinect3d::sim::KinectSimulator simulator_;
+  bool colour_ = false;
+  std::optional<Clock::time_point> start_;
+  int index_ = -1;
+  kinect3d::DepthFrame frame_;
+  kinect3d::sim::GroundTruth truth_;
+};
+
 class SimStream : public oni::driver::StreamBase {
  public:
-  SimStream(OniSensorType type, const kinect3d::sim::Scene& scene, const StreamOptions& options)
+  SimStream(OniSensorType type, std::shared_ptr<SharedFrames> frames, const StreamOptions& options)
       : type_(type),
-        simulator_(scene),
-        frames_(options.frames > 0 ? std::min(options.frames, simulator_.frameCount()) : simulator_.frameCount()),
+        shared_(std::move(frames)),
+        frames_(options.frames > 0 ? std::min(options.frames, shared_->frameCount()) : shared_->frameCount()),
         drop_every_(options.drop_every),
-        mode_(modeOf(type, scene)) {
-    simulator_.setColour(type == ONI_SENSOR_COLOR);
+        mode_(modeOf(type, shared_->scene())) {
+    if (type == ONI_SENSOR_COLOR) shared_->withColour();
   }
   ~SimStream() override { stop(); }
 
@@ -101,7 +144,7 @@ class SimStream : public oni::driver::StreamBase {
   }
 
   OniStatus getProperty(int id, void* data, int* size) override {
-    const kinect3d::Intrinsics& in = type_ == ONI_SENSOR_COLOR ? colourIntrinsics() : simulator_.scene().intrinsics;
+    const kinect3d::Intrinsics& in = type_ == ONI_SENSOR_COLOR ? colourIntrinsics() : shared_->scene().intrinsics;
     switch (id) {
       case ONI_STREAM_PROPERTY_VIDEO_MODE:
         return copyOut(mode_, data, size);
@@ -115,7 +158,7 @@ class SimStream : public oni::driver::StreamBase {
       case ONI_STREAM_PROPERTY_VERTICAL_FOV:
         return copyOut(static_cast<float>(2.0 * std::atan(in.height / (2.0 * in.fy))), data, size);
       case ONI_STREAM_PROPERTY_MAX_VALUE:
-        return copyOut(type_ == ONI_SENSOR_COLOR ? 255 : static_cast<int>(simulator_.scene().noise.max_range_m * 1000),
+        return copyOut(type_ == ONI_SENSOR_COLOR ? 255 : static_cast<int>(shared_->scene().noise.max_range_m * 1000),
                        data, size);
       case ONI_STREAM_PROPERTY_MIN_VALUE:
         return copyOut(0, data, size);
@@ -150,17 +193,22 @@ class SimStream : public oni::driver::StreamBase {
 
   // Renders frames at the scene's rate on the stream's own thread, as a camera delivers them.
   void produce() {
-    const auto period = std::chrono::duration<double>(1.0 / simulator_.scene().fps);
-    auto next = std::chrono::steady_clock::now();
+    const auto period = std::chrono::duration<double>(1.0 / shared_->scene().fps);
+    // A stream started after another joins the device clock at the frame now due.
+    const SharedFrames::Clock::time_point clock_start = shared_->start();
+    const auto due = [&](int index) {
+      return clock_start + std::chrono::duration_cast<SharedFrames::Clock::duration>(index * period);
+    };
+    int first = 0;
+    while (due(first + 1) <= SharedFrames::Clock::now()) ++first;
     kinect3d::DepthFrame depth;
-    kinect3d::sim::GroundTruth truth;
-    for (int i = 0; running_ && i < frames_; ++i) {
-      next += std::chrono::duration_cast<std::chrono::steady_clock::duration>(period);
+    for (int i = first; running_ && i < frames_; ++i) {
+      const auto next = due(i + 1);
       if (drop_every_ > 0 && (i + 1) % drop_every_ == 0) {
         std::this_thread::sleep_until(next);  // the frame is lost on the way; its index is used up
         continue;
       }
-      simulator_.render(i, depth, truth);
+      shared_->get(i, depth);
       OniFrame* frame = getServices().acquireFrame();
       if (frame == nullptr) break;
       const void* pixels = type_ == ONI_SENSOR_COLOR ? static_cast<const void*>(depth.colour->rgb.data())
@@ -176,7 +224,7 @@ class SimStream : public oni::driver::StreamBase {
       frame->frameIndex = i + 1;  // OpenNI devices count from 1
       // A device clock in microseconds since the stream started, as real devices stamp frames
       // (OpenNI2's file player paces playback from zero, so epoch times would stall it).
-      frame->timestamp = static_cast<uint64_t>((i + 1) * 1e6 / simulator_.scene().fps);
+      frame->timestamp = static_cast<uint64_t>((i + 1) * 1e6 / shared_->scene().fps);
       frame->width = mode_.resolutionX;
       frame->height = mode_.resolutionY;
       frame->videoMode = mode_;
@@ -190,7 +238,7 @@ class SimStream : public oni::driver::StreamBase {
   }
 
   const OniSensorType type_;
-  kinect3d::sim::KinectSimulator simulator_;
+  std::shared_ptr<SharedFrames> shared_;
   const int frames_;
   const int drop_every_;
   const OniVideoMode mode_;
@@ -203,6 +251,7 @@ class SimDevice : public oni::driver::DeviceBase {
   SimDevice(kinect3d::sim::Scene scene, const StreamOptions& options)
       : scene_(std::move(scene)),
         options_(options),
+        frames_(std::make_shared<SharedFrames>(scene_)),
         modes_{modeOf(ONI_SENSOR_DEPTH, scene_), modeOf(ONI_SENSOR_COLOR, scene_)} {
     sensors_[0] = {ONI_SENSOR_DEPTH, 1, &modes_[0]};
     sensors_[1] = {ONI_SENSOR_COLOR, 1, &modes_[1]};
@@ -214,13 +263,14 @@ class SimDevice : public oni::driver::DeviceBase {
     return ONI_STATUS_OK;
   }
   oni::driver::StreamBase* createStream(OniSensorType type) override {
-    return type == ONI_SENSOR_DEPTH || type == ONI_SENSOR_COLOR ? new SimStream(type, scene_, options_) : nullptr;
+    return type == ONI_SENSOR_DEPTH || type == ONI_SENSOR_COLOR ? new SimStream(type, frames_, options_) : nullptr;
   }
   void destroyStream(oni::driver::StreamBase* stream) override { delete stream; }
 
  private:
   kinect3d::sim::Scene scene_;
   StreamOptions options_;
+  std::shared_ptr<SharedFrames> frames_;
   OniVideoMode modes_[2];
   OniSensorInfo sensors_[2];
 };
