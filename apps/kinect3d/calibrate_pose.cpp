@@ -224,6 +224,11 @@ PoseCalibration calibratePose(const PoseCalibrationOptions& options, const fw::C
 }
 
 std::string writePoseInRobotFile(const std::string& robot_file, const fw::SensorPose& pose) {
+  return writeRobotFileValue(robot_file, {"kinect3d", "sensor", "pose_in_robot"}, fw::poseInRobotYaml(pose));
+}
+
+std::string writeRobotFileValue(const std::string& robot_file, const std::vector<std::string>& path,
+                                const std::string& value) {
   std::ifstream in(robot_file);
   if (!in) throw std::runtime_error("cannot read '" + robot_file + "'");
   std::vector<std::string> lines;
@@ -257,36 +262,37 @@ std::string writePoseInRobotFile(const std::string& robot_file, const fw::Sensor
     }
     return std::nullopt;
   };
-  const std::string value = fw::poseInRobotYaml(pose);
-  const auto kinect3d = findKey("kinect3d", std::string::npos);
-  if (!kinect3d) {
-    lines.push_back("kinect3d:");
-    lines.push_back("  sensor:");
-    lines.push_back("    pose_in_robot: " + value);
+  // Down the path's blocks as far as the file has them; the rest is written under the last found.
+  std::size_t parent = std::string::npos;
+  std::size_t depth = 0;
+  for (; depth + 1 < path.size(); ++depth) {
+    const auto found = findKey(path[depth], parent);
+    if (!found) break;
+    if (lines[*found].find('{') != std::string::npos) {
+      throw std::runtime_error(robot_file + ":" + std::to_string(*found + 1) + ": the " + path[depth] +
+                               " block is written on one line ({...}); write it as a block to use --write, or "
+                               "paste the printed lines into it");
+    }
+    parent = *found;
+  }
+  const auto old = depth + 1 == path.size() ? findKey(path.back(), parent) : std::nullopt;
+  if (old) {
+    // Keep the line's own indentation and its comment; a block-style value below it goes.
+    const std::string& line = lines[*old];
+    const std::size_t hash = line.find(" #");
+    const std::string comment = hash == std::string::npos ? "" : line.substr(line.find_last_not_of(' ', hash) + 1);
+    const std::size_t end = blockEnd(*old);
+    const std::string key = path.back() + ":";
+    lines[*old] = line.substr(0, line.find(key)) + key + " " + value + comment;
+    lines.erase(lines.begin() + static_cast<long>(*old) + 1, lines.begin() + static_cast<long>(end));
   } else {
-    if (lines[*kinect3d].find('{') != std::string::npos) {
-      throw std::runtime_error(robot_file + ":" + std::to_string(*kinect3d + 1) +
-                               ": the kinect3d block is written on one line ({...}); write it as a block to use "
-                               "--write, or paste the printed pose into it");
+    std::vector<std::string> added;
+    std::size_t indent = parent == std::string::npos ? 0 : indentOf(lines[parent]) + 2;
+    for (std::size_t k = depth; k < path.size(); ++k, indent += 2) {
+      added.push_back(std::string(indent, ' ') + path[k] + ":" + (k + 1 == path.size() ? " " + value : ""));
     }
-    const auto sensor = findKey("sensor", *kinect3d);
-    if (!sensor) {
-      lines.insert(lines.begin() + static_cast<long>(*kinect3d) + 1, {"  sensor:", "    pose_in_robot: " + value});
-    } else {
-      const std::string indent(indentOf(lines[*sensor]) + 2, ' ');
-      const auto old = findKey("pose_in_robot", *sensor);
-      if (!old) {
-        lines.insert(lines.begin() + static_cast<long>(*sensor) + 1, indent + "pose_in_robot: " + value);
-      } else {
-        // Keep the line's own indentation and its comment; a block-style pose below it goes.
-        const std::string& line = lines[*old];
-        const std::size_t hash = line.find(" #");
-        const std::string comment = hash == std::string::npos ? "" : line.substr(line.find_last_not_of(' ', hash) + 1);
-        const std::size_t end = blockEnd(*old);
-        lines[*old] = line.substr(0, line.find("pose_in_robot:")) + "pose_in_robot: " + value + comment;
-        lines.erase(lines.begin() + static_cast<long>(*old) + 1, lines.begin() + static_cast<long>(end));
-      }
-    }
+    const auto at = parent == std::string::npos ? lines.end() : lines.begin() + static_cast<long>(parent) + 1;
+    lines.insert(at, added.begin(), added.end());
   }
 
   const std::time_t now = std::time(nullptr);

@@ -35,4 +35,10 @@ void printPoseCalibration(const PoseCalibration& calibration, std::ostream& out)
 // copying the file to <file>.<date>_<time>.bak. Returns the copy's path.
 std::string writePoseInRobotFile(const std::string& robot_file, const fw::SensorPose& pose);
 
+// Sets the value at a key path (e.g. kinect3d, colour_check, ball_colours) in a robot file, adding
+// the blocks it lacks and leaving every other line as it was, after copying the file to
+// <file>.<date>_<time>.bak. Returns the copy's path.
+std::string writeRobotFileValue(const std::string& robot_file, const std::vector<std::string>& path,
+                                const std::string& value);
+
 }  // namespace kinect3d

@@ -14,9 +14,10 @@ std::string detectLine(std::uint64_t frame_index, double t_s, const std::vector<
     const fw::BallObservation& ball = balls[i];
     std::snprintf(text, sizeof text,
                   "%s{\"x\": %.4f, \"y\": %.4f, \"z\": %.4f, \"state\": \"%s\", \"points\": %d, "
-                  "\"static\": %s}",
+                  "\"static\": %s, \"colour\": \"%s\"}",
                   i ? ", " : "", ball.position_m.x(), ball.position_m.y(), ball.position_m.z(),
-                  fw::toString(ball.state), ball.support_points, ball.is_static ? "true" : "false");
+                  fw::toString(ball.state), ball.support_points, ball.is_static ? "true" : "false",
+                  fw::toString(ball.colour));
     line += text;
   }
   if (process_s) {

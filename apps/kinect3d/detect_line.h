@@ -11,7 +11,7 @@
 
 namespace kinect3d {
 
-// {"frame", "t", "balls": [{"x", "y", "z", "state", "points", "static"}], "process_ms" (null when
+// {"frame", "t", "balls": [{"x", "y", "z", "state", "points", "static", "colour"}], "process_ms" (null when
 // not known), "trajectory": null or {"p", "v", "state", "support", "rms_m", "touchdown", "crossing"}};
 // positions to 0.1 mm, times to 1 us.
 std::string detectLine(std::uint64_t frame_index, double t_s, const std::vector<fw::BallObservation>& balls,

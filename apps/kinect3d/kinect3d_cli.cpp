@@ -29,6 +29,7 @@
 #include "framework_api/log.h"
 #include "fusion/json_lines.h"
 #include "fusion_report.h"
+#include "kinect3d/ball_colour_calibration.h"
 #include "kinect3d/ball_detector.h"
 #include "kinect3d/ball_physics_fit.h"
 #include "kinect3d/config_io.h"
@@ -377,6 +378,44 @@ void runCalibrateDrag(const std::vector<std::string>& files, const fw::Config& c
   }
 }
 
+// `calibrate ball-colour`: the match ball's colours from a recording of it, written into the robot file.
+void runCalibrateBallColour(const std::string& uri, const fw::Config& config, const std::string& robot_file,
+                            bool write) {
+  kinect3d::SourceOptions options;
+  options.colour = true;
+  const auto source = kinect3d::cliSources().open(uri, options);
+  const kinect3d::BallColourFit fit =
+      kinect3d::calibrateBallColour(*source, kinect3d::readDetectorConfig(config.block("kinect3d")));
+  const std::string yaml = kinect3d::ballColoursYaml(fit.model);
+  const kinect3d::ColourCheckConfig check = kinect3d::readColourCheckConfig(config.block("kinect3d"));
+  std::printf("The ball seen whole in %d colour frames (%d pixels of it, %d of everything else).\n\n", fit.frames,
+              fit.ball_pixels, fit.other_pixels);
+  std::printf("  colour  L*     a*     b*     share  explains of everything else\n");
+  for (std::size_t i = 0; i < fit.model.size(); ++i) {
+    const kinect3d::BallColour& c = fit.model[i];
+    std::printf("  %zu      %5.1f  %5.1f  %5.1f  %4.0f %%  %5.1f %%\n", i + 1, c.lab.x(), c.lab.y(), c.lab.z(),
+                100 * c.share, 100 * fit.other_explained_by[i]);
+  }
+  std::printf(
+      "\nSeparability: the model explains %.1f %% of the ball's pixels and %.1f %% of everything else's; the colour "
+      "score of the ball's own discs is %.2f or more in 9 of 10 frames, of ball-sized discs elsewhere at most %.2f "
+      "in 99 of 100 (confirmed from %.2f, rejected below %.2f).\n",
+      100 * fit.ball_explained, 100 * fit.other_explained, fit.ball_score_p10, fit.other_score_p99, check.confirm_score,
+      check.reject_score);
+  if (fit.ball_score_p10 < check.confirm_score || fit.other_score_p99 >= check.reject_score) {
+    std::printf("WARNING: the ball and the rest overlap in colour here: the check will reject or miss balls.\n");
+  }
+  std::printf(
+      "\nFor the robot file:\n\nkinect3d:\n  colour: true\n  colour_check:\n    mode: on\n    ball_colours: %s\n",
+      yaml.c_str());
+  if (write) {
+    const std::string backup =
+        kinect3d::writeRobotFileValue(robot_file, {"kinect3d", "colour_check", "ball_colours"}, yaml);
+    fw::logInfo("calibrate", "wrote kinect3d.colour_check.ball_colours into " + robot_file + " (the old file is " +
+                                 backup + "); turn the check on with kinect3d.colour: true and colour_check.mode: on");
+  }
+}
+
 void addCalibrate(CLI::App& app) {
   struct Options {
     std::vector<std::string> files;
@@ -388,7 +427,8 @@ void addCalibrate(CLI::App& app) {
   auto options = std::make_shared<Options>();
   CLI::App* command = app.add_subcommand(
       "calibrate",
-      "The sensor's pose on the robot from a ball on known marks (docs/calibration.md); 'drag': the ball's drag");
+      "The sensor's pose on the robot from a ball on known marks (docs/calibration.md); 'drag': the ball's drag; "
+      "'ball-colour': its colours");
   command->require_subcommand(0, 1);
   command->add_option("--source", options->pose.source, "Depth source showing the ball on the marks");
   command->add_option("--marks", options->pose.marks_file, "The marks: where the ball is, when (marks.yaml)")
@@ -399,7 +439,7 @@ void addCalibrate(CLI::App& app) {
   command->add_flag("--no-floor", options->no_floor, "Fit all six degrees of freedom from the marks alone");
   command->add_option("--plot", options->plot, "Also draw the set-up and the residuals as a page in this folder");
   command->callback([options, command] {
-    if (!command->get_subcommands().empty()) return;  // calibrate drag
+    if (!command->get_subcommands().empty()) return;  // calibrate drag or ball-colour
     if (options->pose.source.empty() || options->pose.marks_file.empty()) {
       throw CLI::ValidationError("calibrate", "give --source and --marks (or the subcommand drag)");
     }
@@ -421,6 +461,23 @@ void addCalibrate(CLI::App& app) {
       ->check(CLI::ExistingFile);
   drag->add_option("--set", options->config.overrides, "Override a value: --set kinect3d.grid.voxel_m=0.2")->take_all();
   drag->callback([options] { runCalibrateDrag(options->files, options->config.load()); });
+  CLI::App* colour = command->add_subcommand(
+      "ball-colour", "Learn the match ball's colours from a recording of it in view (docs/colour.md)");
+  colour->add_option("--source", options->pose.source, "Depth source with colour showing the ball, alone")->required();
+  colour->add_option("--config", options->config.robot_file, "Robot configuration file (default: the shipped defaults)")
+      ->check(CLI::ExistingFile);
+  colour->add_option("--set", options->config.overrides, "Override a value: --set kinect3d.grid.voxel_m=0.2")
+      ->take_all();
+  colour->add_flag("--write", options->pose.write,
+                   "Write the colours into the --config robot file (the old file is kept as a dated copy)");
+  colour->callback([options] {
+    if (options->pose.write && options->config.robot_file.empty()) {
+      throw CLI::ValidationError("calibrate ball-colour",
+                                 "--write needs the robot file to write into: --config robot.yaml");
+    }
+    runCalibrateBallColour(options->pose.source, options->config.load(), options->config.robot_file,
+                           options->pose.write);
+  });
 }
 
 void addReport(CLI::App& app) {

@@ -277,8 +277,11 @@ std::optional<json> MatchView::frame(std::size_t frame) {
   json kinect = json::array(), omni = json::array();
   if (const fw::BallFrame* balls = latestAt(p.kinect, t, kRecent_s)) {
     for (const fw::BallObservation& ball : balls->balls) {
-      kinect.push_back(
-          {{"p_m", xyz(ball.position_m)}, {"state", fw::toString(ball.state)}, {"static", ball.is_static}});
+      kinect.push_back({{"p_m", xyz(ball.position_m)},
+                        {"state", fw::toString(ball.state)},
+                        {"static", ball.is_static},
+                        {"colour", fw::toString(ball.colour)},
+                        {"colour_note", fw::toString(ball.colour_note)}});
     }
   }
   if (const fw::OmniFrame* image = latestAt(p.omni, t, kRecent_s)) {

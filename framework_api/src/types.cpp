@@ -5,6 +5,7 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <stdexcept>
 
 #include <Eigen/Eigenvalues>
 
@@ -48,6 +49,28 @@ const char* toString(Frame frame) {
 
 const char* toString(BallState state) { return state == BallState::kAir ? "air" : "ground"; }
 
+namespace {
+// The words the match log, the detect output and the viewer use, in enum order.
+constexpr const char* kVerdictNames[] = {"not_checked", "confirmed", "rejected", "no_evidence"};
+constexpr const char* kNoteNames[] = {"none",     "no_image",    "outside_image", "too_small",
+                                      "too_dark", "overexposed", "blurred",       "weak"};
+
+template <typename Enum, std::size_t N>
+Enum enumFrom(const char* const (&names)[N], const std::string& text, const char* what) {
+  for (std::size_t i = 0; i < N; ++i) {
+    if (text == names[i]) return static_cast<Enum>(i);
+  }
+  throw std::invalid_argument("'" + text + "' is not a " + what);
+}
+}  // namespace
+
+const char* toString(ColourVerdict verdict) { return kVerdictNames[static_cast<int>(verdict)]; }
+ColourVerdict colourVerdictFrom(const std::string& text) {
+  return enumFrom<ColourVerdict>(kVerdictNames, text, "colour verdict");
+}
+const char* toString(ColourNote note) { return kNoteNames[static_cast<int>(note)]; }
+ColourNote colourNoteFrom(const std::string& text) { return enumFrom<ColourNote>(kNoteNames, text, "colour note"); }
+
 Eigen::Vector3d RobotPose::fieldFromRobot(const Eigen::Vector3d& p_R) const {
   const double c = std::cos(theta_rad), s = std::sin(theta_rad);
   return {x_m + c * p_R.x() - s * p_R.y(), y_m + s * p_R.x() + c * p_R.y(), p_R.z()};
@@ -74,6 +97,7 @@ BallObservation BallObservation::inRobotFrame(const Eigen::Vector3d& p_R, const 
 
 bool BallObservation::isApprox(const BallObservation& other, double tol_m) const {
   return frame == other.frame && state == other.state && source == other.source && is_static == other.is_static &&
+         colour == other.colour && colour_note == other.colour_note &&
          (position_m - other.position_m).cwiseAbs().maxCoeff() <= tol_m &&
          (covariance_m2 - other.covariance_m2).cwiseAbs().maxCoeff() <= tol_m * tol_m;
 }

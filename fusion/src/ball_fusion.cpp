@@ -64,6 +64,7 @@ struct BallFusion::Candidate {
   Eigen::Matrix3d covariance_F;
   bool in_air = false;
   bool is_static = false;  // an air ball in space occupied for seconds
+  fw::ColourVerdict colour = fw::ColourVerdict::kNotChecked;
 };
 
 BallFusion::BallFusion(const FusionConfig& config)
@@ -169,6 +170,7 @@ std::vector<BallFusion::Candidate> BallFusion::candidatesOf(const Frame& frame, 
     c.covariance_F = c.measurement->noise(c.p_F);
     c.in_air = ball.state == fw::BallState::kAir;
     c.is_static = ball.is_static && c.in_air;  // a ball lying still for seconds is still the ball
+    c.colour = ball.colour;
     candidates.push_back(std::move(c));
   }
   for (const fw::OmniBallObservation& ball : frame.omni) {
@@ -205,7 +207,8 @@ void BallFusion::process(const Frame& frame) {
   for (std::size_t c = 0; c < candidates.size(); ++c) {
     for (std::size_t k = 0; k < state.tracks.size(); ++k) {
       const Track& track = state.tracks[k];
-      // A static floater only continues a confirmed flight.
+      // A ball the colour image rejected is not followed; a static floater only continues a confirmed flight.
+      if (candidates[c].colour == fw::ColourVerdict::kRejected) continue;
       if (candidates[c].is_static && !(track.confirmed && track.filter.airProbability() > 0.5)) continue;
       const double d = BallFilter::mahalanobis(branches[k], *candidates[c].measurement);
       if (d <= config_.track.gate_sigma) pairs.push_back({d, c, k});
@@ -218,6 +221,7 @@ void BallFusion::process(const Frame& frame) {
     candidate_used[pair.candidate] = track_used[pair.track] = true;
     const Candidate& c = candidates[pair.candidate];
     Track& track = state.tracks[pair.track];
+    track.colour_confirmed |= c.colour == fw::ColourVerdict::kConfirmed;
     if (c.source == Source::kOmni && track.id == state.world_id && t - track.last_kinect_s < kLatencyKinectWithin_s &&
         track.filter.airProbability() < 1.0 - kLatencyMinGroundProbability) {
       BallFilter predicted = track.filter;
@@ -242,6 +246,10 @@ void BallFusion::process(const Frame& frame) {
   }
   for (std::size_t c = 0; c < candidates.size(); ++c) {
     if (candidate_used[c]) continue;
+    if (candidates[c].colour == fw::ColourVerdict::kRejected) {
+      state.update.rejected.push_back({nameOf(candidates[c].source), candidates[c].p_F, "colour"});
+      continue;
+    }
     if (candidates[c].is_static) {
       state.update.rejected.push_back({nameOf(candidates[c].source), candidates[c].p_F, "static"});
       continue;
@@ -286,6 +294,7 @@ void BallFusion::startTrack(const Candidate& candidate, double t_s) {
   (candidate.source == Source::kKinect ? track.last_kinect_s : track.last_omni_s) = t_s;
   track.seen_on_ground = !candidate.in_air;
   track.omni_born = candidate.source == Source::kOmni;
+  track.colour_confirmed = candidate.colour == fw::ColourVerdict::kConfirmed;
   state_.tracks.push_back(std::move(track));
 }
 
@@ -308,7 +317,9 @@ void BallFusion::maintainTracks(double t_s) {
     // Born in the air, a track must fly: its speed, less one sigma, above the minimum.
     const Hypothesis& best = track.filter.best();
     const double speed_sigma = std::sqrt(best.P.bottomRightCorner<3, 3>().trace());
-    track.confirmed = track.seen_on_ground || best.x.tail<3>().norm() - speed_sigma > config.min_flight_speed_mps;
+    // A ball the colour image confirmed is the ball wherever it is, flying or not.
+    track.confirmed = track.colour_confirmed || track.seen_on_ground ||
+                      best.x.tail<3>().norm() - speed_sigma > config.min_flight_speed_mps;
   }
   // The world's ball is kept while it is supported; without support for kWorldSwitchAfter_s it
   // gives way to a confirmed track supported since, and it is dropped when lost.

@@ -65,6 +65,21 @@ struct RobotPose {
   Eigen::Isometry3d T_F_R() const;
 };
 
+// What the colour image said of a ball the depth found (kinect3d/colour_check.h, docs/colour.md).
+enum class ColourVerdict {
+  kNotChecked,  // the check is off
+  kConfirmed,   // the ball's colours fill the disc and its outline is there
+  kRejected,    // the disc clearly holds something else (or, when colour is required, no confirmation)
+  kNoEvidence,  // the image cannot tell: the note says why
+};
+const char* toString(ColourVerdict verdict);
+ColourVerdict colourVerdictFrom(const std::string& text);  // throws std::invalid_argument
+
+// Why the colour image could not tell, or "none" when it could.
+enum class ColourNote { kNone, kNoImage, kOutsideImage, kTooSmall, kTooDark, kOverexposed, kBlurred, kWeak };
+const char* toString(ColourNote note);
+ColourNote colourNoteFrom(const std::string& text);  // throws std::invalid_argument
+
 // One ball measurement from one source.
 struct BallObservation {
   Eigen::Vector3d position_m = Eigen::Vector3d::Zero();
@@ -77,10 +92,17 @@ struct BallObservation {
   // Inside space that has been occupied for seconds (a lamp, a poster, a ball on a wire): not a ball
   // in play unless a flight led there.
   bool is_static = false;
+  ColourVerdict colour = ColourVerdict::kNotChecked;
+  ColourNote colour_note = ColourNote::kNone;
+  double colour_score = 0.0;  // 0-1: how much of a ball the colour image shows (docs/colour.md)
+
+  // Whether trajectories and the fusion follow it: not when the colour image rejected it.
+  bool followed() const { return colour != ColourVerdict::kRejected; }
 
   static BallObservation inRobotFrame(const Eigen::Vector3d& p_R, const Eigen::Matrix3d& cov_m2, BallState state,
                                       std::string source, Stamp stamp);
-  // Same frame, state, source and static flag, positions within tol_m, covariances within tol_m^2 per entry.
+  // Same frame, state, source, static flag and colour verdict, positions within tol_m, covariances within tol_m^2 per
+  // entry.
   bool isApprox(const BallObservation& other, double tol_m) const;
 };
 

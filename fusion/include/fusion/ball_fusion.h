@@ -33,7 +33,8 @@ namespace fusion {
 struct RejectedObservation {
   std::string source;
   Eigen::Vector3d position_F = Eigen::Vector3d::Zero();
-  std::string reason;  // "static": in space occupied for seconds, with no flight leading there
+  std::string reason;  // "static": in space occupied for seconds, with no flight leading there; "colour": the colour
+                       // image rejected it
 };
 
 // The world after one source frame, at that frame's (corrected) time.
@@ -102,8 +103,9 @@ class BallFusion {
     double last_support_s = 0.0;
     double last_kinect_s = -1e18;
     double last_omni_s = -1e18;
-    bool seen_on_ground = false;  // a lamp is only ever seen in the air
-    bool omni_born = false;       // started by an omni ball: perhaps the phantom of a ball in the air
+    bool seen_on_ground = false;    // a lamp is only ever seen in the air
+    bool omni_born = false;         // started by an omni ball: perhaps the phantom of a ball in the air
+    bool colour_confirmed = false;  // the colour image confirmed one of its Kinect balls
     bool confirmed = false;
   };
   struct State {

@@ -111,16 +111,24 @@ std::vector<fw::BallFrame> readDetectionsFile(const std::string& path, const std
     fw::BallFrame frame;
     frame.stamp.source_time_s = frame.stamp.receive_time_s = number(object, "t", where, 0.0, kMaxTime_s);
     forEachBall(object, where, [&](const json& item, const std::string& at) {
-      requireOnlyKeys(item, {"x", "y", "z", "state", "points", "static"}, at);
+      requireOnlyKeys(item, {"x", "y", "z", "state", "points", "static", "colour"}, at);
       const Eigen::Vector3d p(number(item, "x", at, -100.0, 100.0), number(item, "y", at, -100.0, 100.0),
                               number(item, "z", at, -100.0, 100.0));
       const auto state = item.find("state");
       if (state == item.end() || !state->is_string() || (*state != "air" && *state != "ground")) {
         throw std::runtime_error(at + ": \"state\" must be \"air\" or \"ground\"");
       }
-      frame.balls.push_back(fw::BallObservation::inRobotFrame(
+      fw::BallObservation ball = fw::BallObservation::inRobotFrame(
           p, Eigen::Matrix3d::Identity() * 1e-4, *state == "air" ? fw::BallState::kAir : fw::BallState::kGround, source,
-          frame.stamp));
+          frame.stamp);
+      if (const auto colour = item.find("colour"); colour != item.end()) {
+        try {
+          ball.colour = fw::colourVerdictFrom(colour->is_string() ? colour->get<std::string>() : colour->dump());
+        } catch (const std::invalid_argument& e) {
+          throw std::runtime_error(at + ": \"colour\": " + e.what());
+        }
+      }
+      frame.balls.push_back(ball);
     });
     frames.push_back(std::move(frame));
   });

@@ -21,7 +21,7 @@ double minGroupPointsAt1m(const DetectorConfig& config, double focal_px) {
 }  // namespace
 
 const char* StageTimes::name(int stage) {
-  static const char* const names[] = {"ground", "points", "grid", "candidates", "refine", "map"};
+  static const char* const names[] = {"ground", "points", "grid", "candidates", "refine", "colour", "map"};
   return stage >= 0 && stage < kCount ? names[stage] : "?";
 }
 
@@ -32,7 +32,7 @@ double StageTimes::total() const {
 }
 
 BallDetector::BallDetector(const DetectorConfig& config, std::string source)
-    : config_(config), source_(std::move(source)), ground_(config.ground) {}
+    : config_(config), source_(std::move(source)), ground_(config.ground), colour_check_(config.colour) {}
 
 BallDetector::~BallDetector() = default;
 
@@ -110,8 +110,21 @@ void BallDetector::detect(const DepthFrame& frame, Detections& out, const std::o
   Clock::time_point t5 = Clock::now();
   out.times.seconds[StageTimes::kRefine] = secondsBetween(t4, t5);
 
+  if (config_.colour.mode != ColourCheckConfig::Mode::kOff) {
+    const Eigen::Isometry3d T_S_R_d = T_R_S_->inverse();
+    for (fw::BallObservation& ball : out.balls) {
+      const ColourEvidence evidence =
+          colour_check_.check(frame.colour, T_S_R_d * ball.position_m, config_.ball.radius_m);
+      ball.colour = evidence.verdict;
+      ball.colour_note = evidence.note;
+      ball.colour_score = evidence.score;
+    }
+  }
+  Clock::time_point t6 = Clock::now();
+  out.times.seconds[StageTimes::kColour] = secondsBetween(t5, t6);
+
   map_->update(frame, T_M_R * *T_R_S_, frame.source_time_s);
-  out.times.seconds[StageTimes::kMap] = secondsBetween(t5, Clock::now());
+  out.times.seconds[StageTimes::kMap] = secondsBetween(t6, Clock::now());
 }
 
 bool BallDetector::insideStaticSpace(const BallCandidate& candidate, const Eigen::Isometry3d& T_M_R) const {

@@ -91,6 +91,46 @@ DetectorConfig readDetectorConfig(const fw::ConfigView& kinect3d) {
   config.ball.min_visible_fraction = ball.getDouble("min_visible_fraction", 0.0, 1.0);
   config.ball.max_size_ratio = ball.getDouble("max_size_ratio", 1.0, 10.0);
   config.ball.air_min_height_m = ball.getDouble("air_min_height_m", 0.0, 2.0);
+  config.colour = readColourCheckConfig(kinect3d);
+  return config;
+}
+
+ColourCheckConfig readColourCheckConfig(const fw::ConfigView& kinect3d) {
+  const fw::ConfigView check = kinect3d.child("colour_check");
+  ColourCheckConfig config;
+  const std::string mode = check.getChoice("mode", {"off", "on", "required"});
+  config.mode = mode == "on"         ? ColourCheckConfig::Mode::kOn
+                : mode == "required" ? ColourCheckConfig::Mode::kRequired
+                                     : ColourCheckConfig::Mode::kOff;
+  for (const fw::ConfigView& colour : check.childList("ball_colours")) {
+    colour.requireOnlyKeys({"lab", "sigma", "share"});
+    const std::vector<double> lab = colour.getDoubleList("lab", 3), sigma = colour.getDoubleList("sigma", 3);
+    BallColour c;
+    c.lab = {lab[0], lab[1], lab[2]};
+    c.sigma = {sigma[0], sigma[1], sigma[2]};
+    if (c.lab.x() < 0.0 || c.lab.x() > 100.0 || c.sigma.minCoeff() <= 0.0) {
+      throw fw::ConfigError(colour.originOf("lab") + ": " + colour.path() +
+                            ": lab is CIE L*a*b* (L 0-100) and every sigma positive");
+    }
+    c.share = colour.getDouble("share", 0.0, 1.0);
+    config.ball_colours.push_back(c);
+  }
+  config.confirm_score = check.getDouble("confirm_score", 0.0, 1.0);
+  config.min_outline = check.getDouble("min_outline", 0.0, 1.0);
+  config.reject_score = check.getDouble("reject_score", 0.0, 1.0);
+  requireIncreasing(check, "reject_score", config.reject_score, "confirm_score", config.confirm_score);
+  if (config.mode != ColourCheckConfig::Mode::kOff) {
+    if (config.ball_colours.empty()) {
+      throw fw::ConfigError(check.originOf("mode") + ": kinect3d.colour_check.mode is " + mode +
+                            " but kinect3d.colour_check.ball_colours is empty: learn the match ball's colours with "
+                            "`kinect3d calibrate ball-colour --write` (docs/colour.md)");
+    }
+    if (!kinect3d.getBool("colour")) {
+      throw fw::ConfigError(check.originOf("mode") + ": kinect3d.colour_check.mode is " + mode +
+                            " but kinect3d.colour is false (" + kinect3d.originOf("colour") +
+                            "): the check needs the colour image");
+    }
+  }
   return config;
 }
 

@@ -29,6 +29,7 @@ CREATE TABLE ball (seq INTEGER NOT NULL, ball_index INTEGER NOT NULL, wall_time_
   source TEXT NOT NULL, source_time_s REAL NOT NULL, receive_time_s REAL NOT NULL, frame TEXT NOT NULL,
   state TEXT NOT NULL, x_m REAL, y_m REAL, z_m REAL, cov_xx_m2 REAL, cov_xy_m2 REAL, cov_xz_m2 REAL,
   cov_yy_m2 REAL, cov_yz_m2 REAL, cov_zz_m2 REAL, support_points INTEGER, is_static INTEGER,
+  colour_verdict TEXT NOT NULL, colour_note TEXT NOT NULL, colour_score REAL,
   PRIMARY KEY (seq, ball_index));
 CREATE TABLE omni_frame (seq INTEGER PRIMARY KEY, wall_time_s REAL NOT NULL, source_time_s REAL NOT NULL,
   receive_time_s REAL NOT NULL);
@@ -311,14 +312,14 @@ void MatchLogWriter::write(const fw::JournalEntry& entry) {
       Overloaded{
           [&](const fw::BallFrame& frame) {
             Statement& insert =
-                statement("INSERT INTO ball VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)");
+                statement("INSERT INTO ball VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)");
             for (std::size_t i = 0; i < frame.balls.size(); ++i) {
               const fw::BallObservation& b = frame.balls[i];
               const Eigen::Matrix3d& c = b.covariance_m2;
               insert.run(seq, static_cast<int>(i), wall, b.source, b.stamp.source_time_s, b.stamp.receive_time_s,
                          fw::toString(b.frame), fw::toString(b.state), b.position_m.x(), b.position_m.y(),
                          b.position_m.z(), c(0, 0), c(0, 1), c(0, 2), c(1, 1), c(1, 2), c(2, 2), b.support_points,
-                         b.is_static);
+                         b.is_static, fw::toString(b.colour), fw::toString(b.colour_note), b.colour_score);
             }
           },
           [&](const fw::OmniFrame& frame) {
@@ -421,10 +422,11 @@ MatchLogReader::MatchLogReader(const std::string& folder)
     Statement tables(db_, "SELECT count(*) FROM sqlite_master WHERE type = 'table' AND name = 'run'", path_);
     tables.row();
     if (tables.integer(0) == 0) fail("not a match log (no 'run' table)");
-    if (schema != kMatchLogSchemaVersion) {
-      fail("schema version " + std::to_string(schema) + ", this program reads version " +
-           std::to_string(kMatchLogSchemaVersion));
+    if (schema < kOldestReadableSchemaVersion || schema > kMatchLogSchemaVersion) {
+      fail("schema version " + std::to_string(schema) + ", this program reads versions " +
+           std::to_string(kOldestReadableSchemaVersion) + " to " + std::to_string(kMatchLogSchemaVersion));
     }
+    schema_ = static_cast<int>(schema);
     Statement integrity(db_, "PRAGMA quick_check", path_);
     integrity.row();
     if (integrity.text(0) != "ok") fail("damaged: " + integrity.text(0));
@@ -541,8 +543,9 @@ std::vector<fw::JournalEntry> MatchLogReader::entries(std::int64_t after_seq, st
   {
     const auto ball = query(
         "SELECT seq, wall_time_s, source, source_time_s, receive_time_s, frame, state, x_m, y_m, z_m, "
-        "cov_xx_m2, cov_xy_m2, cov_xz_m2, cov_yy_m2, cov_yz_m2, cov_zz_m2, support_points, is_static "
-        "FROM ball WHERE seq > ? ORDER BY seq, ball_index");
+        "cov_xx_m2, cov_xy_m2, cov_xz_m2, cov_yy_m2, cov_yz_m2, cov_zz_m2, support_points, is_static" +
+        std::string(schema_ >= 3 ? ", colour_verdict, colour_note, colour_score" : "") +
+        " FROM ball WHERE seq > ? ORDER BY seq, ball_index");
     Statement& q = *ball;
     while (q.row()) {
       fw::JournalEntry& entry = by_seq[q.integer(0)];
@@ -558,6 +561,15 @@ std::vector<fw::JournalEntry> MatchLogReader::entries(std::int64_t after_seq, st
       b.covariance_m2 = symmetric(q, 10);
       b.support_points = static_cast<int>(q.integer(16));
       b.is_static = q.integer(17) != 0;
+      if (schema_ >= 3) {  // version 2 logs were written before the colour check: not checked
+        try {
+          b.colour = fw::colourVerdictFrom(q.text(18));
+          b.colour_note = fw::colourNoteFrom(q.text(19));
+        } catch (const std::invalid_argument& e) {
+          fail(std::string("ball row of seq ") + std::to_string(q.integer(0)) + ": " + e.what());
+        }
+        b.colour_score = q.real(20);
+      }
       if (frame.balls.empty()) {
         frame.stamp = b.stamp;
         frame.source = b.source;

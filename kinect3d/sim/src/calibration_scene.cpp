@@ -22,17 +22,20 @@ void writeCalibrationSession(const CalibrationSession& session, const std::strin
     scene.duration_s = session.seconds_per_mark;
     scene.sensor_pose = session.pose;
     scene.noise.seed = session.noise_seed + index;
+    if (session.colour) scene.look = *session.colour;
     BallLaunch ball;
     ball.position_m = {mark.x(), mark.y(), scene.physics.radius_m};
     ball.hanging = true;  // resting: never moves
     scene.ball = ball;
     KinectSimulator simulator(scene);
+    simulator.setColour(session.colour.has_value());
     DepthFrame frame;
     GroundTruth truth;
     for (int i = 0; i < simulator.frameCount(); ++i, ++index) {
       simulator.render(i, frame, truth);
       frame.source_time_s = scene.start_time_s + index / scene.fps;
       frame.index = index;
+      if (frame.colour) frame.colour->source_time_s = frame.source_time_s;
       writer.write(frame);
     }
     marks << "  - {x: " << mark.x() << ", y: " << mark.y() << ", from_s: " << start_s + 0.1

@@ -7,12 +7,30 @@
 #include <fstream>
 #include <stdexcept>
 
+#include "kinect3d/ball_colour_calibration.h"
 #include "kinect3d/depth_source.h"
+#include "kinect3d/sim/calibration_scene.h"
 
 namespace kinect3d::sim {
 
+namespace {
+// A fresh folder under the system's temporary one, removed with everything in it at scope exit.
+struct TemporaryFolder {
+  explicit TemporaryFolder(const std::string& prefix)
+      : path((std::filesystem::temp_directory_path() / (prefix + "_XXXXXX")).string()) {
+    if (mkdtemp(path.data()) == nullptr) throw std::runtime_error("cannot create a folder like " + path);
+  }
+  ~TemporaryFolder() {
+    std::error_code ignored;
+    std::filesystem::remove_all(path, ignored);
+  }
+  std::string path;
+};
+}  // namespace
+
 std::vector<EvaluatedFrame> runDetectorOnScene(const Scene& scene, const DetectorConfig& config) {
   KinectSimulator simulator(scene);
+  simulator.setColour(config.colour.mode != ColourCheckConfig::Mode::kOff);
   BallDetector detector(config, "kinect3d");
   DepthFrame frame;
   Detections detections;
@@ -22,8 +40,29 @@ std::vector<EvaluatedFrame> runDetectorOnScene(const Scene& scene, const Detecto
     detector.detect(frame, detections);
     results[i].balls = detections.balls;
     results[i].process_s = detections.times.total();
+    results[i].colour_s = detections.times.seconds[StageTimes::kColour];
   }
   return results;
+}
+
+std::vector<EvaluatedFrame> followedOnly(std::vector<EvaluatedFrame> frames) {
+  for (EvaluatedFrame& f : frames) {
+    f.balls.erase(
+        std::remove_if(f.balls.begin(), f.balls.end(), [](const fw::BallObservation& b) { return !b.followed(); }),
+        f.balls.end());
+  }
+  return frames;
+}
+
+BallColourFit learnBallColourInSession(const CalibrationSession& session, const DetectorConfig& config) {
+  const TemporaryFolder dir("kinect3d_ball_colour");
+  writeCalibrationSession(session, dir.path);
+  DetectorConfig detector = config;
+  detector.ground.pose = session.pose;
+  SourceOptions options;
+  options.colour = true;
+  const auto source = DepthSourceTable::core().open("tum:" + dir.path, options);
+  return calibrateBallColour(*source, detector);
 }
 
 bool shouldBeFound(const GroundTruth& truth, const Scene& scene, const EvaluationCriteria& criteria) {
@@ -68,30 +107,24 @@ void DetectionScore::add(const DetectionScore& other) {
 
 RealFramesResult detectOnDepthImages(const std::vector<std::string>& images, double cx, double cy,
                                      const DetectorConfig& config, int units_per_m) {
-  std::string dir = (std::filesystem::temp_directory_path() / "kinect3d_real_frames_XXXXXX").string();
-  if (mkdtemp(dir.data()) == nullptr) throw std::runtime_error("cannot create a folder like " + dir);
+  const TemporaryFolder folder("kinect3d_real_frames");
+  const std::string& dir = folder.path;
   std::ofstream list(dir + "/depth.txt");
   for (std::size_t i = 0; i < 2 * images.size(); ++i) list << i / 30.0 << " " << images[i % images.size()] << "\n";
   list.close();
   std::ofstream(dir + "/camera.yaml") << "width: 640\nheight: 480\nfx: 525\nfy: 525\ncx: " << cx << "\ncy: " << cy
                                       << "\ndepth_scale: " << units_per_m << "\n";
   RealFramesResult result;
-  try {
-    auto source = DepthSourceTable::core().open("tum:" + dir);
-    BallDetector detector(config, "kinect3d");
-    Detections detections;
-    DepthFrame frame;
-    while (source->read(frame) == ReadResult::kFrame) {
-      detector.detect(frame, detections);
-      result.balls += static_cast<int>(detections.balls.size());
-      result.aligned = detections.aligned;
-      ++result.frames;
-    }
-  } catch (...) {
-    std::filesystem::remove_all(dir);
-    throw;
+  auto source = DepthSourceTable::core().open("tum:" + dir);
+  BallDetector detector(config, "kinect3d");
+  Detections detections;
+  DepthFrame frame;
+  while (source->read(frame) == ReadResult::kFrame) {
+    detector.detect(frame, detections);
+    result.balls += static_cast<int>(detections.balls.size());
+    result.aligned = detections.aligned;
+    ++result.frames;
   }
-  std::filesystem::remove_all(dir);
   return result;
 }
 

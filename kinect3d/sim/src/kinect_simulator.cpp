@@ -5,15 +5,16 @@
 #include <cmath>
 #include <limits>
 
+#include "colour_renderer.h"
 #include "kinect3d/camera_file.h"
 #include "kinect3d/depth_noise.h"
 #include "kinect3d/kinect_disparity.h"
+#include "ray_cast.h"
 
 namespace kinect3d::sim {
 
 namespace {
 
-constexpr float kNoHit = std::numeric_limits<float>::infinity();
 constexpr std::int16_t kIdNone = -1;
 constexpr std::int16_t kIdFloor = 0;
 // Shapes are 1..N; the ball and its partly covered trail pixels come after every shape id.
@@ -21,140 +22,6 @@ constexpr std::int16_t kIdBall = 30000;
 constexpr std::int16_t kIdTrail = 30001;
 constexpr std::int16_t kIdBallDark = 30002;  // the ball's black panels: no depth
 constexpr int kBlurSamples = 8;
-
-// xoshiro256** seeded by splitmix64: fast, and a frame's noise depends only on (seed, frame).
-class Random {
- public:
-  Random(std::uint64_t seed, std::uint64_t stream) {
-    std::uint64_t x = seed * 0x9E3779B97F4A7C15ULL ^ (stream + 0x632BE59BD9B4E019ULL);
-    for (auto& word : s_) {
-      x += 0x9E3779B97F4A7C15ULL;
-      std::uint64_t z = x;
-      z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ULL;
-      z = (z ^ (z >> 27)) * 0x94D049BB133111EBULL;
-      word = z ^ (z >> 31);
-    }
-  }
-  std::uint64_t next() {
-    const std::uint64_t result = rotl(s_[1] * 5, 7) * 9;
-    const std::uint64_t t = s_[1] << 17;
-    s_[2] ^= s_[0];
-    s_[3] ^= s_[1];
-    s_[1] ^= s_[2];
-    s_[0] ^= s_[3];
-    s_[2] ^= t;
-    s_[3] = rotl(s_[3], 45);
-    return result;
-  }
-  double uniform() { return (next() >> 11) * 0x1.0p-53; }
-  // Standard normal from a precomputed table (inverse CDF at 4096 midpoints): far cheaper than
-  // Box-Muller for the million draws a frame needs, and exact in variance to 0.1 %.
-  float normal() { return table()[next() >> 52]; }
-
- private:
-  static std::uint64_t rotl(std::uint64_t x, int k) { return (x << k) | (x >> (64 - k)); }
-  static const std::array<float, 4096>& table() {
-    static const std::array<float, 4096> values = [] {
-      std::array<float, 4096> t{};
-      for (std::size_t i = 0; i < t.size(); ++i) {
-        // Inverse normal CDF by bisection on erfc: run once.
-        const double p = (i + 0.5) / t.size();
-        double lo = -10, hi = 10;
-        for (int k = 0; k < 100; ++k) {
-          const double mid = 0.5 * (lo + hi);
-          (0.5 * std::erfc(-mid / std::sqrt(2.0)) < p ? lo : hi) = mid;
-        }
-        t[i] = static_cast<float>(0.5 * (lo + hi));
-      }
-      return t;
-    }();
-    return values;
-  }
-  std::array<std::uint64_t, 4> s_;
-};
-
-// The nearest hit in front of o along o + t d: of a sphere of radius r round the origin, and of the
-// side of an upright cylinder of radius r standing on the origin, height high.
-double sphereHit(const Eigen::Vector3d& o, const Eigen::Vector3d& d, double r) {
-  const double b = o.dot(d), disc = b * b - d.squaredNorm() * (o.squaredNorm() - r * r);
-  if (disc < 0.0) return kNoHit;
-  const double t = (-b - std::sqrt(disc)) / d.squaredNorm();
-  return t > 0.0 ? t : kNoHit;
-}
-double sideHit(const Eigen::Vector3d& o, const Eigen::Vector3d& d, double r, double height) {
-  const double a = d.x() * d.x() + d.y() * d.y();
-  if (a <= 1e-12) return kNoHit;
-  const double b = o.x() * d.x() + o.y() * d.y();
-  const double disc = b * b - a * (o.x() * o.x() + o.y() * o.y() - r * r);
-  if (disc < 0.0) return kNoHit;
-  const double t = (-b - std::sqrt(disc)) / a;
-  const double z = o.z() + t * d.z();
-  return t > 0.0 && z >= 0.0 && z <= height ? t : kNoHit;
-}
-
-// A shape at one instant, prepared for ray casting from the sensor origin: the ray o + t d with
-// d = ((u - cx)/fx, (v - cy)/fy, 1) in the sensor frame hits at optical depth t.
-struct PlacedShape {
-  Shape::Kind kind;
-  Eigen::Matrix3d R_L_S;  // sensor directions into the shape's local frame
-  Eigen::Vector3d o_L;    // the sensor origin in the local frame
-  Eigen::Vector3d half;   // box half extents; cylinder (r, r, height); sphere (r, r, r); capsule (r, r, length)
-
-  // Optical depth of the nearest hit in front of the sensor, or infinity.
-  double intersect(const Eigen::Vector3d& d_S) const {
-    const Eigen::Vector3d d = R_L_S * d_S;
-    const Eigen::Vector3d& o = o_L;
-    switch (kind) {
-      case Shape::Kind::kSphere:
-        return sphereHit(o, d, half.x());
-      case Shape::Kind::kBox: {
-        double t_min = 0.0, t_max = kNoHit;
-        for (int i = 0; i < 3; ++i) {
-          if (std::abs(d[i]) < 1e-12) {
-            if (std::abs(o[i]) > half[i]) return kNoHit;
-            continue;
-          }
-          double t1 = (-half[i] - o[i]) / d[i], t2 = (half[i] - o[i]) / d[i];
-          if (t1 > t2) std::swap(t1, t2);
-          t_min = std::max(t_min, t1);
-          t_max = std::min(t_max, t2);
-          if (t_min > t_max) return kNoHit;
-        }
-        return t_min > 0.0 ? t_min : kNoHit;
-      }
-      case Shape::Kind::kCapsule: {
-        // The segment runs from the local origin up z for half.z(); nearest of its side and end balls.
-        const double r = half.x(), length = half.z();
-        const Eigen::Vector3d along_z(0.0, 0.0, length);
-        return std::min({sideHit(o, d, r, length), sphereHit(o, d, r), sphereHit(o - along_z, d, r)});
-      }
-      case Shape::Kind::kCylinder: {
-        const double r = half.x(), height = half.z();
-        double best = sideHit(o, d, r, height);
-        for (const double cap_z : {0.0, height}) {
-          if (std::abs(d.z()) < 1e-12) break;
-          const double t = (cap_z - o.z()) / d.z();
-          const double x = o.x() + t * d.x(), y = o.y() + t * d.y();
-          if (t > 0.0 && t < best && x * x + y * y <= r * r) best = t;
-        }
-        return best;
-      }
-    }
-    return kNoHit;
-  }
-
-  // Corners of the local bounding box, in the sensor frame.
-  std::array<Eigen::Vector3d, 8> corners_S() const {
-    const double z_lo = kind == Shape::Kind::kCylinder ? 0.0 : kind == Shape::Kind::kCapsule ? -half.x() : -half.z();
-    const double z_hi = kind == Shape::Kind::kCapsule ? half.z() + half.x() : half.z();
-    std::array<Eigen::Vector3d, 8> corners;
-    for (int i = 0; i < 8; ++i) {
-      const Eigen::Vector3d p_L((i & 1) ? half.x() : -half.x(), (i & 2) ? half.y() : -half.y(), (i & 4) ? z_hi : z_lo);
-      corners[i] = R_L_S.transpose() * (p_L - o_L);
-    }
-    return corners;
-  }
-};
 
 // Distance from a point to a shape's surface (0 inside), in the field frame.
 double distanceToShape(const Shape& shape, const Eigen::Vector3d& offset_F, const Eigen::Vector3d& p_F) {
@@ -178,11 +45,6 @@ double distanceToShape(const Shape& shape, const Eigen::Vector3d& offset_F, cons
   }
   return 0.0;
 }
-
-struct PixelRect {
-  int u0, v0, u1, v1;  // inclusive-exclusive
-  bool empty() const { return u0 >= u1 || v0 >= v1; }
-};
 
 }  // namespace
 
@@ -230,16 +92,7 @@ struct KinectSimulator::Renderer {
 
   // The pixels a box with these corners (sensor frame) can cover, with a margin for the jitter.
   PixelRect rectOf(const std::array<Eigen::Vector3d, 8>& corners) const {
-    const int W = width(), H = height();
-    double u0 = 1e9, v0 = 1e9, u1 = -1e9, v1 = -1e9;
-    for (const auto& c : corners) {
-      if (c.z() < 0.05) return PixelRect{0, 0, W, H};  // reaches behind the sensor: test everywhere
-      const Eigen::Vector2d px = scene->intrinsics.project(c);
-      u0 = std::min(u0, px.x()), u1 = std::max(u1, px.x()), v0 = std::min(v0, px.y()), v1 = std::max(v1, px.y());
-    }
-    const double margin = 2.0 + 4.0 * scene->noise.lateral_noise_px;
-    return PixelRect{std::max(0, int(std::floor(u0 - margin))), std::max(0, int(std::floor(v0 - margin))),
-                     std::min(W, int(std::ceil(u1 + margin)) + 1), std::min(H, int(std::ceil(v1 + margin)) + 1)};
+    return pixelRectOf(corners, scene->intrinsics, 2.0 + 4.0 * scene->noise.lateral_noise_px);
   }
 
   // 1. Geometry: the floor, then every obstacle shape where it stands at time t.
@@ -265,14 +118,7 @@ struct KinectSimulator::Renderer {
     for (const SceneObject& object : scene->objects) {
       const Eigen::Vector3d offset_F = object.displacementAt(t);
       for (const Shape& shape : object.shapes) {
-        // The shape's local frame: turned by its yaw, or for a capsule with z along its axis.
-        const Eigen::Matrix3d R_L_F =
-            shape.kind == Shape::Kind::kCapsule
-                ? Eigen::Quaterniond::FromTwoVectors(shape.axis_m, Eigen::Vector3d::UnitZ()).toRotationMatrix()
-                : Eigen::AngleAxisd(-shape.yaw_rad, Eigen::Vector3d::UnitZ()).toRotationMatrix();
-        PlacedShape shape_S{shape.kind, R_L_F * R_F_S, R_L_F * (o_F - shape.center_m - offset_F), shape.size_m / 2.0};
-        if (shape.kind == Shape::Kind::kCylinder) shape_S.half.z() = shape.size_m.z();
-        if (shape.kind == Shape::Kind::kCapsule) shape_S.half.z() = shape.axis_m.norm();
+        const PlacedShape shape_S = placeShape(shape, offset_F, T_F_S);
         placed.push_back(shape_S);
         shape_dropout.push_back(shape.dropout);
         const std::int16_t shape_id = static_cast<std::int16_t>(placed.size());
@@ -291,22 +137,8 @@ struct KinectSimulator::Renderer {
     }
   }
 
-  // A classic ball's black pentagons sit round the 12 vertices of an icosahedron (six axes, both
-  // ways), each a cap of 17.6 degrees (12 of them cover 28 % of the sphere); fixed in the field.
+  // A classic ball's black pentagons, where they return no depth.
   bool dark_panels = false;
-  bool onDarkPanel(const Eigen::Vector3d& from_centre_S) const {
-    static const double phi = (1.0 + std::sqrt(5.0)) / 2.0;
-    static const std::array<Eigen::Vector3d, 6> axes = {
-        Eigen::Vector3d(0, 1, phi).normalized(), Eigen::Vector3d(0, -1, phi).normalized(),
-        Eigen::Vector3d(1, phi, 0).normalized(), Eigen::Vector3d(-1, phi, 0).normalized(),
-        Eigen::Vector3d(phi, 0, 1).normalized(), Eigen::Vector3d(-phi, 0, 1).normalized()};
-    static const double cos_cap = std::cos(17.6 * M_PI / 180.0);
-    const Eigen::Vector3d n_F = (T_F_S.linear() * from_centre_S).normalized();
-    for (const Eigen::Vector3d& axis : axes) {
-      if (std::abs(n_F.dot(axis)) > cos_cap) return true;
-    }
-    return false;
-  }
 
   // 2. The ball, smeared over the exposure: a pixel it covers for the whole exposure shows the
   //    ball; one it covers part of the time correlates to a disparity between ball and background
@@ -341,7 +173,8 @@ struct KinectSimulator::Renderer {
         if (hits == 0) continue;
         if (hits == samples) {
           depth_m[i] = static_cast<float>(hits / inverse_depth_sum);
-          id[i] = dark_panels && onDarkPanel(d * depth_m[i] + ball_at[samples / 2].o_L) ? kIdBallDark : kIdBall;
+          id[i] = dark_panels && onBallPanel(T_F_S.linear() * (d * depth_m[i] + ball_at[samples / 2].o_L)) ? kIdBallDark
+                                                                                                           : kIdBall;
           continue;
         }
         const double covered = double(hits) / samples;
@@ -472,41 +305,6 @@ struct KinectSimulator::Renderer {
     }
     return ball_pixels;
   }
-
-  // 8. Colour, as the Kinect v1's colour camera beside the depth camera sees it: each surface the
-  //    depth camera hit is carried into the colour image (nearest wins); what it did not see is the
-  //    dark hall. A flat colour per thing, darker with distance, the ball orange with its dark
-  //    panels black: enough to see a scene and its ball by eye, not a model of a camera's light and noise.
-  std::vector<std::uint8_t> colour(const ColourCamera& camera) const {
-    const Intrinsics& in = camera.intrinsics;
-    const std::size_t pixels = static_cast<std::size_t>(in.width) * in.height;
-    std::vector<std::uint8_t> rgb(pixels * 3);
-    for (std::size_t i = 0; i < pixels; ++i) rgb[3 * i] = 45, rgb[3 * i + 1] = 45, rgb[3 * i + 2] = 50;
-    std::vector<float> nearest(pixels, kNoHit);
-    const int W = width();
-    for (std::size_t i = 0; i < id.size(); ++i) {
-      const std::int16_t what = id[i];
-      if (what == kIdNone) continue;
-      // Through the pixel's centre, without the depth camera's lateral noise: the colour camera has none of it.
-      const Eigen::Vector3d p_C =
-          scene->intrinsics.backProject(static_cast<double>(i % W), static_cast<double>(i / W), depth_m[i]) -
-          camera.offset_S_m;
-      if (p_C.z() <= 0.0) continue;
-      const Eigen::Vector2d pixel = in.project(p_C);
-      const long u = std::lround(pixel.x()), v = std::lround(pixel.y());
-      if (u < 0 || v < 0 || u >= in.width || v >= in.height) continue;
-      const std::size_t k = static_cast<std::size_t>(v) * in.width + static_cast<std::size_t>(u);
-      if (depth_m[i] >= nearest[k]) continue;
-      nearest[k] = depth_m[i];
-      std::array<int, 3> base{40, 125, 50};  // the floor
-      if (what == kIdBall || what == kIdTrail) base = {240, 120, 25};
-      if (what == kIdBallDark) base = {20, 20, 20};
-      if (what > 0 && what < kIdBall) base = {90 + 41 * what % 110, 90 + 67 * what % 110, 90 + 23 * what % 110};
-      const double shade = std::clamp(1.2 - 0.08 * depth_m[i], 0.4, 1.0);
-      for (int c = 0; c < 3; ++c) rgb[3 * k + c] = static_cast<std::uint8_t>(base[c] * shade);
-    }
-    return rgb;
-  }
 };
 
 namespace {
@@ -561,6 +359,8 @@ KinectSimulator::KinectSimulator(Scene scene) : scene_(std::move(scene)), render
   renderer_->dark_panels = scene_.ball && scene_.ball->dark_panels;
 }
 
+void KinectSimulator::setColour(bool on) { colour_renderer_ = on ? std::make_unique<ColourRenderer>(scene_) : nullptr; }
+
 KinectSimulator::~KinectSimulator() = default;
 
 GroundTruth KinectSimulator::truthAt(int frame_index, double t) const {
@@ -612,9 +412,10 @@ void KinectSimulator::render(int frame_index, DepthFrame& frame, GroundTruth& tr
   // What the Kinect v1's accelerometer reads on a level robot: gravity alone (the robot's own
   // accelerations are left out).
   frame.gravity_S_mps2 = r.T_F_S.linear().transpose() * Eigen::Vector3d(0.0, 0.0, -kStandardGravity_mps2);
-  if (colour_) {
+  if (colour_renderer_) {
     const ColourCamera camera = ColourCamera::kinectV1();
-    frame.colour = camera.image(r.colour(camera), frame.source_time_s);
+    frame.colour = camera.image(colour_renderer_->render(t, r.T_F_S, ball_motion_.get(), camera, frame_index),
+                                frame.source_time_s);
   }
 }
 

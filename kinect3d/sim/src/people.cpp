@@ -56,8 +56,13 @@ std::vector<Shape> Person::shapes() const {
   auto at = [&](const Eigen::Vector3d& p_B) -> Eigen::Vector3d { return feet_m + R_F_B * p_B; };
   const Eigen::Vector3d forward = Eigen::Vector3d::UnitY();
   std::vector<Shape> shapes;
-  auto limb = [&](const Eigen::Vector3d& a_B, const Eigen::Vector3d& b_B, double r, double dropout) {
+  auto limb = [&](const Eigen::Vector3d& a_B, const Eigen::Vector3d& b_B, double r, double dropout, Surface surface) {
     shapes.push_back(Shape::capsule(at(a_B), at(b_B), r, dropout));
+    shapes.back().surface = surface;
+  };
+  auto add = [&](Shape shape, Surface surface) {
+    shape.surface = surface;
+    shapes.push_back(shape);
   };
 
   // Legs: thighs swing either way when walking, the back knee bends.
@@ -69,18 +74,18 @@ std::vector<Shape> Person::shapes() const {
     const Eigen::Vector3d knee = hip + leg * Eigen::Vector3d(0, std::sin(swing), -std::cos(swing));
     const Eigen::Vector3d ankle =
         knee + leg * Eigen::Vector3d(0, std::sin(swing - knee_bend), -std::cos(swing - knee_bend));
-    limb(hip, knee, 0.075 * w, clothes_dropout);
-    limb(knee, ankle, 0.055 * w, clothes_dropout);
-    limb(ankle, ankle + Eigen::Vector3d(0, 0.17 * w, 0), 0.045 * w, clothes_dropout);  // foot
+    limb(hip, knee, 0.075 * w, clothes_dropout, Surface::kTrousers);
+    limb(knee, ankle, 0.055 * w, clothes_dropout, Surface::kTrousers);
+    limb(ankle, ankle + Eigen::Vector3d(0, 0.17 * w, 0), 0.045 * w, clothes_dropout, Surface::kTrousers);  // foot
   }
   // Torso and pelvis, neck, head, and the hair over the head's top and back.
-  shapes.push_back(
-      Shape{Shape::Kind::kBox, at({0, 0, 0.66 * H}), {0.36 * w, 0.21 * w, 0.32 * H}, yaw_rad, clothes_dropout});
-  limb({0, 0, 0.81 * H}, {0, 0.01, 0.875 * H}, 0.055 * w, 0.0);
+  add(Shape{Shape::Kind::kBox, at({0, 0, 0.66 * H}), {0.36 * w, 0.21 * w, 0.32 * H}, yaw_rad, clothes_dropout},
+      Surface::kShirt);
+  limb({0, 0, 0.81 * H}, {0, 0.01, 0.875 * H}, 0.055 * w, 0.0, Surface::kSkin);
   const double head_r = 0.105 * std::sqrt(build);
   const Eigen::Vector3d head(0, 0.01, 0.93 * H);
-  shapes.push_back(Shape::sphere(at(head + Eigen::Vector3d(0, -0.025, 0.03)), head_r + 0.012, hair_dropout));
-  shapes.push_back(Shape::sphere(at(head), head_r, 0.0));
+  add(Shape::sphere(at(head + Eigen::Vector3d(0, -0.025, 0.03)), head_r + 0.012, hair_dropout), Surface::kHair);
+  add(Shape::sphere(at(head), head_r, 0.0), Surface::kSkin);
 
   // Arms: the upper arm from the shoulder, the forearm bent from it towards the front, the hand.
   for (const double side : {-1.0, 1.0}) {
@@ -92,15 +97,15 @@ std::vector<Shape> Person::shapes() const {
     const Eigen::Vector3d lower =
         (std::cos(arm.elbow_rad) * upper + std::sin(arm.elbow_rad) * across(upper, forward)).normalized();
     const Eigen::Vector3d wrist = elbow + 0.16 * H * lower;
-    limb(shoulder, elbow, 0.05 * w, clothes_dropout);
-    limb(elbow, wrist, 0.04 * w, 0.0);
+    limb(shoulder, elbow, 0.05 * w, clothes_dropout, Surface::kShirt);
+    limb(elbow, wrist, 0.04 * w, 0.0, Surface::kSkin);
     const Eigen::Vector3d hand = wrist + 0.05 * lower;
-    shapes.push_back(Shape::sphere(at(hand), 0.045 * w, 0.0));
+    add(Shape::sphere(at(hand), 0.045 * w, 0.0), Surface::kSkin);
     if (arm.flag) {
       const Eigen::Vector3d top = hand + 0.5 * lower;
-      limb(hand, top, 0.012, 0.0);
-      shapes.push_back(
-          Shape{Shape::Kind::kBox, at(top + Eigen::Vector3d(side * 0.22, 0, -0.15)), {0.45, 0.02, 0.30}, yaw_rad, 0.0});
+      limb(hand, top, 0.012, 0.0, Surface::kFlag);
+      add(Shape{Shape::Kind::kBox, at(top + Eigen::Vector3d(side * 0.22, 0, -0.15)), {0.45, 0.02, 0.30}, yaw_rad, 0.0},
+          Surface::kFlag);
     }
   }
   return shapes;

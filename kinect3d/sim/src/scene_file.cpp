@@ -41,17 +41,21 @@ std::vector<Shape> shapesOf(const fw::ConfigView& object, const std::string& typ
     if (type == "sphere") return {Shape{Shape::Kind::kSphere, base, Eigen::Vector3d::Constant(2 * r), 0.0, dropout}};
     return {Shape{Shape::Kind::kCylinder, base, {2 * r, 2 * r, object.getDouble("height", 0.01, 20.0)}, 0.0, dropout}};
   }
+  auto made_of = [](Shape shape, Surface surface) {
+    shape.surface = surface;
+    return shape;
+  };
   if (type == "robot") {
     // An MSL robot: at most 0.52 m across and 0.80 m tall; centre given on the floor.
     const Eigen::Vector3d size = object.has("size") ? vector3(object, "size") : Eigen::Vector3d(0.5, 0.5, 0.78);
-    return {box({0, 0, size.z() / 2}, size)};
+    return {made_of(box({0, 0, size.z() / 2}, size), Surface::kRobot)};
   }
   if (type == "human") {
     // Legs, torso and head of an adult; centre given on the floor between the feet.
-    return {
-        box({-0.1, 0, 0.45}, {0.14, 0.16, 0.9}), box({0.1, 0, 0.45}, {0.14, 0.16, 0.9}),
-        box({0, 0, 1.2}, {0.42, 0.24, 0.62}),
-        Shape{Shape::Kind::kSphere, base + Eigen::Vector3d(0, 0, 1.64), Eigen::Vector3d::Constant(0.22), 0.0, dropout}};
+    return {made_of(box({-0.1, 0, 0.45}, {0.14, 0.16, 0.9}), Surface::kTrousers),
+            made_of(box({0.1, 0, 0.45}, {0.14, 0.16, 0.9}), Surface::kTrousers),
+            made_of(box({0, 0, 1.2}, {0.42, 0.24, 0.62}), Surface::kShirt),
+            made_of(Shape::sphere(base + Eigen::Vector3d(0, 0, 1.64), 0.11, dropout), Surface::kSkin)};
   }
   if (type == "person") {
     // An articulated person (kinect3d/sim/people.h); centre given on the floor between the feet.
@@ -74,9 +78,9 @@ std::vector<Shape> shapesOf(const fw::ConfigView& object, const std::string& typ
   if (type == "goal") {
     // 2.0 m wide, 1.0 m high inside, 0.125 m posts; the net is invisible to the projector.
     const double post = 0.125;
-    return {box({-1.0 - post / 2, 0, 0.5 + post / 2}, {post, post, 1.0 + post}),
-            box({1.0 + post / 2, 0, 0.5 + post / 2}, {post, post, 1.0 + post}),
-            box({0, 0, 1.0 + post / 2}, {2.0 + 2 * post, post, post})};
+    return {made_of(box({-1.0 - post / 2, 0, 0.5 + post / 2}, {post, post, 1.0 + post}), Surface::kGoal),
+            made_of(box({1.0 + post / 2, 0, 0.5 + post / 2}, {post, post, 1.0 + post}), Surface::kGoal),
+            made_of(box({0, 0, 1.0 + post / 2}, {2.0 + 2 * post, post, post}), Surface::kGoal)};
   }
   throw std::runtime_error(object.originOf("type") + ": " + object.path() + ".type = '" + type +
                            "' is unknown; expected box, cylinder, sphere, robot, human, person or goal");
@@ -124,10 +128,39 @@ CarrierRobot readCarrier(const fw::ConfigView& robot) {
 
 SceneObject readObject(const fw::ConfigView& object) {
   object.requireOnlyKeys({"type", "center", "size", "radius", "height", "yaw_deg", "dropout", "path", "speed_mps",
-                          "build", "stride_deg", "hair_dropout", "left_arm", "right_arm"});
+                          "build", "stride_deg", "hair_dropout", "left_arm", "right_arm", "surface", "colour"});
   SceneObject result;
   result.type = object.getChoice("type", {"box", "cylinder", "sphere", "robot", "human", "person", "goal"});
   result.shapes = shapesOf(object, result.type);
+  // What a plain box, cylinder or sphere is, for the colour camera; and a colour fixed by the file
+  // (otherwise drawn from the scene's seed).
+  if (object.has("surface")) {
+    if (result.type != "box" && result.type != "cylinder" && result.type != "sphere") {
+      throw fw::ConfigError(object.originOf("surface") + ": " + object.path() +
+                            ".surface is for a box, cylinder or sphere; a " + result.type + " has its own");
+    }
+    const std::string surface = object.getChoice("surface", {"plain", "lamp", "loudspeaker", "poster"});
+    for (Shape& shape : result.shapes) {
+      shape.surface = surface == "lamp"          ? Surface::kLamp
+                      : surface == "loudspeaker" ? Surface::kLoudspeaker
+                      : surface == "poster"      ? Surface::kPoster
+                                                 : Surface::kPlain;
+    }
+  }
+  if (object.has("colour")) {
+    const std::vector<double> rgb = object.getDoubleList("colour", 3);
+    for (const double c : rgb) {
+      if (c < 0.0 || c > 1.0) {
+        throw fw::ConfigError(object.originOf("colour") + ": " + object.path() +
+                              ".colour is linear RGB, each between 0 and 1");
+      }
+    }
+    // A person's colour is the shirt's; skin and hair keep theirs.
+    const bool person = result.type == "person" || result.type == "human";
+    for (Shape& shape : result.shapes) {
+      if (!person || shape.surface == Surface::kShirt) shape.albedo = Eigen::Vector3d(rgb[0], rgb[1], rgb[2]);
+    }
+  }
   if (object.has("path")) {
     // Waypoints [[x, y], ...]; the object walks them back and forth, starting at the first.
     result.path_m = readPath(object, "path");
@@ -158,9 +191,21 @@ KinectNoise readNoise(const fw::ConfigView& view) {
   return n;
 }
 
+ColourLook readLook(const fw::ConfigView& view) {
+  view.requireOnlyKeys({"ball", "light", "light_gradient", "exposure_s", "noise"});
+  const std::vector<std::string> balls = ColourLook::ballNames();
+  ColourLook look = ColourLook::withBall(view.has("ball") ? view.getChoice("ball", {balls.begin(), balls.end()})
+                                                          : std::string("orange"));
+  readOptional(view, "light", look.light, 0.05, 5.0);
+  readOptional(view, "light_gradient", look.light_gradient, 0.0, 0.9);
+  readOptional(view, "exposure_s", look.exposure_s, 0.0, 0.1);
+  readOptional(view, "noise", look.noise, 0.0, 0.2);
+  return look;
+}
+
 Scene readScene(const fw::ConfigView& root) {
   root.requireOnlyKeys({"name", "description", "duration_s", "fps", "start_time_s", "robot", "sensor", "noise", "floor",
-                        "objects", "ball", "physics"});
+                        "objects", "ball", "physics", "colour"});
   Scene scene;
   scene.name = root.getString("name");
   scene.duration_s = root.getDouble("duration_s", 0.0, 3600.0);
@@ -180,6 +225,7 @@ Scene readScene(const fw::ConfigView& root) {
     scene.intrinsics = readIntrinsics(sensor.child("intrinsics"));
   }
   if (root.has("noise")) scene.noise = readNoise(root.child("noise"));
+  if (root.has("colour")) scene.look = readLook(root.child("colour"));
   readOptional(root, "floor", scene.floor);
   if (root.has("objects")) {
     for (const fw::ConfigView& object : root.childList("objects")) {
@@ -215,6 +261,21 @@ Scene readScene(const fw::ConfigView& root) {
 }
 
 }  // namespace
+
+ColourLook ColourLook::withBall(const std::string& ball) {
+  ColourLook look;
+  if (ball == "yellow") {
+    look.ball_albedo = {0.85, 0.70, 0.03};
+  } else if (ball == "white_black") {
+    look.ball_albedo = {0.80, 0.80, 0.78};
+    look.panel_albedo = Eigen::Vector3d(0.03, 0.03, 0.03);
+  } else if (ball != "orange") {
+    throw std::invalid_argument("no ball '" + ball + "' (orange, yellow or white_black)");
+  }
+  return look;
+}
+
+std::vector<std::string> ColourLook::ballNames() { return {"orange", "yellow", "white_black"}; }
 
 int Scene::frameCount() const { return static_cast<int>(std::lround(duration_s * fps)); }
 

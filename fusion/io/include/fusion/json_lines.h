@@ -16,10 +16,10 @@ std::vector<fw::OmniFrame> readOmniFile(const std::string& path, const std::stri
 void writeOmniFile(const std::string& path, const std::vector<fw::OmniFrame>& frames);
 
 // One line per frame of `kinect3d detect` (docs/cli.md): {"frame": 12, "t": 1700000000.4, "balls":
-// [{"x": .., "y": .., "z": .., "state": "air", "points": 310, "static": false}], "process_ms": ..,
-// "trajectory": ..}. Read: the time and each ball's position (robot frame) and state; the
-// detector's report (points, static, process_ms, trajectory) is checked for its keys only. The
-// file holds no covariance: each ball gets 1 cm in every direction.
+// [{"x": .., "y": .., "z": .., "state": "air", "points": 310, "static": false, "colour": "confirmed"}], "process_ms":
+// .., "trajectory": ..}. Read: the time and each ball's position (robot frame) and state; the detector's report
+// (points, static, process_ms, trajectory) is checked for its keys only. The file holds no covariance: each ball gets 1
+// cm in every direction.
 std::vector<fw::BallFrame> readDetectionsFile(const std::string& path, const std::string& source);
 
 // {"t": 1700000000.010, "x_m": -1.2, "y_m": 0.4, "theta_rad": 0.3}, field frame.

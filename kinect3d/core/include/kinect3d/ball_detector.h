@@ -1,6 +1,6 @@
 // The whole per-frame path of the paper, stage by stage:
 //   depth frame -> surface points (robot frame) -> occupancy grid -> mask candidates (with a shell
-//   the sensor saw) -> balls,
+//   the sensor saw) -> balls -> the colour image's verdict on each (when the check is on),
 // with the scene map (OctoMap) remembering across frames which space is static.
 #pragma once
 
@@ -12,6 +12,7 @@
 #include "framework_api/types.h"
 #include "kinect3d/ball_candidates.h"
 #include "kinect3d/ball_refiner.h"
+#include "kinect3d/colour_check.h"
 #include "kinect3d/depth_frame.h"
 #include "kinect3d/ground_aligner.h"
 #include "kinect3d/occupancy_grid.h"
@@ -29,18 +30,19 @@ struct DetectorConfig {
   BallCandidateFinder::Config mask;
   BallRefiner::Config ball;
   SceneMap::Config map;
+  ColourCheckConfig colour;
 };
 
 // Wall time of each stage for one frame, for benchmarks and the detect log.
 struct StageTimes {
-  enum Stage { kGround, kPoints, kGrid, kCandidates, kRefine, kMap, kCount };
+  enum Stage { kGround, kPoints, kGrid, kCandidates, kRefine, kColour, kMap, kCount };
   static const char* name(int stage);
   std::array<double, kCount> seconds{};
   double total() const;
 };
 
 struct Detections {
-  std::vector<fw::BallObservation> balls;  // robot frame, air first
+  std::vector<fw::BallObservation> balls;  // robot frame, air first; rejected by colour ones too, flagged
   bool aligned = false;                    // false while the floor has not been found
   int occupied_voxels = 0;                 // in the grid this frame
   int candidates = 0;                      // groups that passed the mask with an observed shell, before refinement
@@ -77,6 +79,7 @@ class BallDetector {
   std::unique_ptr<ShellEvidence> shell_evidence_;
   std::unique_ptr<BallRefiner> refiner_;
   std::unique_ptr<SceneMap> map_;
+  ColourCheck colour_check_;
   bool map_in_field_ = false;  // the map's frame: field (a pose was given) or robot
   std::optional<Eigen::Isometry3d> T_R_S_;
   PointSet points_;

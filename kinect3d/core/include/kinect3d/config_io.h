@@ -25,6 +25,8 @@ Intrinsics readIntrinsics(const fw::ConfigView& intrinsics, const std::string& k
 
 // The detector's settings from the kinect3d block of a robot configuration.
 DetectorConfig readDetectorConfig(const fw::ConfigView& kinect3d);
+// kinect3d.colour_check; a check that is on needs kinect3d.colour and learnt ball colours.
+ColourCheckConfig readColourCheckConfig(const fw::ConfigView& kinect3d);
 // The trajectory estimator's, from the same block (kinect3d.trajectory and kinect3d.ball).
 TrajectoryConfig readTrajectoryConfig(const fw::ConfigView& kinect3d);
 // The running calibration check's, from kinect3d.calibration_check.

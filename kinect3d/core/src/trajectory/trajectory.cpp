@@ -1,3 +1,4 @@
+#include <algorithm>
 #include <stdexcept>
 
 #include "trajectory_estimators.h"
@@ -24,10 +25,14 @@ std::optional<fw::BallTrajectory> TrajectoryEstimator::update(double t_s,
       if (const auto last_s = lastDetectionTime(); last_s && t_s - *last_s > config_.max_gap_s) lose();
       break;
   }
+  // Not a ball the colour image rejected, nor one floating in static space; a ball the colour image
+  // confirmed first, so that a new track starts on it.
   followed_.clear();
   for (const fw::BallObservation& ball : balls) {
-    if (!(ball.is_static && ball.state == fw::BallState::kAir)) followed_.push_back(ball);
+    if (ball.followed() && !(ball.is_static && ball.state == fw::BallState::kAir)) followed_.push_back(ball);
   }
+  std::stable_partition(followed_.begin(), followed_.end(),
+                        [](const fw::BallObservation& ball) { return ball.colour == fw::ColourVerdict::kConfirmed; });
   last_answer_ = step(t_s, followed_);
   return last_answer_;
 }

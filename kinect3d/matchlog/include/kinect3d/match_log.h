@@ -24,7 +24,9 @@ struct sqlite3_stmt;
 
 namespace kinect3d {
 
-constexpr int kMatchLogSchemaVersion = 2;
+constexpr int kMatchLogSchemaVersion = 3;
+// Logs back to this version are read (version 2 has no colour verdicts: its balls read as not checked).
+constexpr int kOldestReadableSchemaVersion = 2;
 // Colour images are kept as JPEG at this quality (docs/match-log.md: size and time per frame).
 constexpr int kColourJpegQuality = 90;
 constexpr const char* kMatchLogFile = "match.sqlite";
@@ -173,6 +175,7 @@ class MatchLogReader {
   sqlite3* db_ = nullptr;
   std::string private_copy_;  // a folder of ours to remove, when reading a copy
   RunInfo run_;
+  int schema_ = kMatchLogSchemaVersion;  // of the log being read
 };
 
 }  // namespace kinect3d

@@ -3,12 +3,14 @@
 // the marks.yaml that describes it, as a team would make them on the field.
 #pragma once
 
+#include <optional>
 #include <string>
 #include <vector>
 
 #include <Eigen/Core>
 
 #include "framework_api/sensor_pose.h"
+#include "kinect3d/sim/scene.h"
 
 namespace kinect3d::sim {
 
@@ -17,11 +19,12 @@ struct CalibrationSession {
   std::vector<Eigen::Vector2d> marks_xy_m;  // where the ball rests, robot frame
   double seconds_per_mark = 1.0;
   std::uint64_t noise_seed = 1;
+  std::optional<ColourLook> colour = std::nullopt;  // with colour images: the match ball and the hall's light
 };
 
-// dir/depth.txt, dir/depth/, dir/camera.yaml: the ball on each mark for seconds_per_mark, one mark
-// after another; and dir/marks.yaml with each mark's position and its time range (a tenth of a
-// second inside each stay, as a person would note them).
+// dir/depth.txt, dir/depth/, dir/camera.yaml (with colour, dir/rgb.txt and dir/rgb/): the ball on each mark for
+// seconds_per_mark, one mark after another; and dir/marks.yaml with each mark's position and its time range (a tenth of
+// a second inside each stay, as a person would note them).
 void writeCalibrationSession(const CalibrationSession& session, const std::string& dir);
 
 }  // namespace kinect3d::sim

@@ -7,6 +7,8 @@
 
 #include "framework_api/types.h"
 #include "kinect3d/ball_detector.h"
+#include "kinect3d/colour_check.h"
+#include "kinect3d/sim/calibration_scene.h"
 #include "kinect3d/sim/kinect_simulator.h"
 
 namespace kinect3d::sim {
@@ -15,10 +17,18 @@ struct EvaluatedFrame {
   GroundTruth truth;
   std::vector<fw::BallObservation> balls;
   double process_s = 0.0;
+  double colour_s = 0.0;  // of which the colour check
 };
 
-// Renders every frame of the scene and runs one detector, configured by `config`, over them.
+// Renders every frame of the scene (with colour when the config's colour check is on) and runs one
+// detector, configured by `config`, over them.
 std::vector<EvaluatedFrame> runDetectorOnScene(const Scene& scene, const DetectorConfig& config);
+// The same frames with only the balls trajectories and fusion follow (not those colour rejected).
+std::vector<EvaluatedFrame> followedOnly(std::vector<EvaluatedFrame> frames);
+
+// The match ball's colours learnt as `kinect3d calibrate ball-colour` learns them, from a simulated
+// calibration session (with colour) recorded and read back, the detector given the session's pose.
+BallColourFit learnBallColourInSession(const CalibrationSession& session, const DetectorConfig& config);
 
 // Which frames count: the ball should be found when it is in this range of the sensor, shows at
 // least this share of a whole ball's pixels, and is this far from every other structure.

@@ -28,6 +28,8 @@ struct GroundTruth {
   double clearance_m = 0.0;  // from the ball's surface to the nearest obstacle (floor excluded)
 };
 
+class ColourRenderer;
+
 class KinectSimulator {
  public:
   explicit KinectSimulator(Scene scene);
@@ -38,9 +40,10 @@ class KinectSimulator {
 
   // Renders frame i; the same scene and seed always give the same frame i, in any order. Every
   // frame carries gravity in the sensor frame, and with colour on, the image of the Kinect v1's
-  // colour camera (ColourCamera::kinectV1()).
+  // colour camera (ColourCamera::kinectV1()), registered to the depth through its offset.
   void render(int frame_index, DepthFrame& frame, GroundTruth& truth);
-  void setColour(bool on) { colour_ = on; }
+  // Colour as the scene's look has it (kinect3d/sim/src/colour_renderer.h); off by default.
+  void setColour(bool on);
 
  private:
   struct Renderer;
@@ -48,7 +51,7 @@ class KinectSimulator {
   Scene scene_;
   std::unique_ptr<BallMotion> ball_motion_;
   std::unique_ptr<Renderer> renderer_;
-  bool colour_ = false;
+  std::unique_ptr<ColourRenderer> colour_renderer_;
 };
 
 }  // namespace kinect3d::sim

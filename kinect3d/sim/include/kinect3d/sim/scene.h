@@ -18,6 +18,22 @@
 
 namespace kinect3d::sim {
 
+// What a shape is made of, as the colour camera sees it. The colours themselves are drawn per scene
+// from its seed (kinect3d/sim/src/colour_renderer.cpp) unless the scene file gives one.
+enum class Surface {
+  kPlain,  // a wall, a box, a pillar: a muted colour
+  kShirt,  // clothes of any colour, orange included
+  kTrousers,
+  kSkin,
+  kHair,
+  kFlag,         // a referee's flag: yellow, red or orange
+  kRobot,        // an MSL robot: black
+  kGoal,         // white
+  kLamp,         // a light: brighter than anything lit, mostly overexposed
+  kLoudspeaker,  // black cloth
+  kPoster,       // a poster with a ball printed on it, facing -y of its box
+};
+
 // A solid primitive. Boxes and cylinders stand upright and may be turned about z; a capsule (a
 // limb) is a segment from center_m to center_m + axis_m, rounded, in any direction.
 struct Shape {
@@ -28,6 +44,8 @@ struct Shape {
   double yaw_rad = 0.0;
   double dropout = 0.0;  // extra chance a pixel on it returns no data (dark, absorbing material)
   Eigen::Vector3d axis_m = Eigen::Vector3d::Zero();  // capsule: from one end to the other
+  Surface surface = Surface::kPlain;
+  std::optional<Eigen::Vector3d> albedo = std::nullopt;  // linear RGB 0-1, overriding the surface's drawn colour
 
   static Shape capsule(const Eigen::Vector3d& from_m, const Eigen::Vector3d& to_m, double radius_m, double dropout);
   static Shape sphere(const Eigen::Vector3d& center_m, double radius_m, double dropout);
@@ -85,6 +103,24 @@ struct BallLaunch {
   bool dark_panels = false;    // a classic ball's 12 black pentagons (28 % of it), returning no depth
 };
 
+// How the colour camera sees the scene: the match ball's colours and the hall's light (a team's ball
+// in a team's hall, the same in the calibration session and the match), the camera's exposure.
+// Everything else's colours and the light's direction over the frame are drawn from the seed.
+struct ColourLook {
+  Eigen::Vector3d ball_albedo = Eigen::Vector3d(0.90, 0.32, 0.04);  // linear RGB 0-1
+  std::optional<Eigen::Vector3d> panel_albedo;                      // the 12 pentagons, when it has them
+  double light = 1.0;  // the hall's brightness: 1 puts a white wall at about 85 % of the range
+  Eigen::Vector3d tint = Eigen::Vector3d::Ones();  // the light's colour (white balance left over)
+  double light_gradient = 0.3;                     // the brightness varies over the frame by this share either way
+  double exposure_s = 0.015;                       // the colour camera's exposure: the ball's motion blur
+  double noise = 0.01;                             // pixel noise, a share of the range (1 sigma)
+
+  // The three match balls the product must learn: "orange", "yellow", "white_black" (a classic
+  // white ball with black pentagons).
+  static ColourLook withBall(const std::string& ball);
+  static std::vector<std::string> ballNames();
+};
+
 // The sensor knocked on its mount during the scene: from at_s on it sits at pose.
 struct SensorKnock {
   double at_s = 0.0;
@@ -105,6 +141,7 @@ struct Scene {
   std::vector<SceneObject> objects;
   std::optional<BallLaunch> ball;
   BallPhysics physics;
+  ColourLook look;
 
   int frameCount() const;
   // Where the sensor sits on the robot at scene time t.

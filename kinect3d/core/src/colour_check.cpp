@@ -1,0 +1,376 @@
+#include "kinect3d/colour_check.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <stdexcept>
+
+#include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
+
+namespace kinect3d {
+
+namespace {
+
+constexpr double kExplainedSigma2 = 9.0;         // a pixel within 3 sigma (Mahalanobis) of a colour is explained by it
+constexpr double kMainColourShare = 0.15;        // a colour this common on the ball must show in its disc ...
+constexpr double kShownShare = 0.5;              // ... with at least this share of its learnt share
+constexpr double kDiscShare = 0.8;               // colours are sampled inside this share of the disc's radius
+constexpr int kOutlinePoints = 32;               // points on the circle tested for an edge
+constexpr double kEdgeSobel = 80.0;              // a 3x3 Sobel response of a 20-level step
+constexpr int kContrast = 90;                    // summed over R, G, B: colours this different across the circle
+constexpr double kSpreadFactor = 1.5;            // the learnt spread widened for light that differs from the session's
+const Eigen::Vector3d kMinSigma(4.0, 2.5, 2.5);  // L*, a*, b*: camera noise and shading at the least
+
+// RGB pixels (8-bit) to CIE L*a*b*.
+std::vector<Eigen::Vector3f> toLab(const std::vector<cv::Vec3b>& rgb) {
+  std::vector<Eigen::Vector3f> lab(rgb.size());
+  if (rgb.empty()) return lab;
+  cv::Mat in(1, static_cast<int>(rgb.size()), CV_8UC3, const_cast<cv::Vec3b*>(rgb.data())), in_f, out;
+  in.convertTo(in_f, CV_32FC3, 1.0 / 255.0);
+  cv::cvtColor(in_f, out, cv::COLOR_RGB2Lab);
+  for (int i = 0; i < out.cols; ++i) {
+    const cv::Vec3f& p = out.at<cv::Vec3f>(0, i);
+    lab[static_cast<std::size_t>(i)] = {p[0], p[1], p[2]};
+  }
+  return lab;
+}
+
+cv::Vec3b pixelAt(const fw::ColourImage& image, int u, int v) {
+  const std::uint8_t* p = &image.rgb[3 * (static_cast<std::size_t>(v) * image.width + u)];
+  return {p[0], p[1], p[2]};
+}
+
+// The pixels between two radii round a disc's centre, on a grid of about 12 across the disc. Counts
+// the grid points that fell outside the image in `outside`.
+std::vector<cv::Vec3b> pixelsAround(const fw::ColourImage& image, const BallDisc& disc, double inner_px,
+                                    double outer_px, int& outside) {
+  std::vector<cv::Vec3b> pixels;
+  outside = 0;
+  const double step = std::max(1.0, disc.radius_px / 6.0);
+  for (double dv = -outer_px; dv <= outer_px; dv += step) {
+    for (double du = -outer_px; du <= outer_px; du += step) {
+      const double r2 = du * du + dv * dv;
+      if (r2 > outer_px * outer_px || r2 < inner_px * inner_px) continue;
+      const long u = std::lround(disc.centre_px.x() + du), v = std::lround(disc.centre_px.y() + dv);
+      if (u < 0 || v < 0 || u >= image.width || v >= image.height) {
+        ++outside;
+        continue;
+      }
+      pixels.push_back(pixelAt(image, static_cast<int>(u), static_cast<int>(v)));
+    }
+  }
+  return pixels;
+}
+
+// The disc's inside, where its colours are judged.
+std::vector<cv::Vec3b> discPixels(const fw::ColourImage& image, const BallDisc& disc, int& outside) {
+  return pixelsAround(image, disc, 0.0, kDiscShare * disc.radius_px, outside);
+}
+
+}  // namespace
+
+std::optional<BallDisc> discOf(const fw::ColourImage& image, const Eigen::Vector3d& centre_S, double radius_m) {
+  const Eigen::Vector3d p_C = centre_S - image.offset_S_m;
+  if (p_C.z() <= radius_m) return std::nullopt;
+  // A sphere subtends asin(r / d): its outline's radius on the image is f r / sqrt(d^2 - r^2).
+  const double range = p_C.norm();
+  return BallDisc{{image.fx * p_C.x() / p_C.z() + image.cx, image.fy * p_C.y() / p_C.z() + image.cy},
+                  image.fx * radius_m / std::sqrt(range * range - radius_m * radius_m)};
+}
+
+int explainingColour(const BallColourModel& model, const Eigen::Vector3f& lab) {
+  int best = -1;
+  double best_d2 = kExplainedSigma2;
+  for (std::size_t c = 0; c < model.size(); ++c) {
+    const double d2 = ((lab.cast<double>() - model[c].lab).cwiseQuotient(model[c].sigma)).squaredNorm();
+    if (d2 <= best_d2) best = static_cast<int>(c), best_d2 = d2;
+  }
+  return best;
+}
+
+double colourScore(const BallColourModel& model, const std::vector<Eigen::Vector3f>& lab) {
+  return colourMatch(model, lab).score;
+}
+
+ColourMatch colourMatch(const BallColourModel& model, const std::vector<Eigen::Vector3f>& lab) {
+  if (lab.empty() || model.empty()) return {};
+  std::vector<int> count(model.size(), 0);
+  int explained = 0;
+  for (const Eigen::Vector3f& p : lab) {
+    const int c = explainingColour(model, p);
+    if (c < 0) continue;
+    ++count[static_cast<std::size_t>(c)];
+    ++explained;
+  }
+  // A white shirt is not a white ball with black panels: each main colour must show.
+  double consistency = 1.0;
+  for (std::size_t c = 0; c < model.size(); ++c) {
+    if (model[c].share < kMainColourShare) continue;
+    const double shown = double(count[c]) / lab.size();
+    consistency = std::min(consistency, shown / (kShownShare * model[c].share));
+  }
+  const double share = double(explained) / lab.size();
+  return {share, std::min(1.0, consistency) * share};
+}
+
+ColourCheck::ColourCheck(ColourCheckConfig config) : config_(std::move(config)) {}
+
+ColourEvidence ColourCheck::check(const std::optional<fw::ColourImage>& image, const Eigen::Vector3d& centre_S,
+                                  double radius_m) const {
+  ColourEvidence evidence;
+  if (config_.mode == ColourCheckConfig::Mode::kOff) return evidence;
+  evidence.verdict = fw::ColourVerdict::kNoEvidence;
+  if (!image || image->rgb.empty()) {
+    evidence.note = fw::ColourNote::kNoImage;
+  } else if (const std::optional<BallDisc> disc = discOf(*image, centre_S, radius_m)) {
+    evidence = judge(*image, *disc);
+  } else {
+    evidence.note = fw::ColourNote::kOutsideImage;
+  }
+  if (config_.mode == ColourCheckConfig::Mode::kRequired && evidence.verdict != fw::ColourVerdict::kConfirmed) {
+    evidence.verdict = fw::ColourVerdict::kRejected;
+  }
+  return evidence;
+}
+
+ColourEvidence ColourCheck::judge(const fw::ColourImage& image, const BallDisc& disc) const {
+  ColourEvidence evidence;
+  evidence.verdict = fw::ColourVerdict::kNoEvidence;
+  if (disc.radius_px < config_.min_radius_px) {
+    evidence.note = fw::ColourNote::kTooSmall;
+    return evidence;
+  }
+  int outside = 0;
+  const std::vector<cv::Vec3b> pixels = discPixels(image, disc, outside);
+  if (pixels.size() < static_cast<std::size_t>(outside) || pixels.empty()) {
+    evidence.note = fw::ColourNote::kOutsideImage;  // most of the disc is off the colour image
+    return evidence;
+  }
+  const std::vector<Eigen::Vector3f> lab = toLab(pixels);
+  double lightness = 0.0;
+  for (const Eigen::Vector3f& p : lab) lightness += p.x();
+  if (lightness / lab.size() < config_.dark_lightness) {
+    evidence.note = fw::ColourNote::kTooDark;
+    return evidence;
+  }
+  // Overexposed: the ring round the disc blown out (a ball against a window or a lamp's glare). A
+  // disc blown out on its own is a light, not a ball, and is judged like anything else.
+  int ring_outside = 0, saturated = 0;
+  const std::vector<cv::Vec3b> ring =
+      pixelsAround(image, disc, 1.2 * disc.radius_px, 1.6 * disc.radius_px, ring_outside);
+  for (const cv::Vec3b& p : ring) saturated += std::min({p[0], p[1], p[2]}) >= 250;
+  if (!ring.empty() && 2 * saturated >= static_cast<int>(ring.size())) {
+    evidence.note = fw::ColourNote::kOverexposed;
+    return evidence;
+  }
+  const ColourMatch match = colourMatch(config_.ball_colours, lab);
+  evidence.score = match.score;
+
+  // The outline: an edge across the circle the depth predicts (Sobel on each channel, the strongest
+  // one, pointing along the radius), searched within a band for the depth's own error. Where the
+  // colours inside and outside the circle differ, the edge's width too: wider than max_blur_px on a
+  // quarter of those directions is a smeared outline (motion blur), and then the colours inside are
+  // the ball's mixed with what it crossed.
+  const double band = std::max(2.0, 0.25 * disc.radius_px);
+  const double reach = disc.radius_px + band + 2.0;
+  const cv::Rect roi = cv::Rect(static_cast<int>(std::floor(disc.centre_px.x() - reach)),
+                                static_cast<int>(std::floor(disc.centre_px.y() - reach)),
+                                static_cast<int>(2 * reach) + 2, static_cast<int>(2 * reach) + 2) &
+                       cv::Rect(0, 0, image.width, image.height);
+  const cv::Mat patch = cv::Mat(image.height, image.width, CV_8UC3, const_cast<std::uint8_t*>(image.rgb.data()))(roi);
+  cv::Mat gx, gy;
+  cv::Sobel(patch, gx, CV_16S, 1, 0, 3, 1, 0, cv::BORDER_REPLICATE);
+  cv::Sobel(patch, gy, CV_16S, 0, 1, 3, 1, 0, cv::BORDER_REPLICATE);
+  auto at = [&](const Eigen::Vector2d& p, int& x, int& y) {
+    x = static_cast<int>(std::lround(p.x())) - roi.x, y = static_cast<int>(std::lround(p.y())) - roi.y;
+    return x >= 0 && y >= 0 && x < roi.width && y < roi.height;
+  };
+  auto difference = [](const cv::Vec3b& a, const cv::Vec3b& b) {
+    return std::abs(a[0] - b[0]) + std::abs(a[1] - b[1]) + std::abs(a[2] - b[2]);
+  };
+  int supported = 0, contrasted = 0, smeared = 0;
+  for (int k = 0; k < kOutlinePoints; ++k) {
+    const double angle = 2.0 * M_PI * k / kOutlinePoints;
+    const Eigen::Vector2d dir(std::cos(angle), std::sin(angle));
+    bool edge = false;
+    for (double r = disc.radius_px - band; r <= disc.radius_px + band && !edge; r += 1.0) {
+      int x, y;
+      if (!at(disc.centre_px + r * dir, x, y)) continue;
+      const cv::Vec3s& sx = gx.at<cv::Vec3s>(y, x);
+      const cv::Vec3s& sy = gy.at<cv::Vec3s>(y, x);
+      for (int c = 0; c < 3; ++c) {
+        const double along = sx[c] * dir.x() + sy[c] * dir.y();
+        const double squared = double(sx[c]) * sx[c] + double(sy[c]) * sy[c];
+        if (std::abs(along) >= kEdgeSobel && along * along >= 0.6 * squared) edge = true;
+      }
+    }
+    supported += edge;
+    // The edge's width: from inside the disc outwards, the distance over which the colour moves from
+    // a tenth to nine tenths of the way to the outside's.
+    int xi, yi, xo, yo;
+    const double r_in = 0.5 * disc.radius_px, r_out = disc.radius_px + band;
+    if (!at(disc.centre_px + r_in * dir, xi, yi) || !at(disc.centre_px + r_out * dir, xo, yo)) continue;
+    const cv::Vec3b inside = patch.at<cv::Vec3b>(yi, xi), outside_colour = patch.at<cv::Vec3b>(yo, xo);
+    const int contrast = difference(inside, outside_colour);
+    if (contrast < kContrast) continue;
+    ++contrasted;
+    double first = -1.0, last = -1.0;
+    for (double r = r_in; r <= r_out; r += 0.5) {
+      int x, y;
+      if (!at(disc.centre_px + r * dir, x, y)) break;
+      const double moved = double(difference(inside, patch.at<cv::Vec3b>(y, x))) / contrast;
+      if (first < 0.0 && moved >= 0.1) first = r;
+      if (moved <= 0.9) last = r;
+    }
+    smeared += first >= 0.0 && last - first > config_.max_blur_px;
+  }
+  evidence.outline = double(supported) / kOutlinePoints;
+  const bool blurred = contrasted > 0 && 4 * smeared >= contrasted;
+
+  if (evidence.score >= config_.confirm_score && evidence.outline >= config_.min_outline) {
+    evidence.verdict = fw::ColourVerdict::kConfirmed;
+  } else if (blurred && match.explained >= config_.reject_score) {
+    // Smeared, the ball's colours mix (a classic ball's panels go grey) but still show.
+    evidence.note = fw::ColourNote::kBlurred;
+  } else if (evidence.score < config_.reject_score) {
+    evidence.verdict = fw::ColourVerdict::kRejected;
+  } else {
+    evidence.note = fw::ColourNote::kWeak;
+  }
+  return evidence;
+}
+
+// ---------------------------------------------------------------------------------------------
+
+void BallColourLearner::add(const fw::ColourImage& image, const Eigen::Vector3d& centre_S, double radius_m) {
+  const std::optional<BallDisc> disc = discOf(image, centre_S, radius_m);
+  if (!disc || disc->radius_px < 3.0) return;
+  int outside = 0;
+  const std::vector<Eigen::Vector3f> own = toLab(discPixels(image, *disc, outside));
+  if (outside > 0 || own.empty()) return;  // the whole ball in view, or nothing from this frame
+  ++frames_;
+  ball_lab_.insert(ball_lab_.end(), own.begin(), own.end());
+  ball_discs_.push_back(own);
+  // Everything else: a grid over the image away from the ball, and ball-sized discs on it.
+  std::vector<cv::Vec3b> others;
+  const double keep_away = 2.0 * disc->radius_px;
+  for (int v = 4; v < image.height; v += 8) {
+    for (int u = 4; u < image.width; u += 8) {
+      if ((Eigen::Vector2d(u, v) - disc->centre_px).norm() > keep_away) others.push_back(pixelAt(image, u, v));
+    }
+  }
+  const std::vector<Eigen::Vector3f> other_lab = toLab(others);
+  other_lab_.insert(other_lab_.end(), other_lab.begin(), other_lab.end());
+  const double step = 2.5 * disc->radius_px;
+  for (double v = step; v < image.height - step; v += step) {
+    for (double u = step; u < image.width - step; u += step) {
+      const BallDisc elsewhere{{u, v}, disc->radius_px};
+      if ((elsewhere.centre_px - disc->centre_px).norm() < 2.0 * disc->radius_px) continue;
+      other_discs_.push_back(toLab(discPixels(image, elsewhere, outside)));
+    }
+  }
+}
+
+BallColourFit BallColourLearner::fit() const {
+  constexpr int kMinFrames = 10;
+  if (frames_ < kMinFrames || ball_lab_.size() < 200) {
+    throw std::runtime_error("the ball was seen whole in " + std::to_string(frames_) + " colour frames (" +
+                             std::to_string(ball_lab_.size()) + " pixels); at least " + std::to_string(kMinFrames) +
+                             " are needed: is kinect3d.colour on, and is the ball in view of both cameras?");
+  }
+  // k-means in L*a*b* with three clusters (a ball's colour, its print or panels, its shade), then
+  // clusters nearer than a just-noticeable difference of a few units merged, and rare ones dropped.
+  const std::size_t n = std::min<std::size_t>(ball_lab_.size(), 20000);
+  cv::Mat samples(static_cast<int>(n), 3, CV_32F);
+  for (std::size_t i = 0; i < n; ++i) {
+    const Eigen::Vector3f& p = ball_lab_[i * ball_lab_.size() / n];
+    for (int c = 0; c < 3; ++c) samples.at<float>(static_cast<int>(i), c) = p[c];
+  }
+  cv::Mat labels, centres;
+  cv::theRNG().state = 0x1234567;  // the same recording always gives the same model
+  cv::kmeans(samples, 3, labels, cv::TermCriteria(cv::TermCriteria::EPS + cv::TermCriteria::COUNT, 50, 0.1), 3,
+             cv::KMEANS_PP_CENTERS, centres);
+  std::vector<std::vector<int>> members(3);
+  for (int i = 0; i < labels.rows; ++i) members[static_cast<std::size_t>(labels.at<int>(i))].push_back(i);
+  auto meanOf = [&](const std::vector<int>& rows) {
+    Eigen::Vector3d m = Eigen::Vector3d::Zero();
+    for (const int r : rows)
+      m += Eigen::Vector3d(samples.at<float>(r, 0), samples.at<float>(r, 1), samples.at<float>(r, 2));
+    return Eigen::Vector3d(m / std::max<std::size_t>(rows.size(), 1));
+  };
+  // One colour in light and shade is one colour: the same hue, lighter or darker. Two greys or a
+  // white and a black differ in lightness alone and stay two.
+  auto sameColour = [](const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
+    constexpr double kMergeDeltaE = 15.0, kChromatic = 15.0, kSameHue_rad = 20.0 * M_PI / 180.0;
+    if ((a - b).norm() < kMergeDeltaE) return true;
+    const double chroma_a = a.tail<2>().norm(), chroma_b = b.tail<2>().norm();
+    if (chroma_a < kChromatic || chroma_b < kChromatic) return false;
+    return std::acos(std::clamp(a.tail<2>().dot(b.tail<2>()) / (chroma_a * chroma_b), -1.0, 1.0)) < kSameHue_rad;
+  };
+  for (bool merged = true; merged;) {
+    merged = false;
+    for (std::size_t a = 0; a < members.size() && !merged; ++a) {
+      for (std::size_t b = a + 1; b < members.size() && !merged; ++b) {
+        if (!sameColour(meanOf(members[a]), meanOf(members[b]))) continue;
+        members[a].insert(members[a].end(), members[b].begin(), members[b].end());
+        members.erase(members.begin() + static_cast<long>(b));
+        merged = true;
+      }
+    }
+  }
+  BallColourFit fit;
+  for (const std::vector<int>& rows : members) {
+    const double share = double(rows.size()) / n;
+    if (share < 0.05) continue;  // a few pixels of the background or the outline
+    BallColour colour;
+    colour.lab = meanOf(rows);
+    Eigen::Vector3d var = Eigen::Vector3d::Zero();
+    for (const int r : rows) {
+      const Eigen::Vector3d d =
+          Eigen::Vector3d(samples.at<float>(r, 0), samples.at<float>(r, 1), samples.at<float>(r, 2)) - colour.lab;
+      var += d.cwiseProduct(d);
+    }
+    colour.sigma = (kSpreadFactor * (var / rows.size()).cwiseSqrt()).cwiseMax(kMinSigma);
+    colour.share = share;
+    fit.model.push_back(colour);
+  }
+  std::sort(fit.model.begin(), fit.model.end(),
+            [](const BallColour& a, const BallColour& b) { return a.share > b.share; });
+
+  fit.frames = frames_;
+  fit.ball_pixels = static_cast<int>(ball_lab_.size());
+  fit.other_pixels = static_cast<int>(other_lab_.size());
+  int ball_explained = 0;
+  for (const Eigen::Vector3f& p : ball_lab_) ball_explained += explainingColour(fit.model, p) >= 0;
+  fit.ball_explained = double(ball_explained) / ball_lab_.size();
+  fit.other_explained_by.assign(fit.model.size(), 0.0);
+  int other_explained = 0;
+  for (const Eigen::Vector3f& p : other_lab_) {
+    const int c = explainingColour(fit.model, p);
+    if (c < 0) continue;
+    ++other_explained;
+    fit.other_explained_by[static_cast<std::size_t>(c)] += 1.0 / std::max<std::size_t>(other_lab_.size(), 1);
+  }
+  fit.other_explained = double(other_explained) / std::max<std::size_t>(other_lab_.size(), 1);
+  std::vector<double> ball_scores, other_scores;
+  for (const auto& disc : ball_discs_) ball_scores.push_back(colourScore(fit.model, disc));
+  for (const auto& disc : other_discs_) other_scores.push_back(colourScore(fit.model, disc));
+  fit.ball_score_p10 = fw::quantile(ball_scores, 0.1);
+  fit.other_score_p99 = other_scores.empty() ? 0.0 : fw::quantile(other_scores, 0.99);
+  return fit;
+}
+
+std::string ballColoursYaml(const BallColourModel& model) {
+  std::string yaml = "[";
+  for (std::size_t i = 0; i < model.size(); ++i) {
+    const BallColour& c = model[i];
+    char text[200];
+    std::snprintf(text, sizeof text, "%s{lab: [%.1f, %.1f, %.1f], sigma: [%.1f, %.1f, %.1f], share: %.2f}",
+                  i ? ", " : "", c.lab.x(), c.lab.y(), c.lab.z(), c.sigma.x(), c.sigma.y(), c.sigma.z(), c.share);
+    yaml += text;
+  }
+  return yaml + "]";
+}
+
+}  // namespace kinect3d
