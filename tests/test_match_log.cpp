@@ -248,7 +248,8 @@ Published publishedIn(const std::string& log_folder) {
       std::string balls;
       for (const fw::BallObservation& b : frame->balls) {
         balls += line(b.source, b.stamp.source_time_s, fw::toString(b.frame), fw::toString(b.state),
-                      vector(b.position_m), vector(b.covariance_m2), b.support_points, b.is_static);
+                      vector(b.position_m), vector(b.covariance_m2), b.support_points, b.is_static,
+                      fw::toString(b.colour), fw::toString(b.colour_note), b.colour_score);
       }
       published.detections.push_back(frame->source + " " + balls);
     } else if (const auto* fit = std::get_if<fw::BallTrajectory>(&entry.item)) {

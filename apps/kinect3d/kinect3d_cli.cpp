@@ -505,6 +505,10 @@ void addReport(CLI::App& app) {
   command->add_option("--people-seeds", options->report.people_seeds, "detection: random scenes per kind of people")
       ->capture_default_str();
   command
+      ->add_option("--colour-seeds", options->report.colour_seeds,
+                   "detection: random scenes per kind of people and per ball with the colour check")
+      ->capture_default_str();
+  command
       ->add_option("--real-data", options->report.real_data_dir,
                    "detection: the folder holding the third-party real frames, real-depth/ and realdata/ "
                    "(not in the repository; without it that part of the report is left out)")

@@ -18,8 +18,10 @@ constexpr double kShownShare = 0.5;              // ... with at least this share
 constexpr double kDiscShare = 0.8;               // colours are sampled inside this share of the disc's radius
 constexpr int kOutlinePoints = 32;               // points on the circle tested for an edge
 constexpr double kEdgeSobel = 80.0;              // a 3x3 Sobel response of a 20-level step
+constexpr double kMaxColourOffset = 0.33;        // radii: a main colour's pixels centred on the disc
+constexpr double kMaxRingExplained = 0.5;        // a confirmed disc's surroundings are mostly not the ball's colours
 constexpr int kContrast = 90;                    // summed over R, G, B: colours this different across the circle
-constexpr double kSpreadFactor = 1.5;            // the learnt spread widened for light that differs from the session's
+constexpr double kSpreadFactor = 1.2;            // the learnt spread widened for light that differs from the session's
 const Eigen::Vector3d kMinSigma(4.0, 2.5, 2.5);  // L*, a*, b*: camera noise and shading at the least
 
 // RGB pixels (8-bit) to CIE L*a*b*.
@@ -44,7 +46,7 @@ cv::Vec3b pixelAt(const fw::ColourImage& image, int u, int v) {
 // The pixels between two radii round a disc's centre, on a grid of about 12 across the disc. Counts
 // the grid points that fell outside the image in `outside`.
 std::vector<cv::Vec3b> pixelsAround(const fw::ColourImage& image, const BallDisc& disc, double inner_px,
-                                    double outer_px, int& outside) {
+                                    double outer_px, int& outside, std::vector<Eigen::Vector2f>* offsets = nullptr) {
   std::vector<cv::Vec3b> pixels;
   outside = 0;
   const double step = std::max(1.0, disc.radius_px / 6.0);
@@ -58,14 +60,35 @@ std::vector<cv::Vec3b> pixelsAround(const fw::ColourImage& image, const BallDisc
         continue;
       }
       pixels.push_back(pixelAt(image, static_cast<int>(u), static_cast<int>(v)));
+      if (offsets) offsets->emplace_back(du / disc.radius_px, dv / disc.radius_px);
     }
   }
   return pixels;
 }
 
-// The disc's inside, where its colours are judged.
-std::vector<cv::Vec3b> discPixels(const fw::ColourImage& image, const BallDisc& disc, int& outside) {
-  return pixelsAround(image, disc, 0.0, kDiscShare * disc.radius_px, outside);
+// The disc's inside, where its colours are judged; offsets: each pixel's from the centre, in radii.
+std::vector<cv::Vec3b> discPixels(const fw::ColourImage& image, const BallDisc& disc, int& outside,
+                                  std::vector<Eigen::Vector2f>* offsets = nullptr) {
+  return pixelsAround(image, disc, 0.0, kDiscShare * disc.radius_px, outside, offsets);
+}
+
+// Whether each of the ball's main colours is spread over the disc, its pixels centred within a
+// third of the radius: a ball's panels lie all over it; a white box on a dark carpet puts its white on
+// one side of the disc and the dark on the other.
+bool coloursCentred(const BallColourModel& model, const std::vector<Eigen::Vector3f>& lab,
+                    const std::vector<Eigen::Vector2f>& offsets) {
+  for (std::size_t c = 0; c < model.size(); ++c) {
+    if (model[c].share < kMainColourShare) continue;
+    Eigen::Vector2f sum = Eigen::Vector2f::Zero();
+    int count = 0;
+    for (std::size_t i = 0; i < lab.size(); ++i) {
+      if (explainingColour(model, lab[i]) != static_cast<int>(c)) continue;
+      sum += offsets[i];
+      ++count;
+    }
+    if (count == 0 || (sum / count).norm() > kMaxColourOffset) return false;
+  }
+  return true;
 }
 
 }  // namespace
@@ -109,6 +132,8 @@ ColourMatch colourMatch(const BallColourModel& model, const std::vector<Eigen::V
     if (model[c].share < kMainColourShare) continue;
     const double shown = double(count[c]) / lab.size();
     consistency = std::min(consistency, shown / (kShownShare * model[c].share));
+    // ... and not swamp the disc: black panels on a quarter of a ball, not on two thirds of a disc.
+    if (shown > 2.0 * model[c].share) consistency = 0.0;
   }
   const double share = double(explained) / lab.size();
   return {share, std::min(1.0, consistency) * share};
@@ -142,7 +167,8 @@ ColourEvidence ColourCheck::judge(const fw::ColourImage& image, const BallDisc& 
     return evidence;
   }
   int outside = 0;
-  const std::vector<cv::Vec3b> pixels = discPixels(image, disc, outside);
+  std::vector<Eigen::Vector2f> offsets;
+  const std::vector<cv::Vec3b> pixels = discPixels(image, disc, outside, &offsets);
   if (pixels.size() < static_cast<std::size_t>(outside) || pixels.empty()) {
     evidence.note = fw::ColourNote::kOutsideImage;  // most of the disc is off the colour image
     return evidence;
@@ -166,6 +192,9 @@ ColourEvidence ColourCheck::judge(const fw::ColourImage& image, const BallDisc& 
   }
   const ColourMatch match = colourMatch(config_.ball_colours, lab);
   evidence.score = match.score;
+  // The ball's colours end at its outline: a disc cut from a larger patch of them (a grey carpet for
+  // a white ball with black panels, an orange shirt) is not confirmed.
+  const double ring_explained = colourMatch(config_.ball_colours, toLab(ring)).explained;
 
   // The outline: an edge across the circle the depth predicts (Sobel on each channel, the strongest
   // one, pointing along the radius), searched within a band for the depth's own error. Where the
@@ -228,7 +257,8 @@ ColourEvidence ColourCheck::judge(const fw::ColourImage& image, const BallDisc& 
   evidence.outline = double(supported) / kOutlinePoints;
   const bool blurred = contrasted > 0 && 4 * smeared >= contrasted;
 
-  if (evidence.score >= config_.confirm_score && evidence.outline >= config_.min_outline) {
+  if (evidence.score >= config_.confirm_score && evidence.outline >= config_.min_outline &&
+      ring_explained < kMaxRingExplained && coloursCentred(config_.ball_colours, lab, offsets)) {
     evidence.verdict = fw::ColourVerdict::kConfirmed;
   } else if (blurred && match.explained >= config_.reject_score) {
     // Smeared, the ball's colours mix (a classic ball's panels go grey) but still show.
@@ -279,8 +309,8 @@ BallColourFit BallColourLearner::fit() const {
                              std::to_string(ball_lab_.size()) + " pixels); at least " + std::to_string(kMinFrames) +
                              " are needed: is kinect3d.colour on, and is the ball in view of both cameras?");
   }
-  // k-means in L*a*b* with three clusters (a ball's colour, its print or panels, its shade), then
-  // clusters nearer than a just-noticeable difference of a few units merged, and rare ones dropped.
+  // k-means in L*a*b* with two clusters (a ball's colour and its panels' or print's), then merged
+  // when they are one colour in light and shade, and dropped when rare.
   const std::size_t n = std::min<std::size_t>(ball_lab_.size(), 20000);
   cv::Mat samples(static_cast<int>(n), 3, CV_32F);
   for (std::size_t i = 0; i < n; ++i) {
@@ -289,9 +319,10 @@ BallColourFit BallColourLearner::fit() const {
   }
   cv::Mat labels, centres;
   cv::theRNG().state = 0x1234567;  // the same recording always gives the same model
-  cv::kmeans(samples, 3, labels, cv::TermCriteria(cv::TermCriteria::EPS + cv::TermCriteria::COUNT, 50, 0.1), 3,
+  constexpr int kColours = 2;
+  cv::kmeans(samples, kColours, labels, cv::TermCriteria(cv::TermCriteria::EPS + cv::TermCriteria::COUNT, 50, 0.1), 3,
              cv::KMEANS_PP_CENTERS, centres);
-  std::vector<std::vector<int>> members(3);
+  std::vector<std::vector<int>> members(kColours);
   for (int i = 0; i < labels.rows; ++i) members[static_cast<std::size_t>(labels.at<int>(i))].push_back(i);
   auto meanOf = [&](const std::vector<int>& rows) {
     Eigen::Vector3d m = Eigen::Vector3d::Zero();

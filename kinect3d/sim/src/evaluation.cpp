@@ -7,6 +7,9 @@
 #include <fstream>
 #include <stdexcept>
 
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
 #include "kinect3d/ball_colour_calibration.h"
 #include "kinect3d/depth_source.h"
 #include "kinect3d/sim/calibration_scene.h"
@@ -124,6 +127,45 @@ RealFramesResult detectOnDepthImages(const std::vector<std::string>& images, dou
     result.balls += static_cast<int>(detections.balls.size());
     result.aligned = detections.aligned;
     ++result.frames;
+  }
+  return result;
+}
+
+RealColourCheck checkEverywhere(const std::string& depth_image, const std::string& colour_image, double cx, double cy,
+                                const BallColourModel& model, double radius_m) {
+  const cv::Mat depth = cv::imread(depth_image, cv::IMREAD_ANYDEPTH);
+  const cv::Mat bgr = cv::imread(colour_image, cv::IMREAD_COLOR);
+  if (depth.empty() || depth.type() != CV_16U) throw std::runtime_error(depth_image + ": not a 16-bit depth image");
+  if (bgr.empty() || bgr.size() != depth.size()) {
+    throw std::runtime_error(colour_image + ": not a colour image of the depth image's size");
+  }
+  constexpr double kFocal_px = 525.0;
+  fw::ColourImage image;
+  image.width = bgr.cols;
+  image.height = bgr.rows;
+  image.fx = image.fy = kFocal_px;
+  image.cx = cx;
+  image.cy = cy;
+  cv::Mat rgb;
+  cv::cvtColor(bgr, rgb, cv::COLOR_BGR2RGB);
+  image.rgb.assign(rgb.data, rgb.data + rgb.total() * 3);
+  ColourCheckConfig config;
+  config.mode = ColourCheckConfig::Mode::kOn;
+  config.ball_colours = model;
+  const ColourCheck check(config);
+  const std::optional<fw::ColourImage> paired = image;
+  RealColourCheck result;
+  for (int v = 8; v < depth.rows; v += 16) {
+    for (int u = 8; u < depth.cols; u += 16) {
+      const double z = depth.at<std::uint16_t>(v, u) * 1e-3;
+      if (z <= 0.0) continue;
+      const Eigen::Vector3d surface((u - cx) / kFocal_px * z, (v - cy) / kFocal_px * z, z);
+      const ColourEvidence evidence = check.check(paired, surface * (1.0 + radius_m / surface.norm()), radius_m);
+      ++result.places;
+      result.confirmed += evidence.verdict == fw::ColourVerdict::kConfirmed;
+      result.no_evidence += evidence.verdict == fw::ColourVerdict::kNoEvidence;
+      result.rejected += evidence.verdict == fw::ColourVerdict::kRejected;
+    }
   }
   return result;
 }

@@ -67,4 +67,13 @@ struct RealFramesResult {
 RealFramesResult detectOnDepthImages(const std::vector<std::string>& images, double cx, double cy,
                                      const DetectorConfig& config, int units_per_m = 1000);
 
+// The colour check everywhere in a real frame with registered colour (fx = fy = 525 at cx, cy; depth
+// in millimetres): a ball-sized sphere behind the surface at every 16th pixel with depth, checked
+// against the model.
+struct RealColourCheck {
+  int places = 0, confirmed = 0, no_evidence = 0, rejected = 0;
+};
+RealColourCheck checkEverywhere(const std::string& depth_image, const std::string& colour_image, double cx, double cy,
+                                const BallColourModel& model, double radius_m = 0.11);
+
 }  // namespace kinect3d::sim

@@ -1,0 +1,226 @@
+// The colour check (#27): the simulator's colour, the learnt ball colours, the verdicts on simulated
+// scenes and real frames, and what the rest of the product does with a verdict.
+#include <gtest/gtest.h>
+
+#include <fstream>
+
+#include "framework_api/config.h"
+#include "fusion/ball_fusion.h"
+#include "fusion/fusion_config.h"
+#include "kinect3d/camera_file.h"
+#include "kinect3d/colour_check.h"
+#include "kinect3d/config_io.h"
+#include "kinect3d/sim/evaluation.h"
+#include "kinect3d/sim/people.h"
+#include "kinect3d/trajectory.h"
+#include "real_data.h"
+#include "run_command.h"
+#include "scoped_temp_dir.h"
+
+namespace {
+
+using kinect3d::ColourCheckConfig;
+
+fw::Config shipped() { return fw::Config::load(PROJECT_CONFIG_DIR "/defaults", "", {}); }
+
+kinect3d::sim::CalibrationSession sessionWith(const std::string& ball) {
+  kinect3d::sim::CalibrationSession session;
+  session.pose = fw::SensorPose{0.0, 0.0, 0.7, 0.0, fw::degreesToRadians(-6.0), 0.0};
+  session.marks_xy_m = {{0.0, 2.0}, {-0.6, 2.8}, {0.6, 3.0}};
+  session.seconds_per_mark = 0.5;
+  session.colour = kinect3d::sim::ColourLook::withBall(ball);
+  return session;
+}
+
+kinect3d::BallColourModel learnt(const std::string& ball) {
+  return kinect3d::sim::learnBallColourInSession(sessionWith(ball),
+                                                 kinect3d::readDetectorConfig(shipped().block("kinect3d")))
+      .model;
+}
+
+TEST(SimulatedColour, TheBallShowsInItsColoursWhereTheDepthPutsItAndAFrameRendersTheSameTwice) {
+  kinect3d::sim::Scene scene = kinect3d::sim::loadScene("hung_3m");
+  scene.look = kinect3d::sim::ColourLook::withBall("yellow");
+  kinect3d::sim::KinectSimulator simulator(scene);
+  simulator.setColour(true);
+  kinect3d::DepthFrame frame, again;
+  kinect3d::sim::GroundTruth truth;
+  simulator.render(3, frame, truth);
+  simulator.render(3, again, truth);
+  ASSERT_TRUE(frame.colour && again.colour);
+  EXPECT_EQ(frame.colour->rgb, again.colour->rgb);
+  // The ball's centre, through the colour camera's own offset: yellow (red and green high, blue low).
+  const Eigen::Vector3d centre_S = scene.sensor_pose.T_R_S().inverse() * truth.ball_center_R;
+  const std::optional<kinect3d::BallDisc> disc = kinect3d::discOf(*frame.colour, centre_S, scene.physics.radius_m);
+  ASSERT_TRUE(disc);
+  const std::size_t at = 3 * (static_cast<std::size_t>(std::lround(disc->centre_px.y())) * frame.colour->width +
+                              static_cast<std::size_t>(std::lround(disc->centre_px.x())));
+  const std::uint8_t r = frame.colour->rgb[at], g = frame.colour->rgb[at + 1], b = frame.colour->rgb[at + 2];
+  EXPECT_GT(r, 150);
+  EXPECT_GT(g, 120);
+  EXPECT_LT(b, 90);
+  // Beside the disc (two radii to the right) is the wall, not the ball.
+  const std::size_t beside = at + 3 * static_cast<std::size_t>(std::lround(2.0 * disc->radius_px));
+  EXPECT_GT(std::abs(frame.colour->rgb[beside + 2] - b), 30);
+}
+
+TEST(BallColour, EachMatchBallIsLearntAndToldFromTheRestOfItsSession) {
+  const kinect3d::DetectorConfig detector = kinect3d::readDetectorConfig(shipped().block("kinect3d"));
+  for (const std::string& ball : kinect3d::sim::ColourLook::ballNames()) {
+    SCOPED_TRACE(ball);
+    const kinect3d::BallColourFit fit = kinect3d::sim::learnBallColourInSession(sessionWith(ball), detector);
+    EXPECT_GE(fit.frames, 30);
+    EXPECT_GT(fit.ball_explained, 0.9);
+    EXPECT_GE(fit.ball_score_p10, 0.5);   // the ball's own discs would be confirmed
+    EXPECT_LT(fit.other_score_p99, 0.2);  // discs elsewhere would be rejected
+    if (ball == "white_black") {
+      ASSERT_EQ(fit.model.size(), 2u);  // white and black: two colours, told apart by lightness
+      EXPECT_GT(fit.model[0].lab.x(), 60.0);
+      EXPECT_LT(fit.model[1].lab.x(), 30.0);
+    } else {
+      ASSERT_EQ(fit.model.size(), 1u);        // one colour, in light and shade
+      EXPECT_GT(fit.model[0].lab.z(), 40.0);  // yellow and orange: strongly b* (yellow-blue axis)
+    }
+  }
+}
+
+TEST(ColourCheck, RejectsThePhantomsOfPeopleLampsAndLoudspeakersAndKeepsTheBall) {
+  const fw::Config config = shipped();
+  const kinect3d::BallColourModel model = learnt("orange");
+  kinect3d::sim::DetectionScore off, on;
+  int confirmed_balls = 0;
+  std::vector<kinect3d::sim::Scene> scenes = {kinect3d::sim::loadScene("colour_confusers"),
+                                              kinect3d::sim::loadScene("lamp_in_view")};
+  for (int seed = 1; seed <= 3; ++seed) {
+    scenes.push_back(kinect3d::sim::crowdScene(seed, kinect3d::sim::CrowdBall::kOverAHead));
+    scenes.push_back(kinect3d::sim::crowdScene(seed, kinect3d::sim::CrowdBall::kThrownFromHands));
+  }
+  for (const kinect3d::sim::Scene& scene : scenes) {
+    kinect3d::DetectorConfig detector = kinect3d::readDetectorConfig(config.block("kinect3d"));
+    detector.ground.pose = scene.sensor_pose;
+    detector.colour.mode = ColourCheckConfig::Mode::kOn;
+    detector.colour.ball_colours = model;
+    const auto frames = kinect3d::sim::runDetectorOnScene(scene, detector);
+    off.add(kinect3d::sim::scoreFrames(frames, scene, {}));
+    on.add(kinect3d::sim::scoreFrames(kinect3d::sim::followedOnly(frames), scene, {}));
+    for (const auto& f : frames) {
+      for (const fw::BallObservation& b : f.balls) {
+        EXPECT_NE(b.colour, fw::ColourVerdict::kNotChecked);
+        confirmed_balls += b.colour == fw::ColourVerdict::kConfirmed;
+      }
+    }
+  }
+  EXPECT_GT(off.off_truth, 100);  // the depth alone reports the lamps and the loudspeaker
+  EXPECT_EQ(on.off_truth, 0);
+  EXPECT_GT(confirmed_balls, 100);
+  EXPECT_GE(on.recall(), off.recall() - 0.01);
+}
+
+TEST(ColourCheck, SaysWhyThereIsNoEvidenceAndRequiredRejectsWhatItCannotConfirm) {
+  ColourCheckConfig config;
+  config.mode = ColourCheckConfig::Mode::kOn;
+  config.ball_colours = {{{60.0, 20.0, 50.0}, {5.0, 3.0, 3.0}, 1.0}};
+  const kinect3d::ColourCheck check(config);
+  const Eigen::Vector3d ahead(0.0, 0.0, 3.0);
+  EXPECT_EQ(check.check(std::nullopt, ahead, 0.11).note, fw::ColourNote::kNoImage);
+  fw::ColourImage dark = kinect3d::ColourCamera::kinectV1().image(std::vector<std::uint8_t>(640 * 480 * 3, 2), 0.0);
+  const kinect3d::ColourEvidence in_the_dark = check.check(dark, ahead, 0.11);
+  EXPECT_EQ(in_the_dark.verdict, fw::ColourVerdict::kNoEvidence);
+  EXPECT_EQ(in_the_dark.note, fw::ColourNote::kTooDark);
+  EXPECT_EQ(check.check(dark, Eigen::Vector3d(0.0, 0.0, -1.0), 0.11).note, fw::ColourNote::kOutsideImage);
+  EXPECT_EQ(check.check(dark, Eigen::Vector3d(3.0, 0.0, 1.0), 0.11).note, fw::ColourNote::kOutsideImage);
+  EXPECT_EQ(check.check(dark, Eigen::Vector3d(0.0, 0.0, 40.0), 0.11).note, fw::ColourNote::kTooSmall);
+
+  config.mode = ColourCheckConfig::Mode::kRequired;
+  const kinect3d::ColourEvidence required = kinect3d::ColourCheck(config).check(dark, ahead, 0.11);
+  EXPECT_EQ(required.verdict, fw::ColourVerdict::kRejected);
+  EXPECT_EQ(required.note, fw::ColourNote::kTooDark);
+
+  config.mode = ColourCheckConfig::Mode::kOff;
+  EXPECT_EQ(kinect3d::ColourCheck(config).check(dark, ahead, 0.11).verdict, fw::ColourVerdict::kNotChecked);
+}
+
+TEST(ColourCheck, ConfirmsNothingAnywhereInTheRealColourFrames) {
+  const std::string people = "realdata/pcl_single_frames/five_people_depth_mm.png";
+  if (!realDataFile(people)) GTEST_SKIP() << noRealData(people);
+  const std::string dir = *realDataFile("realdata");
+  int places = 0;
+  for (const std::string& ball : kinect3d::sim::ColourLook::ballNames()) {
+    const kinect3d::BallColourModel model = learnt(ball);
+    for (const auto& [depth, colour, cx] :
+         {std::tuple{"pcl_single_frames/five_people_depth_mm.png", "pcl_single_frames/five_people_rgb.png", 319.5},
+          std::tuple{"pcl_single_frames/office1_depth_mm.png", "pcl_single_frames/office1_rgb.png", 320.0},
+          std::tuple{"pcl_grabber_sequences/frame_20121214T142255.814212_depth.tiff",
+                     "pcl_grabber_sequences/frame_20121214T142255.814212_rgb.tiff", 320.0}}) {
+      SCOPED_TRACE(ball + " ball on " + depth);
+      const kinect3d::sim::RealColourCheck r =
+          kinect3d::sim::checkEverywhere(dir + "/" + depth, dir + "/" + colour, cx, cx == 319.5 ? 239.5 : 240.0, model);
+      EXPECT_GT(r.places, 500);
+      EXPECT_EQ(r.confirmed, 0);
+      places += r.places;
+    }
+  }
+  EXPECT_GT(places, 5000);
+}
+
+TEST(ColourCheck, TrajectoriesAndFusionDoNotFollowARejectedBall) {
+  const fw::Config config = shipped();
+  // A flight the trajectory would report, every detection rejected by colour.
+  auto estimator = kinect3d::makeTrajectoryEstimator(kinect3d::readTrajectoryConfig(config.block("kinect3d")));
+  std::optional<fw::BallTrajectory> fitted;
+  for (int i = 0; i < 20; ++i) {
+    const double t = i / 30.0;
+    fw::BallObservation ball =
+        fw::BallObservation::inRobotFrame({0.5, 4.0 - 5.0 * t, 1.0 + 4.0 * t - 4.905 * t * t},
+                                          Eigen::Matrix3d::Identity() * 1e-4, fw::BallState::kAir, "kinect3d", {t, t});
+    ball.colour = fw::ColourVerdict::kRejected;
+    fitted = estimator->update(t, {ball});
+  }
+  EXPECT_FALSE(fitted);
+
+  fusion::BallFusion fusion(fusion::readFusionConfig(config.block("fusion")));
+  fw::BallObservation lamp = fw::BallObservation::inRobotFrame({0.0, 3.0, 1.6}, Eigen::Matrix3d::Identity() * 1e-4,
+                                                               fw::BallState::kAir, "kinect3d", {0.0, 0.0});
+  lamp.colour = fw::ColourVerdict::kRejected;
+  const fusion::FusionUpdate& update = fusion.addKinectFrame(0.0, {lamp});
+  EXPECT_FALSE(update.ball);
+  ASSERT_EQ(update.rejected.size(), 1u);
+  EXPECT_EQ(update.rejected[0].reason, "colour");
+}
+
+TEST(ColourCheck, AnOnCheckWithoutLearntColoursOrColourIsAConfigErrorNamingTheKey) {
+  const std::vector<std::pair<std::vector<std::string>, std::string>> cases = {
+      {{"kinect3d.colour=true", "kinect3d.colour_check.mode=on"}, "ball_colours is empty"},
+      {{"kinect3d.colour_check.mode=required",
+        "kinect3d.colour_check.ball_colours=[{lab: [60, 20, 50], sigma: [5, 3, 3], share: 1.0}]"},
+       "kinect3d.colour is false"}};
+  for (const auto& [overrides, expected] : cases) {
+    try {
+      kinect3d::readDetectorConfig(fw::Config::load(PROJECT_CONFIG_DIR "/defaults", "", overrides).block("kinect3d"));
+      ADD_FAILURE() << "no error for " << overrides.back();
+    } catch (const fw::ConfigError& e) {
+      EXPECT_NE(std::string(e.what()).find(expected), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("kinect3d.colour_check.mode"), std::string::npos) << e.what();
+    }
+  }
+}
+
+TEST(CalibrateBallColourCommand, LearnsTheBallInViewAndWritesItIntoTheRobotFileTheCheckThenReads) {
+  const ScopedTempDir dir;
+  const std::filesystem::path robot = dir.path() / "robot.yaml";
+  std::ofstream(robot) << "kinect3d:\n  source: \"sim:hung_3m\"  # the ball hung in view\n";
+  const auto [status, output] =
+      runCommand(std::string(KINECT3D_EXE) + " calibrate ball-colour --source sim:hung_3m --config " + robot.string() +
+                 " --write 2>&1");
+  ASSERT_EQ(status, 0) << output;
+  EXPECT_NE(output.find("Separability"), std::string::npos) << output;
+  const fw::Config config = fw::Config::load(PROJECT_CONFIG_DIR "/defaults", robot.string(),
+                                             {"kinect3d.colour=true", "kinect3d.colour_check.mode=on"});
+  const kinect3d::ColourCheckConfig check = kinect3d::readColourCheckConfig(config.block("kinect3d"));
+  ASSERT_EQ(check.ball_colours.size(), 1u);
+  EXPECT_GT(check.ball_colours[0].lab.y(), 10.0);                          // orange: red-green axis towards red ...
+  EXPECT_GT(check.ball_colours[0].lab.z(), 30.0);                          // ... and yellow
+  EXPECT_EQ(config.block("kinect3d").getString("source"), "sim:hung_3m");  // the rest of the file as it was
+}
+
+}  // namespace
