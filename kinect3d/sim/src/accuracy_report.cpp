@@ -339,6 +339,12 @@ struct ColourScore {
   sim::DetectionScore off, on;
   int confirmed = 0, no_evidence = 0, rejected = 0;  // of the reported balls on the truth
   std::vector<double> check_s;                       // the colour stage's time per checked ball
+  void add(const ColourScore& other) {
+    off.add(other.off);
+    on.add(other.on);
+    confirmed += other.confirmed, no_evidence += other.no_evidence, rejected += other.rejected;
+    check_s.insert(check_s.end(), other.check_s.begin(), other.check_s.end());
+  }
   void add(const std::vector<sim::EvaluatedFrame>& frames, const sim::Scene& scene) {
     off.add(sim::scoreFrames(frames, scene, {}));
     on.add(sim::scoreFrames(sim::followedOnly(frames), scene, {}));
@@ -398,7 +404,6 @@ void colourCheck(const fw::Config& config, const ReportOptions& options, std::os
         "on them, a person in orange) and `lamp_in_view`.\n\n"
         "| ball | scenes | frames | counted | found: off | found: on | off the truth: off | on | verdicts |\n"
         "|---|---|---|---|---|---|---|---|---|\n";
-  std::vector<double> check_s;
   auto play = [&](const LearntBall& ball, sim::Scene scene, ColourScore& score, const auto& change) {
     scene.look.ball_albedo = ball.look.ball_albedo;
     scene.look.panel_albedo = ball.look.panel_albedo;
@@ -423,11 +428,7 @@ void colourCheck(const fw::Config& config, const ReportOptions& options, std::os
     md << "| " << ball.name << " | people | " << colourColumns(people) << " |\n"
        << "| " << ball.name << " | confusers | " << colourColumns(confusers) << " |\n"
        << "| " << ball.name << " | the five kicks | " << colourColumns(kicked) << " |\n";
-    for (const ColourScore* s : {&people, &confusers, &kicked}) {
-      good_light.off.add(s->off);
-      good_light.on.add(s->on);
-      check_s.insert(check_s.end(), s->check_s.begin(), s->check_s.end());
-    }
+    for (const ColourScore* s : {&people, &confusers, &kicked}) good_light.add(*s);
   }
   const double drop = 100.0 * (good_light.off.recall() - good_light.on.recall());
   md << "| **all** | | " << colourColumns(good_light) << " |\n\n"
@@ -466,8 +467,9 @@ void colourCheck(const fw::Config& config, const ReportOptions& options, std::os
   }
   md << "\n### Cost\n\n"
      << "The colour stage per checked ball (projection, colours of the disc in L*a*b*, Sobel on its patch), over "
-     << check_s.size() << " frames with balls above: median " << format("%.0f us", 1e6 * fw::quantile(check_s, 0.5))
-     << ", p99 " << format("%.0f us", 1e6 * fw::quantile(check_s, 0.99))
+     << good_light.check_s.size() << " frames with balls above: median "
+     << format("%.0f us", 1e6 * fw::quantile(good_light.check_s, 0.5)) << ", p99 "
+     << format("%.0f us", 1e6 * fw::quantile(good_light.check_s, 0.99))
      << " on the machine that wrote this report (one core).\n\n";
   realColourFrames(options, balls, md);
 }
