@@ -112,10 +112,6 @@ int explainingColour(const BallColourModel& model, const Eigen::Vector3f& lab) {
   return best;
 }
 
-double colourScore(const BallColourModel& model, const std::vector<Eigen::Vector3f>& lab) {
-  return colourMatch(model, lab).score;
-}
-
 ColourMatch colourMatch(const BallColourModel& model, const std::vector<Eigen::Vector3f>& lab) {
   if (lab.empty() || model.empty()) return {};
   std::vector<int> count(model.size(), 0);
@@ -385,8 +381,8 @@ BallColourFit BallColourLearner::fit() const {
   }
   fit.other_explained = double(other_explained) / std::max<std::size_t>(other_lab_.size(), 1);
   std::vector<double> ball_scores, other_scores;
-  for (const auto& disc : ball_discs_) ball_scores.push_back(colourScore(fit.model, disc));
-  for (const auto& disc : other_discs_) other_scores.push_back(colourScore(fit.model, disc));
+  for (const auto& disc : ball_discs_) ball_scores.push_back(colourMatch(fit.model, disc).score);
+  for (const auto& disc : other_discs_) other_scores.push_back(colourMatch(fit.model, disc).score);
   fit.ball_score_p10 = fw::quantile(ball_scores, 0.1);
   fit.other_score_p99 = other_scores.empty() ? 0.0 : fw::quantile(other_scores, 0.99);
   return fit;

@@ -155,7 +155,7 @@ Eigen::Vector3d ColourRenderer::albedoOf(std::size_t object, const Shape& shape)
 }
 
 std::vector<std::uint8_t> ColourRenderer::render(double t, const Eigen::Isometry3d& T_F_S, const BallMotion* ball,
-                                                 const ColourCamera& camera, int frame_index) const {
+                                                 const ColourCamera& camera, int frame_index) {
   const Intrinsics& in = camera.intrinsics;
   const int W = in.width, H = in.height;
   const std::size_t pixels = static_cast<std::size_t>(W) * H;
@@ -166,8 +166,10 @@ std::vector<std::uint8_t> ColourRenderer::render(double t, const Eigen::Isometry
   auto ray = [&](int u, int v) { return in.backProject(u, v, 1.0); };
 
   // Radiance reaching each pixel before the light's level and slope: albedo times shading.
-  std::vector<float> nearest(pixels, kNoHit);
-  std::vector<Eigen::Vector3f> radiance(pixels, Eigen::Vector3f::Constant(0.02f));  // the dark hall
+  nearest_.assign(pixels, kNoHit);
+  radiance_.assign(pixels, Eigen::Vector3f::Constant(0.02f));  // the dark hall
+  std::vector<float>& nearest = nearest_;
+  std::vector<Eigen::Vector3f>& radiance = radiance_;
   auto shade = [&](const Eigen::Vector3d& n_F) { return 0.55 + 0.45 * std::max(0.0, n_F.dot(light_from_F_)); };
   if (scene_.floor) {
     const Eigen::Vector3f shaded_up = Eigen::Vector3f::Constant(static_cast<float>(shade(Eigen::Vector3d::UnitZ())));

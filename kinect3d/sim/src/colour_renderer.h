@@ -24,7 +24,7 @@ class ColourRenderer {
   // The RGB image (width * height * 3) at scene time t with the depth camera at T_F_S; ball may be
   // null. The same scene, time and frame index always give the same image.
   std::vector<std::uint8_t> render(double t, const Eigen::Isometry3d& T_F_S, const BallMotion* ball,
-                                   const ColourCamera& camera, int frame_index) const;
+                                   const ColourCamera& camera, int frame_index);
 
  private:
   Eigen::Vector3d albedoOf(std::size_t object, const Shape& shape) const;
@@ -33,6 +33,10 @@ class ColourRenderer {
   std::vector<std::vector<Eigen::Vector3d>> surface_albedo_;  // [object][Surface]: linear RGB, or emitted for a lamp
   Eigen::Vector3d light_from_F_;                              // towards the hall's lights
   Eigen::Vector2d light_slope_;                               // the brightness's change over the frame's width, height
+  // Per pixel, kept between frames so that rendering allocates nothing once warm: the optical depth
+  // of the nearest surface, and the light it sends before the hall's level and slope.
+  std::vector<float> nearest_;
+  std::vector<Eigen::Vector3f> radiance_;
 };
 
 }  // namespace kinect3d::sim

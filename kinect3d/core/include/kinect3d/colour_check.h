@@ -104,7 +104,6 @@ struct ColourMatch {
   double score = 0.0;
 };
 ColourMatch colourMatch(const BallColourModel& model, const std::vector<Eigen::Vector3f>& lab);
-double colourScore(const BallColourModel& model, const std::vector<Eigen::Vector3f>& lab);
 int explainingColour(const BallColourModel& model, const Eigen::Vector3f& lab);
 
 // The model as the robot file writes it: a flow list of {lab: [L, a, b], sigma: [...], share: s}.
