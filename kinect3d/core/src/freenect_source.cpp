@@ -14,6 +14,7 @@
 #include <cstring>
 #include <optional>
 
+#include "colour_pairing.h"
 #include "framework_api/log.h"
 #include "framework_api/replay_clock.h"
 #include "kinect3d/camera_file.h"
@@ -122,7 +123,7 @@ class FreenectDevice : public LiveDevice {
     }
     stamps_.reset();
     anchor_s_.reset();
-    colour_.reset();
+    colour_.clear();
     frames_ = 0;
   }
 
@@ -163,11 +164,9 @@ class FreenectDevice : public LiveDevice {
       }
     }
     frame.gravity_S_mps2 = gravity_S_mps2_;
-    // The newest colour image: the device sends it just after or just before the depth of the same
-    // moment, so it is at most a frame period away; one further off (a stalled colour stream) is not used.
-    if (colour_ && std::abs(colour_->source_time_s - frame.source_time_s) <= kMaxColourMismatch_s) {
-      frame.colour = *colour_;
-    }
+    // The colour image of the same moment: the device sends it just after or just before the depth,
+    // so at most a frame period away; none nearer (a stalled colour stream) is none.
+    frame.colour = colour_.pairWith(frame.source_time_s, kMaxColourMismatch_s);
     return true;
   }
 
@@ -196,8 +195,8 @@ class FreenectDevice : public LiveDevice {
     const KinectStampClock::Time time = self->timeOf(stamp);
     const auto* bytes = static_cast<const std::uint8_t*>(rgb);
     const ColourCamera camera = ColourCamera::kinectV1();
-    self->colour_ =
-        camera.image(std::vector<std::uint8_t>(bytes, bytes + 640 * 480 * 3), *self->anchor_s_ + time.seconds);
+    self->colour_.add(
+        camera.image(std::vector<std::uint8_t>(bytes, bytes + 640 * 480 * 3), *self->anchor_s_ + time.seconds));
   }
 
   int index_ = 0;
@@ -212,7 +211,7 @@ class FreenectDevice : public LiveDevice {
   bool arrived_ = false;
   std::uint64_t frames_ = 0;
   std::optional<Eigen::Vector3d> gravity_S_mps2_;
-  std::optional<fw::ColourImage> colour_;  // the newest
+  ColourPairing colour_;
 };
 
 }  // namespace

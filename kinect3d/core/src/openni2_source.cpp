@@ -8,6 +8,7 @@
 #include <mutex>
 #include <optional>
 
+#include "colour_pairing.h"
 #include "framework_api/log.h"
 #include "kinect3d/camera_file.h"
 #include "kinect3d/oni_recording.h"
@@ -97,7 +98,7 @@ class OpenNI2Stream {
       colour_stream_.stop();
       colour_stream_.destroy();
     }
-    colour_.reset();
+    colour_.clear();
     registered_ = false;
     if (stream_.isValid()) {
       stream_.stop();
@@ -166,8 +167,8 @@ class OpenNI2Stream {
                   device_.setImageRegistrationMode(openni::IMAGE_REGISTRATION_DEPTH_TO_COLOR) == openni::STATUS_OK;
   }
 
-  // The newest colour frame (read without waiting), kept; given to the depth frame when it is
-  // within 1.5 frame periods of it (both streams run on the device clock at the same rate).
+  // The colour frames that arrived (read without waiting), kept; the one taken with the depth frame
+  // (both streams run on the device clock at the same rate) is given to it.
   void attachColour(DepthFrame& frame, const std::string& label) {
     openni::VideoStream* streams[] = {&colour_stream_};
     int ready = -1;
@@ -186,9 +187,9 @@ class OpenNI2Stream {
                     rows + static_cast<std::size_t>(v) * ref.getStrideInBytes(),
                     static_cast<std::size_t>(in.width) * 3);
       }
-      colour_ = colour_camera_.image(std::move(rgb), ref.getTimestamp() * 1e-6);
+      colour_.add(colour_camera_.image(std::move(rgb), ref.getTimestamp() * 1e-6));
     }
-    if (colour_ && std::abs(colour_->source_time_s - frame.source_time_s) <= 1.5 / fps_) frame.colour = *colour_;
+    frame.colour = colour_.pairWith(frame.source_time_s, 1.5 / fps_);
   }
 
   void selectVgaMillimetres(const std::string& label) {
@@ -214,7 +215,7 @@ class OpenNI2Stream {
   openni::VideoStream colour_stream_;
   bool registered_ = false;  // depth registered to the colour camera by the device
   ColourCamera colour_camera_;
-  std::optional<fw::ColourImage> colour_;  // the newest colour frame
+  ColourPairing colour_;
 };
 
 // A live OpenNI2 device; absence, loss and silence as every live device (live_device.h).
