@@ -2,6 +2,7 @@
 // scenes and real frames, and what the rest of the product does with a verdict.
 #include <gtest/gtest.h>
 
+#include <array>
 #include <fstream>
 
 #include "framework_api/config.h"
@@ -122,8 +123,9 @@ TEST(ColourCheck, SaysWhyThereIsNoEvidenceAndRequiredRejectsWhatItCannotConfirm)
   config.ball_colours = {{{60.0, 20.0, 50.0}, {5.0, 3.0, 3.0}, 1.0}};
   const kinect3d::ColourCheck check(config);
   const Eigen::Vector3d ahead(0.0, 0.0, 3.0);
-  EXPECT_EQ(check.check(std::nullopt, ahead, 0.11).note, fw::ColourNote::kNoImage);
-  fw::ColourImage dark = kinect3d::ColourCamera::kinectV1().image(std::vector<std::uint8_t>(640 * 480 * 3, 2), 0.0);
+  EXPECT_EQ(check.check(kinect3d::DepthFrame{}, ahead, 0.11).note, fw::ColourNote::kNoImage);
+  kinect3d::DepthFrame dark;
+  dark.colour = kinect3d::ColourCamera::kinectV1().image(std::vector<std::uint8_t>(640 * 480 * 3, 2), 0.0);
   const kinect3d::ColourEvidence in_the_dark = check.check(dark, ahead, 0.11);
   EXPECT_EQ(in_the_dark.verdict, fw::ColourVerdict::kNoEvidence);
   EXPECT_EQ(in_the_dark.note, fw::ColourNote::kTooDark);
@@ -138,6 +140,90 @@ TEST(ColourCheck, SaysWhyThereIsNoEvidenceAndRequiredRejectsWhatItCannotConfirm)
 
   config.mode = ColourCheckConfig::Mode::kOff;
   EXPECT_EQ(kinect3d::ColourCheck(config).check(dark, ahead, 0.11).verdict, fw::ColourVerdict::kNotChecked);
+}
+
+TEST(ColourCheck, AColourInShadeOrInMoreLightIsStillThatColour) {
+  const kinect3d::BallColourModel orange = {{{64.0, 24.0, 57.0}, {6.0, 2.5, 2.5}, 1.0}};
+  // A matt surface in k times the light: linear RGB times k, so (L* + 16, a*, b*) times k^(1/3).
+  const auto lit = [](const Eigen::Vector3d& lab, double k) {
+    const double s = std::cbrt(k);
+    return Eigen::Vector3f(static_cast<float>((lab.x() + 16.0) * s - 16.0), static_cast<float>(lab.y() * s),
+                           static_cast<float>(lab.z() * s));
+  };
+  // A disc of the ball in k times the session's light, its shaded side darker still.
+  const auto disc = [&](double k) {
+    std::vector<Eigen::Vector3f> pixels;
+    for (const double shade : {0.7, 0.85, 1.0, 1.0, 1.0, 1.1}) pixels.push_back(lit(orange[0].lab, k * shade));
+    return pixels;
+  };
+  for (const double k : {0.3, 0.5, 1.0, 1.5, 1.9}) {
+    EXPECT_GT(kinect3d::colourMatch(orange, disc(k)).score, 0.99) << "in " << k << " times the light";
+  }
+  EXPECT_EQ(kinect3d::colourMatch(orange, disc(0.05)).score, 0.0) << "far darker: brown";
+  EXPECT_EQ(kinect3d::colourMatch(orange, disc(1.0), 0.63).score, 0.0) << "judged at a quarter of the light";
+  EXPECT_EQ(kinect3d::explainingColour(orange, Eigen::Vector3f(65.0f, 15.0f, 20.0f), 1.0), -1) << "skin";
+  EXPECT_EQ(kinect3d::explainingColour(orange, Eigen::Vector3f(60.0f, 45.0f, 45.0f), 1.0), -1) << "red";
+
+  // A white ball with black panels in one light: a grey between them is neither.
+  const kinect3d::BallColourModel white_black = {{{80.0, 0.0, 0.0}, {6.0, 2.5, 2.5}, 0.7},
+                                                 {{15.0, 0.0, 0.0}, {4.0, 2.5, 2.5}, 0.3}};
+  EXPECT_EQ(kinect3d::explainingColour(white_black, Eigen::Vector3f(80.0f, 0.0f, 0.0f), 1.0), 0);
+  EXPECT_EQ(kinect3d::explainingColour(white_black, Eigen::Vector3f(15.0f, 0.0f, 0.0f), 1.0), 1);
+  EXPECT_EQ(kinect3d::explainingColour(white_black, Eigen::Vector3f(45.0f, 0.0f, 0.0f), 1.0), -1);
+}
+
+// A ball 3 m ahead, drawn orange where the colour camera sees it, on a grey-blue wall 5 m away; a
+// green board 2 m away hides the disc's left side up to `hidden_to` (a share of its width).
+kinect3d::DepthFrame ballBehindABoard(double hidden_to, bool with_depth) {
+  const Eigen::Vector3d ball_S(0.0, 0.0, 3.0);
+  kinect3d::DepthFrame frame;
+  frame.resize(kinect3d::Intrinsics{640, 480, 525.0, 525.0, 319.5, 239.5});
+  frame.colour = kinect3d::ColourCamera::kinectV1().image(std::vector<std::uint8_t>(640 * 480 * 3), 0.0);
+  fw::ColourImage& colour = *frame.colour;
+  const kinect3d::BallDisc disc = *kinect3d::discOf(colour, ball_S, 0.11);
+  const double board_end_px = disc.centre_px.x() - disc.radius_px + hidden_to * 2.0 * disc.radius_px;
+  // What the colour camera sees at column u the depth camera sees at u + this, at the thing's distance.
+  const auto parallax_px = [&](double z_m) { return 525.0 * colour.offset_S_m.x() / z_m; };
+  for (int v = 0; v < 480; ++v) {
+    for (int u = 0; u < 640; ++u) {
+      std::uint8_t* rgb = &colour.rgb[3 * (static_cast<std::size_t>(v) * 640 + u)];
+      const bool board = u < board_end_px, ball = (Eigen::Vector2d(u, v) - disc.centre_px).norm() <= disc.radius_px;
+      const std::array<std::uint8_t, 3> paint = board  ? std::array<std::uint8_t, 3>{40, 140, 50}
+                                                : ball ? std::array<std::uint8_t, 3>{230, 110, 20}
+                                                       : std::array<std::uint8_t, 3>{100, 100, 140};
+      std::copy(paint.begin(), paint.end(), rgb);
+      const bool depth_board = u < board_end_px + parallax_px(2.0);
+      const bool depth_ball = (Eigen::Vector2d(u - parallax_px(3.0), v) - disc.centre_px).norm() <= disc.radius_px;
+      if (with_depth)
+        frame.depth_mm[static_cast<std::size_t>(v) * 640 + u] = depth_board ? 2000 : depth_ball ? 2900 : 5000;
+    }
+  }
+  return frame;
+}
+
+TEST(ColourCheck, AnOccludedBallIsJudgedOnWhatOfItShows) {
+  ColourCheckConfig config;
+  config.mode = ColourCheckConfig::Mode::kOn;
+  config.ball_colours = {{{59.9, 42.2, 64.1}, {4.0, 3.0, 3.0}, 1.0}};  // the L*a*b* of the orange drawn
+  const kinect3d::ColourCheck check(config);
+  const Eigen::Vector3d ball_S(0.0, 0.0, 3.0);
+  const kinect3d::ColourEvidence whole = check.check(ballBehindABoard(0.0, true), ball_S, 0.11);
+  EXPECT_EQ(whole.verdict, fw::ColourVerdict::kConfirmed);
+  EXPECT_GT(whole.score, 0.9);
+
+  // More than half behind the board: the colour image alone sees a disc mostly green; the depth says
+  // the green is nearer than the ball, and what shows of the ball is orange with its outline.
+  const kinect3d::ColourEvidence colour_alone = check.check(ballBehindABoard(0.55, false), ball_S, 0.11);
+  EXPECT_NE(colour_alone.verdict, fw::ColourVerdict::kConfirmed);
+  EXPECT_LT(colour_alone.score, 0.5);
+  const kinect3d::ColourEvidence with_depth = check.check(ballBehindABoard(0.55, true), ball_S, 0.11);
+  EXPECT_EQ(with_depth.verdict, fw::ColourVerdict::kConfirmed);
+  EXPECT_GT(with_depth.score, 0.9);
+  EXPECT_GT(with_depth.outline, 0.8) << "the board's edge is not counted against the outline";
+
+  const kinect3d::ColourEvidence nearly_all = check.check(ballBehindABoard(0.9, true), ball_S, 0.11);
+  EXPECT_EQ(nearly_all.verdict, fw::ColourVerdict::kNoEvidence);
+  EXPECT_EQ(nearly_all.note, fw::ColourNote::kHidden);
 }
 
 TEST(ColourCheck, ConfirmsNothingAnywhereInTheRealColourFrames) {
@@ -161,6 +247,27 @@ TEST(ColourCheck, ConfirmsNothingAnywhereInTheRealColourFrames) {
     }
   }
   EXPECT_GT(places, 5000);
+}
+
+TEST(ColourCheck, TheDemoRobotsLearntBallIsConfirmedInItsOwnScene) {
+  const fw::Config config = fw::Config::load(PROJECT_CONFIG_DIR "/defaults", PROJECT_CONFIG_DIR "/robots/demo.yaml",
+                                             {"kinect3d.colour=true", "kinect3d.colour_check.mode=on"});
+  const kinect3d::DetectorConfig detector = kinect3d::readDetectorConfig(config.block("kinect3d"));
+  ASSERT_FALSE(detector.colour.ball_colours.empty()) << "demo.yaml holds the colours learnt from a simulated session";
+  const kinect3d::sim::Scene scene = kinect3d::sim::loadScene("lob_over_robot");
+  int confirmed = 0, rejected = 0, balls = 0;
+  for (const auto& frame : kinect3d::sim::runDetectorOnScene(scene, detector)) {
+    for (const fw::BallObservation& b : frame.balls) {
+      ASSERT_TRUE(frame.truth.has_ball);
+      EXPECT_LT((b.position_m - frame.truth.ball_center_R).norm(), 0.3) << "no phantom in this scene";
+      ++balls;
+      confirmed += b.colour == fw::ColourVerdict::kConfirmed;
+      rejected += b.colour == fw::ColourVerdict::kRejected;
+    }
+  }
+  EXPECT_GT(balls, 20);
+  EXPECT_GT(confirmed, balls / 2) << "the ball lit as in the session, flying and rolling";
+  EXPECT_EQ(rejected, 0);
 }
 
 TEST(ColourCheck, TrajectoriesAndFusionDoNotFollowARejectedBall) {
@@ -205,22 +312,36 @@ TEST(ColourCheck, AnOnCheckWithoutLearntColoursOrColourIsAConfigErrorNamingTheKe
   }
 }
 
-TEST(CalibrateBallColourCommand, LearnsTheBallInViewAndWritesItIntoTheRobotFileTheCheckThenReads) {
+TEST(CalibrateBallColourCommand, LearnsTheBallFromASimulatedSessionAndWritesItIntoTheRobotFileTheCheckThenReads) {
   const ScopedTempDir dir;
-  const std::filesystem::path robot = dir.path() / "robot.yaml";
-  std::ofstream(robot) << "kinect3d:\n  source: \"sim:hung_3m\"  # the ball hung in view\n";
+  const std::filesystem::path robot = dir.path() / "robot.yaml", session = dir.path() / "session";
+  std::ofstream(robot) << "kinect3d:\n  source: \"openni2:\"  # the robot's own sensor\n  sensor:\n"
+                          "    pose_in_robot: {x: 0.0, y: 0.1, z: 0.65, yaw_deg: 0.0, pitch_deg: 4.0, roll_deg: 0.0}\n";
+  const auto [simulated, simulate_output] =
+      runCommand(std::string(KINECT3D_EXE) + " simulate-session --ball yellow --out " + session.string() +
+                 " --config " + robot.string() + " 2>&1");
+  ASSERT_EQ(simulated, 0) << simulate_output;
+  EXPECT_TRUE(std::filesystem::exists(session / "rgb.txt")) << simulate_output;
+  EXPECT_TRUE(std::filesystem::exists(session / "marks.yaml")) << "for kinect3d calibrate too";
   const auto [status, output] =
-      runCommand(std::string(KINECT3D_EXE) + " calibrate ball-colour --source sim:hung_3m --config " + robot.string() +
-                 " --write 2>&1");
+      runCommand(std::string(KINECT3D_EXE) + " calibrate ball-colour --source tum:" + session.string() + " --config " +
+                 robot.string() + " --write 2>&1");
   ASSERT_EQ(status, 0) << output;
   EXPECT_NE(output.find("Separability"), std::string::npos) << output;
   const fw::Config config = fw::Config::load(PROJECT_CONFIG_DIR "/defaults", robot.string(),
                                              {"kinect3d.colour=true", "kinect3d.colour_check.mode=on"});
   const kinect3d::ColourCheckConfig check = kinect3d::readColourCheckConfig(config.block("kinect3d"));
   ASSERT_EQ(check.ball_colours.size(), 1u);
-  EXPECT_GT(check.ball_colours[0].lab.y(), 10.0);                          // orange: red-green axis towards red ...
-  EXPECT_GT(check.ball_colours[0].lab.z(), 30.0);                          // ... and yellow
-  EXPECT_EQ(config.block("kinect3d").getString("source"), "sim:hung_3m");  // the rest of the file as it was
+  EXPECT_LT(check.ball_colours[0].lab.y(), 0.0);                        // yellow: red-green axis towards green ...
+  EXPECT_GT(check.ball_colours[0].lab.z(), 50.0);                       // ... and far towards yellow
+  EXPECT_EQ(config.block("kinect3d").getString("source"), "openni2:");  // the rest of the file as it was
+
+  std::ofstream(dir.path() / "level.yaml") << "kinect3d:\n  source: \"openni2:\"\n";
+  const auto [refused, refused_output] =
+      runCommand(std::string(KINECT3D_EXE) + " simulate-session --out " + (dir.path() / "x").string() + " --config " +
+                 (dir.path() / "level.yaml").string() + " 2>&1");
+  EXPECT_NE(refused, 0);
+  EXPECT_NE(refused_output.find("kinect3d.sensor.pose_in_robot"), std::string::npos) << refused_output;
 }
 
 }  // namespace

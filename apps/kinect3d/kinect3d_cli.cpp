@@ -35,6 +35,7 @@
 #include "kinect3d/config_io.h"
 #include "kinect3d/depth_source.h"
 #include "kinect3d/sim/accuracy_report.h"
+#include "kinect3d/sim/calibration_scene.h"
 #include "kinect3d/sim/field_sensors.h"
 #include "kinect3d/sim/sequence_writer.h"
 #include "kinect3d/sim/sim_sources.h"
@@ -286,6 +287,40 @@ void addSimulate(CLI::App& app) {
     if (options->seed >= 0) omni.seed = localisation.seed = static_cast<std::uint64_t>(options->seed);
     if (options->frames > 0) scene.duration_s = options->frames / scene.fps;
     kinect3d::writeFieldSensorFiles(scene, omni, localisation, options->out_dir);
+  });
+}
+
+void addSimulateSession(CLI::App& app) {
+  struct Options {
+    std::string out_dir, ball = "orange";
+    int seed = 1;
+    ConfigOptions config;
+  };
+  auto options = std::make_shared<Options>();
+  CLI::App* command = app.add_subcommand(
+      "simulate-session",
+      "Render a calibration session for a robot file's sensor mounting: the match ball on four marks, with colour");
+  command->add_option("--out", options->out_dir, "Output folder (a TUM sequence with rgb/ and marks.yaml)")->required();
+  command->add_option("--ball", options->ball, "The match ball's look")
+      ->check(CLI::IsMember(kinect3d::sim::ColourLook::ballNames()))
+      ->capture_default_str();
+  command->add_option("--seed", options->seed, "Noise seed")->check(CLI::NonNegativeNumber)->capture_default_str();
+  options->config.addTo(command);
+  command->callback([options] {
+    const fw::Config config = options->config.load();
+    kinect3d::sim::CalibrationSession session;
+    const std::optional<fw::SensorPose> pose = kinect3d::readDetectorConfig(config.block("kinect3d")).ground.pose;
+    if (!pose) {
+      throw CLI::ValidationError("--config", "the session needs the sensor's mounting: kinect3d.sensor.pose_in_robot");
+    }
+    session.pose = *pose;
+    session.marks_xy_m = {{0.0, 2.0}, {-0.6, 2.8}, {0.6, 3.0}, {0.1, 3.8}};
+    session.noise_seed = static_cast<std::uint64_t>(options->seed);
+    session.colour = kinect3d::sim::ColourLook::withBall(options->ball);
+    kinect3d::sim::writeCalibrationSession(session, options->out_dir);
+    fw::logInfo("simulate-session", "wrote " + options->out_dir + ": the " + options->ball +
+                                        " ball on 4 marks, 1 s each, with colour; sensor at " +
+                                        fw::poseInRobotYaml(session.pose));
   });
 }
 
@@ -682,6 +717,7 @@ int main(int argc, char** argv) {
   CLI::App app{"Kinect3D: 3D ball perception from depth frames."};
   app.require_subcommand(1);
   addSimulate(app);
+  addSimulateSession(app);
   addInfo(app);
   addSnapshot(app);
   addDetect(app);

@@ -52,8 +52,8 @@ const char* toString(BallState state) { return state == BallState::kAir ? "air" 
 namespace {
 // The words the match log, the detect output and the viewer use, in enum order.
 constexpr const char* kVerdictNames[] = {"not_checked", "confirmed", "rejected", "no_evidence"};
-constexpr const char* kNoteNames[] = {"none",     "no_image",    "outside_image", "too_small",
-                                      "too_dark", "overexposed", "blurred",       "weak"};
+constexpr const char* kNoteNames[] = {"none",        "no_image", "outside_image", "too_small", "too_dark",
+                                      "overexposed", "blurred",  "weak",          "hidden"};
 
 template <typename Enum, std::size_t N>
 Enum enumFrom(const char* const (&names)[N], const std::string& text, const char* what) {

@@ -76,7 +76,7 @@ const char* toString(ColourVerdict verdict);
 ColourVerdict colourVerdictFrom(const std::string& text);  // throws std::invalid_argument
 
 // Why the colour image could not tell, or "none" when it could.
-enum class ColourNote { kNone, kNoImage, kOutsideImage, kTooSmall, kTooDark, kOverexposed, kBlurred, kWeak };
+enum class ColourNote { kNone, kNoImage, kOutsideImage, kTooSmall, kTooDark, kOverexposed, kBlurred, kWeak, kHidden };
 const char* toString(ColourNote note);
 ColourNote colourNoteFrom(const std::string& text);  // throws std::invalid_argument
 

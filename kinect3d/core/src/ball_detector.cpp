@@ -113,8 +113,7 @@ void BallDetector::detect(const DepthFrame& frame, Detections& out, const std::o
   if (config_.colour.mode != ColourCheckConfig::Mode::kOff) {
     const Eigen::Isometry3d T_S_R_d = T_R_S_->inverse();
     for (fw::BallObservation& ball : out.balls) {
-      const ColourEvidence evidence =
-          colour_check_.check(frame.colour, T_S_R_d * ball.position_m, config_.ball.radius_m);
+      const ColourEvidence evidence = colour_check_.check(frame, T_S_R_d * ball.position_m, config_.ball.radius_m);
       ball.colour = evidence.verdict;
       ball.colour_note = evidence.note;
       ball.colour_score = evidence.score;

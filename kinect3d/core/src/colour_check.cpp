@@ -8,6 +8,8 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "kinect3d/depth_noise.h"
+
 namespace kinect3d {
 
 namespace {
@@ -18,11 +20,19 @@ constexpr double kShownShare = 0.5;              // ... with at least this share
 constexpr double kDiscShare = 0.8;               // colours are sampled inside this share of the disc's radius
 constexpr int kOutlinePoints = 32;               // points on the circle tested for an edge
 constexpr double kEdgeSobel = 80.0;              // a 3x3 Sobel response of a 20-level step
-constexpr double kMaxColourOffset = 0.33;        // radii: a main colour's pixels centred on the disc
+constexpr double kMaxColourOffset = 0.33;        // radii: main colours' pixels centred on the disc and each other
+constexpr double kMinShown = 0.3;                // of a disc, unhidden, to judge it by
 constexpr double kMaxRingExplained = 0.5;        // a confirmed disc's surroundings are mostly not the ball's colours
 constexpr int kContrast = 90;                    // summed over R, G, B: colours this different across the circle
-constexpr double kSpreadFactor = 1.2;            // the learnt spread widened for light that differs from the session's
-const Eigen::Vector3d kMinSigma(4.0, 2.5, 2.5);  // L*, a*, b*: camera noise and shading at the least
+constexpr double kSpreadFactor = 1.2;            // the learnt spread widened a little: no hall is quite the session
+const Eigen::Vector3d kMinSigma(4.0, 2.5, 2.5);  // L*, a*, b*: camera noise at the least
+// Light. A matt surface in more or less light has its linear RGB scaled by the light, and so its
+// (L* + 16, a*, b*) by the light's cube root (above L* 8): one colour in more or less light lies on
+// a ray from (-16, 0, 0). The hall's light on a ball may differ from the session's it was learnt in
+// (a darker corner, a lamp above) from a quarter to twice: these cube roots, about 8 % apart. Each
+// disc is judged at the one level that explains it best, all the ball's colours together (its white
+// panels stay lighter than its black ones); the ball's own shading is in the learnt spread.
+constexpr double kLightLevels[] = {0.63, 0.69, 0.76, 0.83, 0.91, 1.0, 1.08, 1.17, 1.26};
 
 // RGB pixels (8-bit) to CIE L*a*b*.
 std::vector<Eigen::Vector3f> toLab(const std::vector<cv::Vec3b>& rgb) {
@@ -43,12 +53,63 @@ cv::Vec3b pixelAt(const fw::ColourImage& image, int u, int v) {
   return {p[0], p[1], p[2]};
 }
 
-// The pixels between two radii round a disc's centre, on a grid of about 12 across the disc. Counts
-// the grid points that fell outside the image in `outside`.
-std::vector<cv::Vec3b> pixelsAround(const fw::ColourImage& image, const BallDisc& disc, double inner_px,
-                                    double outer_px, int& outside, std::vector<Eigen::Vector2f>* offsets = nullptr) {
+// What the depth shows in front of the ball: a colour pixel is hidden when the depth image, at the
+// pixel the same ray falls on at the ball's distance (the colour camera sits beside the depth
+// camera), holds a surface nearer than the ball's near side. A ball behind a player is judged on
+// what of it shows. Without depth (or where it has none) nothing is hidden.
+class Occluders {
+ public:
+  Occluders(const DepthFrame& frame, const fw::ColourImage& image, const Eigen::Vector3d& centre_S, double radius_m)
+      : frame_(frame),
+        image_(image),
+        z_C_m_(centre_S.z() - image.offset_S_m.z()),
+        nearest_mm_(1000.0 * (centre_S.z() - radius_m - marginOf(frame, centre_S.z() - radius_m))) {}
+
+  bool hides(double u, double v) const {
+    const std::uint16_t along = depthAlong(u, v, z_C_m_);
+    if (along == 0 || along >= nearest_mm_) return false;
+    // Something nearer. The ray was followed to the ball's distance; a near surface sits elsewhere
+    // in the depth image (the cameras' parallax grows as it comes nearer): look again at its own.
+    const std::uint16_t again = depthAlong(u, v, along * 1e-3 - image_.offset_S_m.z());
+    return again != 0 && again < nearest_mm_;
+  }
+
+ private:
+  // In front of the ball by more than the depth's own error there (3 sigma and a quantisation step:
+  // 7 cm at 3 m, 27 cm at 6 m), and by 10 cm at the least.
+  static double marginOf(const DepthFrame& frame, double z_m) {
+    const DepthNoiseModel noise{frame.intrinsics.fx};
+    return std::max(0.1, 3.0 * DepthNoiseModel::axialSigma_m(z_m) + noise.quantisationStep_m(z_m));
+  }
+  // The depth (mm, 0 for none) where the colour pixel's ray is z_C_m along the colour camera's axis.
+  std::uint16_t depthAlong(double u, double v, double z_C_m) const {
+    if (frame_.depth_mm.empty()) return 0;
+    const Eigen::Vector3d p_S =
+        Eigen::Vector3d((u - image_.cx) / image_.fx * z_C_m, (v - image_.cy) / image_.fy * z_C_m, z_C_m) +
+        image_.offset_S_m;
+    const Intrinsics& in = frame_.intrinsics;
+    const long du = std::lround(in.fx * p_S.x() / p_S.z() + in.cx), dv = std::lround(in.fy * p_S.y() / p_S.z() + in.cy);
+    if (du < 0 || dv < 0 || du >= in.width || dv >= in.height) return 0;
+    return frame_.at(static_cast<int>(du), static_cast<int>(dv));
+  }
+
+  const DepthFrame& frame_;
+  const fw::ColourImage& image_;
+  double z_C_m_;       // the ball centre's distance along the colour camera's axis
+  double nearest_mm_;  // depth nearer than this hides the ball
+};
+
+// The pixels between two radii round a disc's centre, on a grid of about 12 across the disc, but
+// those occluders hide. Counts the grid points that fell outside the image in `outside` and the
+// hidden ones in `hidden`.
+struct DiscSamples {
   std::vector<cv::Vec3b> pixels;
-  outside = 0;
+  std::vector<Eigen::Vector2f> offsets;  // each pixel's from the disc's centre, in radii
+  int outside = 0, hidden = 0;
+};
+DiscSamples pixelsAround(const fw::ColourImage& image, const BallDisc& disc, double inner_px, double outer_px,
+                         const Occluders* occluders = nullptr) {
+  DiscSamples samples;
   const double step = std::max(1.0, disc.radius_px / 6.0);
   for (double dv = -outer_px; dv <= outer_px; dv += step) {
     for (double du = -outer_px; du <= outer_px; du += step) {
@@ -56,141 +117,107 @@ std::vector<cv::Vec3b> pixelsAround(const fw::ColourImage& image, const BallDisc
       if (r2 > outer_px * outer_px || r2 < inner_px * inner_px) continue;
       const long u = std::lround(disc.centre_px.x() + du), v = std::lround(disc.centre_px.y() + dv);
       if (u < 0 || v < 0 || u >= image.width || v >= image.height) {
-        ++outside;
+        ++samples.outside;
         continue;
       }
-      pixels.push_back(pixelAt(image, static_cast<int>(u), static_cast<int>(v)));
-      if (offsets) offsets->emplace_back(du / disc.radius_px, dv / disc.radius_px);
+      if (occluders && occluders->hides(u, v)) {
+        ++samples.hidden;
+        continue;
+      }
+      samples.pixels.push_back(pixelAt(image, static_cast<int>(u), static_cast<int>(v)));
+      samples.offsets.emplace_back(du / disc.radius_px, dv / disc.radius_px);
     }
   }
-  return pixels;
+  return samples;
 }
 
-// The disc's inside, where its colours are judged; offsets: each pixel's from the centre, in radii.
-std::vector<cv::Vec3b> discPixels(const fw::ColourImage& image, const BallDisc& disc, int& outside,
-                                  std::vector<Eigen::Vector2f>* offsets = nullptr) {
-  return pixelsAround(image, disc, 0.0, kDiscShare * disc.radius_px, outside, offsets);
+// The disc's inside, where its colours are judged.
+DiscSamples discPixels(const fw::ColourImage& image, const BallDisc& disc, const Occluders* occluders = nullptr) {
+  return pixelsAround(image, disc, 0.0, kDiscShare * disc.radius_px, occluders);
 }
 
-// Whether each of the ball's main colours is spread over the disc, its pixels centred within a
-// third of the radius: a ball's panels lie all over it; a white box on a dark carpet puts its white on
-// one side of the disc and the dark on the other.
+// Whether each of the ball's main colours is spread over the disc: its pixels centred within a third
+// of the radius of what shows of the disc (the whole disc, or its unhidden part), and of each other.
+// A ball's panels lie all over it; a white box on a dark carpet puts its white on one side of the
+// disc and the dark on the other.
 bool coloursCentred(const BallColourModel& model, const std::vector<Eigen::Vector3f>& lab,
-                    const std::vector<Eigen::Vector2f>& offsets) {
+                    const std::vector<Eigen::Vector2f>& offsets, double light) {
+  Eigen::Vector2f shown = Eigen::Vector2f::Zero();
+  for (const Eigen::Vector2f& o : offsets) shown += o;
+  shown /= std::max<std::size_t>(offsets.size(), 1);
+  std::vector<Eigen::Vector2f> centres;
   for (std::size_t c = 0; c < model.size(); ++c) {
     if (model[c].share < kMainColourShare) continue;
     Eigen::Vector2f sum = Eigen::Vector2f::Zero();
     int count = 0;
     for (std::size_t i = 0; i < lab.size(); ++i) {
-      if (explainingColour(model, lab[i]) != static_cast<int>(c)) continue;
+      if (explainingColour(model, lab[i], light) != static_cast<int>(c)) continue;
       sum += offsets[i];
       ++count;
     }
-    if (count == 0 || (sum / count).norm() > kMaxColourOffset) return false;
+    if (count == 0 || (sum / count - shown).norm() > kMaxColourOffset) return false;
+    centres.push_back(sum / count);
+  }
+  for (std::size_t a = 0; a < centres.size(); ++a) {
+    for (std::size_t b = a + 1; b < centres.size(); ++b) {
+      if ((centres[a] - centres[b]).norm() > kMaxColourOffset) return false;
+    }
   }
   return true;
 }
 
-}  // namespace
-
-std::optional<BallDisc> discOf(const fw::ColourImage& image, const Eigen::Vector3d& centre_S, double radius_m) {
-  const Eigen::Vector3d p_C = centre_S - image.offset_S_m;
-  if (p_C.z() <= radius_m) return std::nullopt;
-  // A sphere subtends asin(r / d): its outline's radius on the image is f r / sqrt(d^2 - r^2).
-  const double range = p_C.norm();
-  return BallDisc{{image.fx * p_C.x() / p_C.z() + image.cx, image.fy * p_C.y() / p_C.z() + image.cy},
-                  image.fx * radius_m / std::sqrt(range * range - radius_m * radius_m)};
+// A pixel's squared distance from a colour in its learnt sigmas, the colour in `light` (a level of
+// kLightLevels). Its a* and b* are compared at the colour's lightness (the ball's own shading moves
+// them along the ray), its lightness with the colour's in that light.
+double distance2(const BallColour& colour, const Eigen::Vector3f& lab, double light) {
+  const double lit = (colour.lab.x() + 16.0) * light, pixel_lit = std::max(lab.x() + 16.0, 1e-3);
+  const Eigen::Vector2d ab = lab.tail<2>().cast<double>() * (colour.lab.x() + 16.0) / pixel_lit;
+  const double sigma_lit = std::max(colour.sigma.x() * light, kMinSigma.x());
+  return (ab - colour.lab.tail<2>()).cwiseQuotient(colour.sigma.tail<2>()).squaredNorm() +
+         (pixel_lit - lit) * (pixel_lit - lit) / (sigma_lit * sigma_lit);
 }
 
-int explainingColour(const BallColourModel& model, const Eigen::Vector3f& lab) {
-  int best = -1;
-  double best_d2 = kExplainedSigma2;
-  for (std::size_t c = 0; c < model.size(); ++c) {
-    const double d2 = ((lab.cast<double>() - model[c].lab).cwiseQuotient(model[c].sigma)).squaredNorm();
-    if (d2 <= best_d2) best = static_cast<int>(c), best_d2 = d2;
-  }
-  return best;
-}
-
-ColourMatch colourMatch(const BallColourModel& model, const std::vector<Eigen::Vector3f>& lab) {
-  if (lab.empty() || model.empty()) return {};
-  std::vector<int> count(model.size(), 0);
-  int explained = 0;
-  for (const Eigen::Vector3f& p : lab) {
-    const int c = explainingColour(model, p);
-    if (c < 0) continue;
-    ++count[static_cast<std::size_t>(c)];
-    ++explained;
-  }
-  // A white shirt is not a white ball with black panels: each main colour must show.
-  double consistency = 1.0;
-  for (std::size_t c = 0; c < model.size(); ++c) {
-    if (model[c].share < kMainColourShare) continue;
-    const double shown = double(count[c]) / lab.size();
-    consistency = std::min(consistency, shown / (kShownShare * model[c].share));
-    // ... and not swamp the disc: black panels on a quarter of a ball, not on two thirds of a disc.
-    if (shown > 2.0 * model[c].share) consistency = 0.0;
-  }
-  const double share = double(explained) / lab.size();
-  return {share, std::min(1.0, consistency) * share};
-}
-
-ColourCheck::ColourCheck(ColourCheckConfig config) : config_(std::move(config)) {}
-
-ColourEvidence ColourCheck::check(const std::optional<fw::ColourImage>& image, const Eigen::Vector3d& centre_S,
-                                  double radius_m) const {
-  ColourEvidence evidence;
-  if (config_.mode == ColourCheckConfig::Mode::kOff) return evidence;
-  evidence.verdict = fw::ColourVerdict::kNoEvidence;
-  if (!image || image->rgb.empty()) {
-    evidence.note = fw::ColourNote::kNoImage;
-  } else if (const std::optional<BallDisc> disc = discOf(*image, centre_S, radius_m)) {
-    evidence = judge(*image, *disc);
-  } else {
-    evidence.note = fw::ColourNote::kOutsideImage;
-  }
-  if (config_.mode == ColourCheckConfig::Mode::kRequired && evidence.verdict != fw::ColourVerdict::kConfirmed) {
-    evidence.verdict = fw::ColourVerdict::kRejected;
-  }
-  return evidence;
-}
-
-ColourEvidence ColourCheck::judge(const fw::ColourImage& image, const BallDisc& disc) const {
+// The evidence on a disc that lies in the image (ColourCheck::check).
+ColourEvidence judge(const ColourCheckConfig& config, const fw::ColourImage& image, const BallDisc& disc,
+                     const Occluders& occluders) {
   ColourEvidence evidence;
   evidence.verdict = fw::ColourVerdict::kNoEvidence;
-  if (disc.radius_px < config_.min_radius_px) {
+  if (disc.radius_px < config.min_radius_px) {
     evidence.note = fw::ColourNote::kTooSmall;
     return evidence;
   }
-  int outside = 0;
-  std::vector<Eigen::Vector2f> offsets;
-  const std::vector<cv::Vec3b> pixels = discPixels(image, disc, outside, &offsets);
-  if (pixels.size() < static_cast<std::size_t>(outside) || pixels.empty()) {
+  const DiscSamples disc_samples = discPixels(image, disc, &occluders);
+  const std::size_t in_image = disc_samples.pixels.size() + disc_samples.hidden;
+  if (in_image < static_cast<std::size_t>(disc_samples.outside) || in_image == 0) {
     evidence.note = fw::ColourNote::kOutsideImage;  // most of the disc is off the colour image
     return evidence;
   }
-  const std::vector<Eigen::Vector3f> lab = toLab(pixels);
+  if (disc_samples.pixels.size() < kMinShown * in_image) {
+    evidence.note = fw::ColourNote::kHidden;  // behind something nearer: too little of it shows
+    return evidence;
+  }
+  const std::vector<Eigen::Vector3f> lab = toLab(disc_samples.pixels);
   double lightness = 0.0;
   for (const Eigen::Vector3f& p : lab) lightness += p.x();
-  if (lightness / lab.size() < config_.dark_lightness) {
+  if (lightness / lab.size() < config.dark_lightness) {
     evidence.note = fw::ColourNote::kTooDark;
     return evidence;
   }
   // Overexposed: the ring round the disc blown out (a ball against a window or a lamp's glare). A
   // disc blown out on its own is a light, not a ball, and is judged like anything else.
-  int ring_outside = 0, saturated = 0;
+  int saturated = 0;
   const std::vector<cv::Vec3b> ring =
-      pixelsAround(image, disc, 1.2 * disc.radius_px, 1.6 * disc.radius_px, ring_outside);
+      pixelsAround(image, disc, 1.2 * disc.radius_px, 1.6 * disc.radius_px, &occluders).pixels;
   for (const cv::Vec3b& p : ring) saturated += std::min({p[0], p[1], p[2]}) >= 250;
   if (!ring.empty() && 2 * saturated >= static_cast<int>(ring.size())) {
     evidence.note = fw::ColourNote::kOverexposed;
     return evidence;
   }
-  const ColourMatch match = colourMatch(config_.ball_colours, lab);
+  const ColourMatch match = colourMatch(config.ball_colours, lab);
   evidence.score = match.score;
   // The ball's colours end at its outline: a disc cut from a larger patch of them (a grey carpet for
   // a white ball with black panels, an orange shirt) is not confirmed.
-  const double ring_explained = colourMatch(config_.ball_colours, toLab(ring)).explained;
+  const double ring_explained = colourMatch(config.ball_colours, toLab(ring), match.light).explained;
 
   // The outline: an edge across the circle the depth predicts (Sobel on each channel, the strongest
   // one, pointing along the radius), searched within a band for the depth's own error. Where the
@@ -214,10 +241,14 @@ ColourEvidence ColourCheck::judge(const fw::ColourImage& image, const BallDisc& 
   auto difference = [](const cv::Vec3b& a, const cv::Vec3b& b) {
     return std::abs(a[0] - b[0]) + std::abs(a[1] - b[1]) + std::abs(a[2] - b[2]);
   };
-  int supported = 0, contrasted = 0, smeared = 0;
+  int shown = 0, supported = 0, contrasted = 0, smeared = 0;
   for (int k = 0; k < kOutlinePoints; ++k) {
     const double angle = 2.0 * M_PI * k / kOutlinePoints;
     const Eigen::Vector2d dir(std::cos(angle), std::sin(angle));
+    // The outline behind an occluder is the occluder's edge, if any: not evidence either way.
+    const Eigen::Vector2d on_outline = disc.centre_px + disc.radius_px * dir;
+    if (occluders.hides(on_outline.x(), on_outline.y())) continue;
+    ++shown;
     bool edge = false;
     for (double r = disc.radius_px - band; r <= disc.radius_px + band && !edge; r += 1.0) {
       int x, y;
@@ -235,7 +266,11 @@ ColourEvidence ColourCheck::judge(const fw::ColourImage& image, const BallDisc& 
     // a tenth to nine tenths of the way to the outside's.
     int xi, yi, xo, yo;
     const double r_in = 0.5 * disc.radius_px, r_out = disc.radius_px + band;
-    if (!at(disc.centre_px + r_in * dir, xi, yi) || !at(disc.centre_px + r_out * dir, xo, yo)) continue;
+    const Eigen::Vector2d outside_px = disc.centre_px + r_out * dir;
+    if (!at(disc.centre_px + r_in * dir, xi, yi) || !at(outside_px, xo, yo) ||
+        occluders.hides(outside_px.x(), outside_px.y())) {
+      continue;
+    }
     const cv::Vec3b inside = patch.at<cv::Vec3b>(yi, xi), outside_colour = patch.at<cv::Vec3b>(yo, xo);
     const int contrast = difference(inside, outside_colour);
     if (contrast < kContrast) continue;
@@ -248,21 +283,100 @@ ColourEvidence ColourCheck::judge(const fw::ColourImage& image, const BallDisc& 
       if (first < 0.0 && moved >= 0.1) first = r;
       if (moved <= 0.9) last = r;
     }
-    smeared += first >= 0.0 && last - first > config_.max_blur_px;
+    smeared += first >= 0.0 && last - first > config.max_blur_px;
   }
-  evidence.outline = double(supported) / kOutlinePoints;
+  evidence.outline = shown > 0 ? double(supported) / shown : 0.0;
   const bool blurred = contrasted > 0 && 4 * smeared >= contrasted;
 
-  if (evidence.score >= config_.confirm_score && evidence.outline >= config_.min_outline &&
-      ring_explained < kMaxRingExplained && coloursCentred(config_.ball_colours, lab, offsets)) {
+  fprintf(stderr, "shown %zu of %zu hidden %d score %.2f explained %.2f ring %.2f outline %.2f\n",
+          disc_samples.pixels.size(), in_image, disc_samples.hidden, evidence.score, match.explained, ring_explained,
+          evidence.outline);
+  if (evidence.score >= config.confirm_score && evidence.outline >= config.min_outline &&
+      ring_explained < kMaxRingExplained &&
+      coloursCentred(config.ball_colours, lab, disc_samples.offsets, match.light)) {
     evidence.verdict = fw::ColourVerdict::kConfirmed;
-  } else if (blurred && match.explained >= config_.reject_score) {
+  } else if (blurred && match.explained >= config.reject_score) {
     // Smeared, the ball's colours mix (a classic ball's panels go grey) but still show.
     evidence.note = fw::ColourNote::kBlurred;
-  } else if (evidence.score < config_.reject_score) {
+  } else if (evidence.score < config.reject_score) {
     evidence.verdict = fw::ColourVerdict::kRejected;
   } else {
     evidence.note = fw::ColourNote::kWeak;
+  }
+  return evidence;
+}
+
+}  // namespace
+
+std::optional<BallDisc> discOf(const fw::ColourImage& image, const Eigen::Vector3d& centre_S, double radius_m) {
+  const Eigen::Vector3d p_C = centre_S - image.offset_S_m;
+  if (p_C.z() <= radius_m) return std::nullopt;
+  // A sphere subtends asin(r / d): its outline's radius on the image is f r / sqrt(d^2 - r^2).
+  const double range = p_C.norm();
+  return BallDisc{{image.fx * p_C.x() / p_C.z() + image.cx, image.fy * p_C.y() / p_C.z() + image.cy},
+                  image.fx * radius_m / std::sqrt(range * range - radius_m * radius_m)};
+}
+
+int explainingColour(const BallColourModel& model, const Eigen::Vector3f& lab, double light) {
+  int best = -1;
+  double best_d2 = kExplainedSigma2;
+  for (std::size_t c = 0; c < model.size(); ++c) {
+    const double d2 = distance2(model[c], lab, light);
+    if (d2 <= best_d2) best = static_cast<int>(c), best_d2 = d2;
+  }
+  return best;
+}
+
+ColourMatch colourMatch(const BallColourModel& model, const std::vector<Eigen::Vector3f>& lab, double light) {
+  ColourMatch match;
+  match.light = light;
+  if (lab.empty() || model.empty()) return match;
+  std::vector<int> count(model.size(), 0);
+  int explained = 0;
+  for (const Eigen::Vector3f& p : lab) {
+    const int c = explainingColour(model, p, light);
+    if (c < 0) continue;
+    ++count[static_cast<std::size_t>(c)];
+    ++explained;
+  }
+  // A white shirt is not a white ball with black panels: each main colour must show.
+  double consistency = 1.0;
+  for (std::size_t c = 0; c < model.size(); ++c) {
+    if (model[c].share < kMainColourShare) continue;
+    const double shown = double(count[c]) / lab.size();
+    consistency = std::min(consistency, shown / (kShownShare * model[c].share));
+    // ... and not swamp the disc: black panels on a quarter of a ball, not on two thirds of a disc.
+    if (shown > 2.0 * model[c].share) consistency = 0.0;
+  }
+  match.explained = double(explained) / lab.size();
+  match.score = std::min(1.0, consistency) * match.explained;
+  return match;
+}
+
+ColourMatch colourMatch(const BallColourModel& model, const std::vector<Eigen::Vector3f>& lab) {
+  ColourMatch best = colourMatch(model, lab, 1.0);
+  for (const double light : kLightLevels) {
+    const ColourMatch match = colourMatch(model, lab, light);
+    if (match.score > best.score || (match.score == best.score && match.explained > best.explained)) best = match;
+  }
+  return best;
+}
+
+ColourCheck::ColourCheck(ColourCheckConfig config) : config_(std::move(config)) {}
+
+ColourEvidence ColourCheck::check(const DepthFrame& frame, const Eigen::Vector3d& centre_S, double radius_m) const {
+  ColourEvidence evidence;
+  if (config_.mode == ColourCheckConfig::Mode::kOff) return evidence;
+  evidence.verdict = fw::ColourVerdict::kNoEvidence;
+  if (!frame.colour || frame.colour->rgb.empty()) {
+    evidence.note = fw::ColourNote::kNoImage;
+  } else if (const std::optional<BallDisc> disc = discOf(*frame.colour, centre_S, radius_m)) {
+    evidence = judge(config_, *frame.colour, *disc, Occluders(frame, *frame.colour, centre_S, radius_m));
+  } else {
+    evidence.note = fw::ColourNote::kOutsideImage;
+  }
+  if (config_.mode == ColourCheckConfig::Mode::kRequired && evidence.verdict != fw::ColourVerdict::kConfirmed) {
+    evidence.verdict = fw::ColourVerdict::kRejected;
   }
   return evidence;
 }
@@ -272,9 +386,9 @@ ColourEvidence ColourCheck::judge(const fw::ColourImage& image, const BallDisc& 
 void BallColourLearner::add(const fw::ColourImage& image, const Eigen::Vector3d& centre_S, double radius_m) {
   const std::optional<BallDisc> disc = discOf(image, centre_S, radius_m);
   if (!disc || disc->radius_px < 3.0) return;
-  int outside = 0;
-  const std::vector<Eigen::Vector3f> own = toLab(discPixels(image, *disc, outside));
-  if (outside > 0 || own.empty()) return;  // the whole ball in view, or nothing from this frame
+  const DiscSamples samples = discPixels(image, *disc);
+  if (samples.outside > 0 || samples.pixels.empty()) return;  // the whole ball in view, or nothing from this frame
+  const std::vector<Eigen::Vector3f> own = toLab(samples.pixels);
   ++frames_;
   ball_lab_.insert(ball_lab_.end(), own.begin(), own.end());
   ball_discs_.push_back(own);
@@ -293,7 +407,7 @@ void BallColourLearner::add(const fw::ColourImage& image, const Eigen::Vector3d&
     for (double u = step; u < image.width - step; u += step) {
       const BallDisc elsewhere{{u, v}, disc->radius_px};
       if ((elsewhere.centre_px - disc->centre_px).norm() < 2.0 * disc->radius_px) continue;
-      other_discs_.push_back(toLab(discPixels(image, elsewhere, outside)));
+      other_discs_.push_back(toLab(discPixels(image, elsewhere).pixels));
     }
   }
 }
@@ -352,10 +466,12 @@ BallColourFit BallColourLearner::fit() const {
     if (share < 0.05) continue;  // a few pixels of the background or the outline
     BallColour colour;
     colour.lab = meanOf(rows);
+    // The spread of lightness as it is; of a* and b* at the colour's lightness (shadedDistance2).
     Eigen::Vector3d var = Eigen::Vector3d::Zero();
     for (const int r : rows) {
-      const Eigen::Vector3d d =
-          Eigen::Vector3d(samples.at<float>(r, 0), samples.at<float>(r, 1), samples.at<float>(r, 2)) - colour.lab;
+      Eigen::Vector3d p(samples.at<float>(r, 0), samples.at<float>(r, 1), samples.at<float>(r, 2));
+      p.tail<2>() *= (colour.lab.x() + 16.0) / std::max(p.x() + 16.0, 1e-3);
+      const Eigen::Vector3d d = p - colour.lab;
       var += d.cwiseProduct(d);
     }
     colour.sigma = (kSpreadFactor * (var / rows.size()).cwiseSqrt()).cwiseMax(kMinSigma);
@@ -369,12 +485,12 @@ BallColourFit BallColourLearner::fit() const {
   fit.ball_pixels = static_cast<int>(ball_lab_.size());
   fit.other_pixels = static_cast<int>(other_lab_.size());
   int ball_explained = 0;
-  for (const Eigen::Vector3f& p : ball_lab_) ball_explained += explainingColour(fit.model, p) >= 0;
+  for (const Eigen::Vector3f& p : ball_lab_) ball_explained += explainingColour(fit.model, p, 1.0) >= 0;
   fit.ball_explained = double(ball_explained) / ball_lab_.size();
   fit.other_explained_by.assign(fit.model.size(), 0.0);
   int other_explained = 0;
   for (const Eigen::Vector3f& p : other_lab_) {
-    const int c = explainingColour(fit.model, p);
+    const int c = explainingColour(fit.model, p, 1.0);
     if (c < 0) continue;
     ++other_explained;
     fit.other_explained_by[static_cast<std::size_t>(c)] += 1.0 / std::max<std::size_t>(other_lab_.size(), 1);

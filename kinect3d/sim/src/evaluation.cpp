@@ -140,6 +140,9 @@ RealColourCheck checkEverywhere(const std::string& depth_image, const std::strin
     throw std::runtime_error(colour_image + ": not a colour image of the depth image's size");
   }
   constexpr double kFocal_px = 525.0;
+  DepthFrame frame;
+  frame.resize(Intrinsics{depth.cols, depth.rows, kFocal_px, kFocal_px, cx, cy});
+  std::copy(depth.begin<std::uint16_t>(), depth.end<std::uint16_t>(), frame.depth_mm.begin());
   fw::ColourImage image;
   image.width = bgr.cols;
   image.height = bgr.rows;
@@ -153,14 +156,14 @@ RealColourCheck checkEverywhere(const std::string& depth_image, const std::strin
   config.mode = ColourCheckConfig::Mode::kOn;
   config.ball_colours = model;
   const ColourCheck check(config);
-  const std::optional<fw::ColourImage> paired = image;
+  frame.colour = std::move(image);
   RealColourCheck result;
   for (int v = 8; v < depth.rows; v += 16) {
     for (int u = 8; u < depth.cols; u += 16) {
       const double z = depth.at<std::uint16_t>(v, u) * 1e-3;
       if (z <= 0.0) continue;
       const Eigen::Vector3d surface((u - cx) / kFocal_px * z, (v - cy) / kFocal_px * z, z);
-      const ColourEvidence evidence = check.check(paired, surface * (1.0 + radius_m / surface.norm()), radius_m);
+      const ColourEvidence evidence = check.check(frame, surface * (1.0 + radius_m / surface.norm()), radius_m);
       ++result.places;
       result.confirmed += evidence.verdict == fw::ColourVerdict::kConfirmed;
       result.no_evidence += evidence.verdict == fw::ColourVerdict::kNoEvidence;

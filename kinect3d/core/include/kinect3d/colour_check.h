@@ -12,6 +12,7 @@
 #include <Eigen/Core>
 
 #include "framework_api/types.h"
+#include "kinect3d/depth_frame.h"
 
 namespace kinect3d {
 
@@ -47,7 +48,8 @@ struct ColourCheckConfig {
 struct ColourEvidence {
   fw::ColourVerdict verdict = fw::ColourVerdict::kNotChecked;
   fw::ColourNote note = fw::ColourNote::kNone;
-  double score = 0.0;    // share of the disc the ball's colours explain, 0 when a main colour is missing
+  double score =
+      0.0;  // share of the disc (what shows of it) the ball's colours explain, 0 when a main colour is missing
   double outline = 0.0;  // share of the circle with an edge across it
 };
 
@@ -56,14 +58,13 @@ class ColourCheck {
   explicit ColourCheck(ColourCheckConfig config);
   const ColourCheckConfig& config() const { return config_; }
 
-  // The verdict on a ball at centre_S (depth camera's optical frame) of radius_m, from the colour
-  // image paired with its depth frame (none: no evidence). With mode kRequired, anything not
-  // confirmed is rejected (the note still says why).
-  ColourEvidence check(const std::optional<fw::ColourImage>& image, const Eigen::Vector3d& centre_S,
-                       double radius_m) const;
+  // The verdict on a ball at centre_S (depth camera's optical frame) of radius_m, from the frame's
+  // colour image (none: no evidence), judged on what of the ball its depth shows is not hidden
+  // behind something nearer. With mode kRequired, anything not confirmed is rejected (the note
+  // still says why).
+  ColourEvidence check(const DepthFrame& frame, const Eigen::Vector3d& centre_S, double radius_m) const;
 
  private:
-  ColourEvidence judge(const fw::ColourImage& image, const BallDisc& disc) const;
   ColourCheckConfig config_;
 };
 
@@ -97,14 +98,18 @@ class BallColourLearner {
 
 // A disc's Lab samples against a model: the share any of its colours explains, and the colour score
 // (that share, cut down when one of the ball's main colours does not show: a white shirt is not a
-// white ball with black panels). Which colour explains a sample (-1 for none). Shared by the check
-// and the learner's report.
+// white ball with black panels), with the ball in `light` (the cube root of the hall's light over the
+// session's). Without a light, at the level that explains the disc best, from a quarter to twice the
+// session's. Which colour explains a sample (-1 for none). Shared by the check and the learner's
+// report.
 struct ColourMatch {
   double explained = 0.0;
   double score = 0.0;
+  double light = 1.0;
 };
+ColourMatch colourMatch(const BallColourModel& model, const std::vector<Eigen::Vector3f>& lab, double light);
 ColourMatch colourMatch(const BallColourModel& model, const std::vector<Eigen::Vector3f>& lab);
-int explainingColour(const BallColourModel& model, const Eigen::Vector3f& lab);
+int explainingColour(const BallColourModel& model, const Eigen::Vector3f& lab, double light);
 
 // The model as the robot file writes it: a flow list of {lab: [L, a, b], sigma: [...], share: s}.
 std::string ballColoursYaml(const BallColourModel& model);
