@@ -314,7 +314,6 @@ void addSimulateSession(CLI::App& app) {
       throw CLI::ValidationError("--config", "the session needs the sensor's mounting: kinect3d.sensor.pose_in_robot");
     }
     session.pose = *pose;
-    session.marks_xy_m = {{0.0, 2.0}, {-0.6, 2.8}, {0.6, 3.0}, {0.1, 3.8}};
     session.noise_seed = static_cast<std::uint64_t>(options->seed);
     session.colour = kinect3d::sim::ColourLook::withBall(options->ball);
     kinect3d::sim::writeCalibrationSession(session, options->out_dir);

@@ -354,8 +354,10 @@ ColourMatch colourMatch(const BallColourModel& model, const std::vector<Eigen::V
 }
 
 ColourMatch colourMatch(const BallColourModel& model, const std::vector<Eigen::Vector3f>& lab) {
+  // The session's light unless another level explains the disc better.
   ColourMatch best = colourMatch(model, lab, 1.0);
   for (const double light : kLightLevels) {
+    if (light == 1.0) continue;  // the start
     const ColourMatch match = colourMatch(model, lab, light);
     if (match.score > best.score || (match.score == best.score && match.explained > best.explained)) best = match;
   }

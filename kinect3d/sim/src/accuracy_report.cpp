@@ -309,7 +309,6 @@ struct LearntBall {
 sim::CalibrationSession colourSession(const sim::ColourLook& look) {
   sim::CalibrationSession session;
   session.pose = fw::SensorPose{0.0, 0.0, 0.7, 0.0, fw::degreesToRadians(-6.0), 0.0};
-  session.marks_xy_m = {{0.0, 2.0}, {-0.6, 2.8}, {0.6, 3.0}, {0.1, 3.8}};
   session.noise_seed = 5;
   session.colour = look;
   return session;

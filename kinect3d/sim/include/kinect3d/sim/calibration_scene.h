@@ -15,8 +15,9 @@
 namespace kinect3d::sim {
 
 struct CalibrationSession {
-  fw::SensorPose pose;                      // the truth the calibration should find
-  std::vector<Eigen::Vector2d> marks_xy_m;  // where the ball rests, robot frame
+  fw::SensorPose pose;  // the truth the calibration should find
+  // Where the ball rests, robot frame: by default four marks spread over the view, 2-3.8 m ahead.
+  std::vector<Eigen::Vector2d> marks_xy_m = {{0.0, 2.0}, {-0.6, 2.8}, {0.6, 3.0}, {0.1, 3.8}};
   double seconds_per_mark = 1.0;
   std::uint64_t noise_seed = 1;
   std::optional<ColourLook> colour = std::nullopt;  // with colour images: the match ball and the hall's light
