@@ -288,9 +288,6 @@ ColourEvidence judge(const ColourCheckConfig& config, const fw::ColourImage& ima
   evidence.outline = shown > 0 ? double(supported) / shown : 0.0;
   const bool blurred = contrasted > 0 && 4 * smeared >= contrasted;
 
-  fprintf(stderr, "shown %zu of %zu hidden %d score %.2f explained %.2f ring %.2f outline %.2f\n",
-          disc_samples.pixels.size(), in_image, disc_samples.hidden, evidence.score, match.explained, ring_explained,
-          evidence.outline);
   if (evidence.score >= config.confirm_score && evidence.outline >= config.min_outline &&
       ring_explained < kMaxRingExplained &&
       coloursCentred(config.ball_colours, lab, disc_samples.offsets, match.light)) {
