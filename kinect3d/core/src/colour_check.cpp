@@ -14,18 +14,19 @@ namespace kinect3d {
 
 namespace {
 
-constexpr double kExplainedSigma2 = 9.0;         // a pixel within 3 sigma (Mahalanobis) of a colour is explained by it
-constexpr double kMainColourShare = 0.15;        // a colour this common on the ball must show in its disc ...
-constexpr double kShownShare = 0.5;              // ... with at least this share of its learnt share
-constexpr double kDiscShare = 0.8;               // colours are sampled inside this share of the disc's radius
-constexpr int kOutlinePoints = 32;               // points on the circle tested for an edge
-constexpr double kEdgeSobel = 80.0;              // a 3x3 Sobel response of a 20-level step
-constexpr double kMaxColourOffset = 0.33;        // radii: main colours' pixels centred on the disc and each other
-constexpr double kMinShown = 0.3;                // of a disc, unhidden, to judge it by
-constexpr double kMaxRingExplained = 0.5;        // a confirmed disc's surroundings are mostly not the ball's colours
-constexpr int kContrast = 90;                    // summed over R, G, B: colours this different across the circle
-constexpr double kSpreadFactor = 1.2;            // the learnt spread widened a little: no hall is quite the session
-const Eigen::Vector3d kMinSigma(4.0, 2.5, 2.5);  // L*, a*, b*: camera noise at the least
+constexpr double kExplainedSigma2 = 9.0;   // a pixel within 3 sigma (Mahalanobis) of a colour is explained by it
+constexpr double kMainColourShare = 0.15;  // a colour this common on the ball must show in its disc ...
+constexpr double kShownShare = 0.5;        // ... with at least this share of its learnt share
+constexpr double kDiscShare = 0.8;         // colours are sampled inside this share of the disc's radius
+constexpr int kOutlinePoints = 32;         // points on the circle tested for an edge
+constexpr double kEdgeSobel = 80.0;        // a 3x3 Sobel response of a 20-level step
+constexpr double kMaxColourOffset = 0.33;  // radii: main colours' pixels centred on the disc and each other
+constexpr double kMinShown = 0.3;          // of a disc, unhidden, to judge it by
+constexpr double kMaxRingExplained = 0.5;  // a confirmed disc's surroundings are mostly not the ball's colours
+constexpr int kContrast = 90;              // summed over R, G, B: colours this different across the circle
+constexpr int kMinContrasted = kOutlinePoints / 4;  // directions with contrast needed to call an outline smeared
+constexpr double kSpreadFactor = 1.2;               // the learnt spread widened a little: no hall is quite the session
+const Eigen::Vector3d kMinSigma(4.0, 2.5, 2.5);     // L*, a*, b*: camera noise at the least
 // Light. A matt surface in more or less light has its linear RGB scaled by the light, and so its
 // (L* + 16, a*, b*) by the light's cube root (above L* 8): one colour in more or less light lies on
 // a ray from (-16, 0, 0). The hall's light on a ball may differ from the session's it was learnt in
@@ -177,6 +178,14 @@ double distance2(const BallColour& colour, const Eigen::Vector3f& lab, double li
          (pixel_lit - lit) * (pixel_lit - lit) / (sigma_lit * sigma_lit);
 }
 
+// The largest share of a disc the ball's colours explain at any light level. Smeared, a classic ball's
+// white and black panels mix into greys: its white in less light.
+double mostExplained(const BallColourModel& model, const std::vector<Eigen::Vector3f>& lab) {
+  double most = 0.0;
+  for (const double light : kLightLevels) most = std::max(most, colourMatch(model, lab, light).explained);
+  return most;
+}
+
 // The evidence on a disc that lies in the image (ColourCheck::check).
 ColourEvidence judge(const ColourCheckConfig& config, const fw::ColourImage& image, const BallDisc& disc,
                      const Occluders& occluders) {
@@ -286,14 +295,14 @@ ColourEvidence judge(const ColourCheckConfig& config, const fw::ColourImage& ima
     smeared += first >= 0.0 && last - first > config.max_blur_px;
   }
   evidence.outline = shown > 0 ? double(supported) / shown : 0.0;
-  const bool blurred = contrasted > 0 && 4 * smeared >= contrasted;
+  const bool blurred = contrasted >= kMinContrasted && 4 * smeared >= contrasted;
 
   if (evidence.score >= config.confirm_score && evidence.outline >= config.min_outline &&
       ring_explained < kMaxRingExplained &&
       coloursCentred(config.ball_colours, lab, disc_samples.offsets, match.light)) {
     evidence.verdict = fw::ColourVerdict::kConfirmed;
-  } else if (blurred && match.explained >= config.reject_score) {
-    // Smeared, the ball's colours mix (a classic ball's panels go grey) but still show.
+  } else if (blurred && mostExplained(config.ball_colours, lab) >= config.reject_score) {
+    // Smeared, the ball's colours mix (its score drops) but still show, in some light.
     evidence.note = fw::ColourNote::kBlurred;
   } else if (evidence.score < config.reject_score) {
     evidence.verdict = fw::ColourVerdict::kRejected;

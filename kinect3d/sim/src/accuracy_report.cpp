@@ -432,9 +432,10 @@ void colourCheck(const fw::Config& config, const ReportOptions& options, std::os
   const double drop = 100.0 * (good_light.off.recall() - good_light.on.recall());
   md << "| **all** | | " << colourColumns(good_light) << " |\n\n"
      << "In good light, colour on: phantoms " << good_light.on.off_truth << " of " << good_light.off.off_truth
-     << (good_light.on.off_truth == 0 ? " (target 0: met)" : " (target 0: **not met**)") << "; found "
-     << format("%.1f %%", 100.0 * good_light.on.recall()) << " against "
-     << format("%.1f %%", 100.0 * good_light.off.recall()) << " off, " << format("%.1f", drop) << " points less"
+     << (good_light.on.off_truth == 0 ? " (target 0: met)" : " (target 0: **not met**)") << "; found in "
+     << good_light.on.found << " of " << good_light.on.eligible << " frames, "
+     << format("%.2f %%", 100.0 * good_light.on.recall()) << ", against " << good_light.off.found << ", "
+     << format("%.2f %%", 100.0 * good_light.off.recall()) << ", off: " << format("%.2f", drop) << " points less"
      << (good_light.on.recall() >= 0.95 && drop <= 1.0 ? " (target >= 95 %, within 1 point: met)"
                                                        : " (target >= 95 %, within 1 point: **not met**)")
      << ".\n\n";

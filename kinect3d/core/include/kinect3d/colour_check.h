@@ -37,7 +37,7 @@ struct ColourCheckConfig {
   Mode mode = Mode::kOff;
   BallColourModel ball_colours;
   double confirm_score = 0.5;    // confirmed from this colour score up, with the outline ...
-  double min_outline = 0.3;      // ... seen on this share of the circle
+  double min_outline = 0.5;      // ... seen on this share of the circle
   double reject_score = 0.2;     // rejected below this colour score
   double min_radius_px = 3.0;    // a smaller disc is too far to judge
   double dark_lightness = 12.0;  // L*: a disc darker than this is too dark to judge
