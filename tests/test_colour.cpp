@@ -207,6 +207,19 @@ TEST(ColourCheck, AColourInShadeOrInMoreLightIsStillThatColour) {
   EXPECT_EQ(kinect3d::explainingColour(white_black, Eigen::Vector3f(80.0f, 0.0f, 0.0f), 1.0), 0);
   EXPECT_EQ(kinect3d::explainingColour(white_black, Eigen::Vector3f(15.0f, 0.0f, 0.0f), 1.0), 1);
   EXPECT_EQ(kinect3d::explainingColour(white_black, Eigen::Vector3f(45.0f, 0.0f, 0.0f), 1.0), -1);
+
+  // Far away its panels are a few pixels wide and blend with the white: a grey a quarter white and
+  // three quarters black (in linear light: L* 47) shows the black that no pixel shows alone.
+  std::vector<Eigen::Vector3f> far(7, Eigen::Vector3f(80.0f, 0.0f, 0.0f));
+  far.insert(far.end(), 3, Eigen::Vector3f(46.9f, 0.0f, 0.0f));
+  const kinect3d::ColourMatch far_match = kinect3d::colourMatch(white_black, far, 1.0, /*panels_blend=*/true);
+  EXPECT_NEAR(far_match.explained, 0.7, 1e-9) << "the greys are neither colour";
+  EXPECT_GT(far_match.score, 0.5) << "but show both";
+  EXPECT_EQ(kinect3d::colourMatch(white_black, far, 1.0).score, 0.0) << "near, panels show whole: no black";
+  const std::vector<Eigen::Vector3f> shirt(10, Eigen::Vector3f(80.0f, 0.0f, 0.0f));
+  EXPECT_EQ(kinect3d::colourMatch(white_black, shirt, 1.0, true).score, 0.0) << "a white shirt shows no black";
+  const std::vector<Eigen::Vector3f> grey(10, Eigen::Vector3f(46.9f, 0.0f, 0.0f));
+  EXPECT_EQ(kinect3d::colourMatch(white_black, grey, 1.0, true).score, 0.0) << "a grey shirt is neither colour";
 }
 
 // A white ball with black panels 3 m ahead on the green field, its colour image smeared sideways by

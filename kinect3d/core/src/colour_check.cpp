@@ -24,6 +24,8 @@ constexpr double kMaxColourOffset = 0.33;  // radii: main colours' pixels centre
 constexpr double kMinShown = 0.3;          // of a disc, unhidden, to judge it by
 constexpr double kMaxRingExplained = 0.5;  // a confirmed disc's surroundings are mostly not the ball's colours
 constexpr int kContrast = 90;              // summed over R, G, B: colours this different across the circle
+constexpr double kPanelWidth = 0.4;        // radii: a classic ball's pentagon across
+constexpr double kBlendedPanel_px = 5.0;   // a panel narrower than this shows mostly blended
 constexpr int kMinContrasted = kOutlinePoints / 4;  // directions with contrast needed to call an outline smeared
 constexpr double kSpreadFactor = 1.2;               // the learnt spread widened a little: no hall is quite the session
 const Eigen::Vector3d kMinSigma(4.0, 2.5, 2.5);     // L*, a*, b*: camera noise at the least
@@ -178,6 +180,49 @@ double distance2(const BallColour& colour, const Eigen::Vector3f& lab, double li
          (pixel_lit - lit) * (pixel_lit - lit) / (sigma_lit * sigma_lit);
 }
 
+// CIE L*a*b* (D65, as OpenCV converts sRGB) and linear RGB, where light adds up as on the sensor.
+Eigen::Vector3d linearRgbOf(const Eigen::Vector3d& lab) {
+  const double fy = (lab.x() + 16.0) / 116.0, fx = fy + lab.y() / 500.0, fz = fy - lab.z() / 200.0;
+  const auto inverse = [](double f) {
+    return f > 6.0 / 29.0 ? f * f * f : 3.0 * (6.0 / 29.0) * (6.0 / 29.0) * (f - 4.0 / 29.0);
+  };
+  const Eigen::Vector3d xyz(0.950456 * inverse(fx), inverse(fy), 1.088754 * inverse(fz));
+  Eigen::Matrix3d to_rgb;
+  to_rgb << 3.240479, -1.53715, -0.498535, -0.969256, 1.875991, 0.041556, 0.055648, -0.204043, 1.057311;
+  return to_rgb * xyz;
+}
+Eigen::Vector3d labOfLinearRgb(const Eigen::Vector3d& rgb) {
+  Eigen::Matrix3d to_xyz;
+  to_xyz << 0.412453, 0.357580, 0.180423, 0.212671, 0.715160, 0.072169, 0.019334, 0.119193, 0.950227;
+  const Eigen::Vector3d xyz = to_xyz * rgb;
+  const auto f = [](double t) { return t > 0.008856 ? std::cbrt(t) : 7.787 * t + 16.0 / 116.0; };
+  const double fx = f(xyz.x() / 0.950456), fy = f(xyz.y()), fz = f(xyz.z() / 1.088754);
+  return {116.0 * fy - 16.0, 500.0 * (fx - fy), 200.0 * (fy - fz)};
+}
+
+// Two of the ball's main colours blended in one pixel, t of the way from colour a to colour b.
+struct Blend {
+  BallColour colour;
+  std::size_t a, b;
+  double t;
+};
+std::vector<Blend> blendsOf(const BallColourModel& model) {
+  std::vector<Blend> blends;
+  for (std::size_t a = 0; a < model.size(); ++a) {
+    for (std::size_t b = a + 1; b < model.size(); ++b) {
+      if (model[a].share < kMainColourShare || model[b].share < kMainColourShare) continue;
+      const Eigen::Vector3d rgb_a = linearRgbOf(model[a].lab), rgb_b = linearRgbOf(model[b].lab);
+      for (int k = 1; k < 8; ++k) {
+        Blend blend{{}, a, b, k / 8.0};
+        blend.colour.lab = labOfLinearRgb((1.0 - blend.t) * rgb_a + blend.t * rgb_b);
+        blend.colour.sigma = model[a].sigma.cwiseMax(model[b].sigma);
+        blends.push_back(blend);
+      }
+    }
+  }
+  return blends;
+}
+
 // The largest share of a disc the ball's colours explain at any light level. Smeared, a classic ball's
 // white and black panels mix into greys: its white in less light.
 double mostExplained(const BallColourModel& model, const std::vector<Eigen::Vector3f>& lab) {
@@ -222,7 +267,10 @@ ColourEvidence judge(const ColourCheckConfig& config, const fw::ColourImage& ima
     evidence.note = fw::ColourNote::kOverexposed;
     return evidence;
   }
-  const ColourMatch match = colourMatch(config.ball_colours, lab);
+  // Far away a ball's panels (0.4 of its radius across) are a few pixels wide and show mostly
+  // blended with the rest: there a blend of two of its colours counts for both.
+  const bool panels_blend = kPanelWidth * disc.radius_px < kBlendedPanel_px;
+  const ColourMatch match = colourMatch(config.ball_colours, lab, panels_blend);
   evidence.score = match.score;
   // The ball's colours end at its outline: a disc cut from a larger patch of them (a grey carpet for
   // a white ball with black panels, an orange shirt) is not confirmed.
@@ -333,23 +381,39 @@ int explainingColour(const BallColourModel& model, const Eigen::Vector3f& lab, d
   return best;
 }
 
-ColourMatch colourMatch(const BallColourModel& model, const std::vector<Eigen::Vector3f>& lab, double light) {
+ColourMatch colourMatch(const BallColourModel& model, const std::vector<Eigen::Vector3f>& lab, double light,
+                        bool panels_blend) {
   ColourMatch match;
   match.light = light;
   if (lab.empty() || model.empty()) return match;
-  std::vector<int> count(model.size(), 0);
+  const std::vector<Blend> blends = panels_blend ? blendsOf(model) : std::vector<Blend>{};
+  std::vector<double> count(model.size(), 0.0);
   int explained = 0;
   for (const Eigen::Vector3f& p : lab) {
     const int c = explainingColour(model, p, light);
-    if (c < 0) continue;
-    ++count[static_cast<std::size_t>(c)];
-    ++explained;
+    if (c >= 0) {
+      count[static_cast<std::size_t>(c)] += 1.0;
+      ++explained;
+      continue;
+    }
+    // Neither colour, but two of them blended in one pixel: it shows each in its part, though it
+    // explains the disc as neither.
+    double best_d2 = kExplainedSigma2;
+    const Blend* nearest = nullptr;
+    for (const Blend& blend : blends) {
+      const double d2 = distance2(blend.colour, p, light);
+      if (d2 <= best_d2) best_d2 = d2, nearest = &blend;
+    }
+    if (nearest) {
+      count[nearest->a] += 1.0 - nearest->t;
+      count[nearest->b] += nearest->t;
+    }
   }
   // A white shirt is not a white ball with black panels: each main colour must show.
   double consistency = 1.0;
   for (std::size_t c = 0; c < model.size(); ++c) {
     if (model[c].share < kMainColourShare) continue;
-    const double shown = double(count[c]) / lab.size();
+    const double shown = count[c] / lab.size();
     consistency = std::min(consistency, shown / (kShownShare * model[c].share));
     // ... and not swamp the disc: black panels on a quarter of a ball, not on two thirds of a disc.
     if (shown > 2.0 * model[c].share) consistency = 0.0;
@@ -359,12 +423,12 @@ ColourMatch colourMatch(const BallColourModel& model, const std::vector<Eigen::V
   return match;
 }
 
-ColourMatch colourMatch(const BallColourModel& model, const std::vector<Eigen::Vector3f>& lab) {
+ColourMatch colourMatch(const BallColourModel& model, const std::vector<Eigen::Vector3f>& lab, bool panels_blend) {
   // The session's light unless another level explains the disc better.
-  ColourMatch best = colourMatch(model, lab, 1.0);
+  ColourMatch best = colourMatch(model, lab, 1.0, panels_blend);
   for (const double light : kLightLevels) {
     if (light == 1.0) continue;  // the start
-    const ColourMatch match = colourMatch(model, lab, light);
+    const ColourMatch match = colourMatch(model, lab, light, panels_blend);
     if (match.score > best.score || (match.score == best.score && match.explained > best.explained)) best = match;
   }
   return best;

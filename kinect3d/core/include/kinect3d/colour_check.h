@@ -100,15 +100,18 @@ class BallColourLearner {
 // (that share, cut down when one of the ball's main colours does not show: a white shirt is not a
 // white ball with black panels), with the ball in `light` (the cube root of the hall's light over the
 // session's). Without a light, at the level that explains the disc best, from a quarter to twice the
-// session's. Which colour explains a sample (-1 for none). Shared by the check and the learner's
-// report.
+// session's. With panels_blend (a far ball, its panels a few pixels wide), a sample that is two of
+// the main colours blended shows each in its part. Which colour explains a sample (-1 for none).
+// Shared by the check and the learner's report.
 struct ColourMatch {
   double explained = 0.0;
   double score = 0.0;
   double light = 1.0;
 };
-ColourMatch colourMatch(const BallColourModel& model, const std::vector<Eigen::Vector3f>& lab, double light);
-ColourMatch colourMatch(const BallColourModel& model, const std::vector<Eigen::Vector3f>& lab);
+ColourMatch colourMatch(const BallColourModel& model, const std::vector<Eigen::Vector3f>& lab, double light,
+                        bool panels_blend = false);
+ColourMatch colourMatch(const BallColourModel& model, const std::vector<Eigen::Vector3f>& lab,
+                        bool panels_blend = false);
 int explainingColour(const BallColourModel& model, const Eigen::Vector3f& lab, double light);
 
 // The model as the robot file writes it: a flow list of {lab: [L, a, b], sigma: [...], share: s}.
