@@ -180,47 +180,81 @@ double distance2(const BallColour& colour, const Eigen::Vector3f& lab, double li
          (pixel_lit - lit) * (pixel_lit - lit) / (sigma_lit * sigma_lit);
 }
 
-// CIE L*a*b* (D65, as OpenCV converts sRGB) and linear RGB, where light adds up as on the sensor.
-Eigen::Vector3d linearRgbOf(const Eigen::Vector3d& lab) {
-  const double fy = (lab.x() + 16.0) / 116.0, fx = fy + lab.y() / 500.0, fz = fy - lab.z() / 200.0;
-  const auto inverse = [](double f) {
-    return f > 6.0 / 29.0 ? f * f * f : 3.0 * (6.0 / 29.0) * (6.0 / 29.0) * (f - 4.0 / 29.0);
-  };
-  const Eigen::Vector3d xyz(0.950456 * inverse(fx), inverse(fy), 1.088754 * inverse(fz));
-  Eigen::Matrix3d to_rgb;
-  to_rgb << 3.240479, -1.53715, -0.498535, -0.969256, 1.875991, 0.041556, 0.055648, -0.204043, 1.057311;
-  return to_rgb * xyz;
-}
-Eigen::Vector3d labOfLinearRgb(const Eigen::Vector3d& rgb) {
-  Eigen::Matrix3d to_xyz;
-  to_xyz << 0.412453, 0.357580, 0.180423, 0.212671, 0.715160, 0.072169, 0.019334, 0.119193, 0.950227;
-  const Eigen::Vector3d xyz = to_xyz * rgb;
-  const auto f = [](double t) { return t > 0.008856 ? std::cbrt(t) : 7.787 * t + 16.0 / 116.0; };
-  const double fx = f(xyz.x() / 0.950456), fy = f(xyz.y()), fz = f(xyz.z() / 1.088754);
-  return {116.0 * fy - 16.0, 500.0 * (fx - fy), 200.0 * (fy - fz)};
-}
-
 // Two of the ball's main colours blended in one pixel, t of the way from colour a to colour b.
 struct Blend {
   BallColour colour;
   std::size_t a, b;
   double t;
 };
+// Mixed in linear RGB, where light adds up as on the sensor, an eighth to seven eighths of the way
+// (OpenCV's L*a*b* as in toLab(), its linear RGB without the sRGB curve).
 std::vector<Blend> blendsOf(const BallColourModel& model) {
+  constexpr int kSteps = 7;
   std::vector<Blend> blends;
   for (std::size_t a = 0; a < model.size(); ++a) {
     for (std::size_t b = a + 1; b < model.size(); ++b) {
       if (model[a].share < kMainColourShare || model[b].share < kMainColourShare) continue;
-      const Eigen::Vector3d rgb_a = linearRgbOf(model[a].lab), rgb_b = linearRgbOf(model[b].lab);
-      for (int k = 1; k < 8; ++k) {
-        Blend blend{{}, a, b, k / 8.0};
-        blend.colour.lab = labOfLinearRgb((1.0 - blend.t) * rgb_a + blend.t * rgb_b);
+      cv::Mat ends_lab(1, 2, CV_32FC3), ends, mixes(1, kSteps, CV_32FC3), mixes_lab;
+      ends_lab.at<cv::Vec3f>(0, 0) = cv::Vec3f(model[a].lab.cast<float>().eval().data());
+      ends_lab.at<cv::Vec3f>(0, 1) = cv::Vec3f(model[b].lab.cast<float>().eval().data());
+      cv::cvtColor(ends_lab, ends, cv::COLOR_Lab2LRGB);
+      for (int k = 0; k < kSteps; ++k) {
+        const float t = (k + 1) / float(kSteps + 1);
+        mixes.at<cv::Vec3f>(0, k) = (1.0f - t) * ends.at<cv::Vec3f>(0, 0) + t * ends.at<cv::Vec3f>(0, 1);
+      }
+      cv::cvtColor(mixes, mixes_lab, cv::COLOR_LRGB2Lab);
+      for (int k = 0; k < kSteps; ++k) {
+        const cv::Vec3f& lab = mixes_lab.at<cv::Vec3f>(0, k);
+        Blend blend{{}, a, b, (k + 1) / double(kSteps + 1)};
+        blend.colour.lab = Eigen::Vector3d(lab[0], lab[1], lab[2]);
         blend.colour.sigma = model[a].sigma.cwiseMax(model[b].sigma);
         blends.push_back(blend);
       }
     }
   }
   return blends;
+}
+
+// A disc's match at one light level; blends: the main colours' blends that count for both, if any.
+ColourMatch matchAt(const BallColourModel& model, const std::vector<Blend>& blends,
+                    const std::vector<Eigen::Vector3f>& lab, double light) {
+  ColourMatch match;
+  match.light = light;
+  if (lab.empty() || model.empty()) return match;
+  std::vector<double> count(model.size(), 0.0);
+  int explained = 0;
+  for (const Eigen::Vector3f& p : lab) {
+    const int c = explainingColour(model, p, light);
+    if (c >= 0) {
+      count[static_cast<std::size_t>(c)] += 1.0;
+      ++explained;
+      continue;
+    }
+    // Neither colour, but two of them blended in one pixel: it shows each in its part, though it
+    // explains the disc as neither.
+    double best_d2 = kExplainedSigma2;
+    const Blend* nearest = nullptr;
+    for (const Blend& blend : blends) {
+      const double d2 = distance2(blend.colour, p, light);
+      if (d2 <= best_d2) best_d2 = d2, nearest = &blend;
+    }
+    if (nearest) {
+      count[nearest->a] += 1.0 - nearest->t;
+      count[nearest->b] += nearest->t;
+    }
+  }
+  // A white shirt is not a white ball with black panels: each main colour must show.
+  double consistency = 1.0;
+  for (std::size_t c = 0; c < model.size(); ++c) {
+    if (model[c].share < kMainColourShare) continue;
+    const double shown = count[c] / lab.size();
+    consistency = std::min(consistency, shown / (kShownShare * model[c].share));
+    // ... and not swamp the disc: black panels on a quarter of a ball, not on two thirds of a disc.
+    if (shown > 2.0 * model[c].share) consistency = 0.0;
+  }
+  match.explained = double(explained) / lab.size();
+  match.score = std::min(1.0, consistency) * match.explained;
+  return match;
 }
 
 // The largest share of a disc the ball's colours explain at any light level. Smeared, a classic ball's
@@ -383,52 +417,16 @@ int explainingColour(const BallColourModel& model, const Eigen::Vector3f& lab, d
 
 ColourMatch colourMatch(const BallColourModel& model, const std::vector<Eigen::Vector3f>& lab, double light,
                         bool panels_blend) {
-  ColourMatch match;
-  match.light = light;
-  if (lab.empty() || model.empty()) return match;
-  const std::vector<Blend> blends = panels_blend ? blendsOf(model) : std::vector<Blend>{};
-  std::vector<double> count(model.size(), 0.0);
-  int explained = 0;
-  for (const Eigen::Vector3f& p : lab) {
-    const int c = explainingColour(model, p, light);
-    if (c >= 0) {
-      count[static_cast<std::size_t>(c)] += 1.0;
-      ++explained;
-      continue;
-    }
-    // Neither colour, but two of them blended in one pixel: it shows each in its part, though it
-    // explains the disc as neither.
-    double best_d2 = kExplainedSigma2;
-    const Blend* nearest = nullptr;
-    for (const Blend& blend : blends) {
-      const double d2 = distance2(blend.colour, p, light);
-      if (d2 <= best_d2) best_d2 = d2, nearest = &blend;
-    }
-    if (nearest) {
-      count[nearest->a] += 1.0 - nearest->t;
-      count[nearest->b] += nearest->t;
-    }
-  }
-  // A white shirt is not a white ball with black panels: each main colour must show.
-  double consistency = 1.0;
-  for (std::size_t c = 0; c < model.size(); ++c) {
-    if (model[c].share < kMainColourShare) continue;
-    const double shown = count[c] / lab.size();
-    consistency = std::min(consistency, shown / (kShownShare * model[c].share));
-    // ... and not swamp the disc: black panels on a quarter of a ball, not on two thirds of a disc.
-    if (shown > 2.0 * model[c].share) consistency = 0.0;
-  }
-  match.explained = double(explained) / lab.size();
-  match.score = std::min(1.0, consistency) * match.explained;
-  return match;
+  return matchAt(model, panels_blend ? blendsOf(model) : std::vector<Blend>{}, lab, light);
 }
 
 ColourMatch colourMatch(const BallColourModel& model, const std::vector<Eigen::Vector3f>& lab, bool panels_blend) {
+  const std::vector<Blend> blends = panels_blend ? blendsOf(model) : std::vector<Blend>{};
   // The session's light unless another level explains the disc better.
-  ColourMatch best = colourMatch(model, lab, 1.0, panels_blend);
+  ColourMatch best = matchAt(model, blends, lab, 1.0);
   for (const double light : kLightLevels) {
     if (light == 1.0) continue;  // the start
-    const ColourMatch match = colourMatch(model, lab, light, panels_blend);
+    const ColourMatch match = matchAt(model, blends, lab, light);
     if (match.score > best.score || (match.score == best.score && match.explained > best.explained)) best = match;
   }
   return best;
@@ -538,7 +536,7 @@ BallColourFit BallColourLearner::fit() const {
     if (share < 0.05) continue;  // a few pixels of the background or the outline
     BallColour colour;
     colour.lab = meanOf(rows);
-    // The spread of lightness as it is; of a* and b* at the colour's lightness (shadedDistance2).
+    // The spread of lightness as it is; of a* and b* at the colour's lightness (as distance2 compares them).
     Eigen::Vector3d var = Eigen::Vector3d::Zero();
     for (const int r : rows) {
       Eigen::Vector3d p(samples.at<float>(r, 0), samples.at<float>(r, 1), samples.at<float>(r, 2));

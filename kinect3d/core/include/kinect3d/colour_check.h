@@ -48,8 +48,8 @@ struct ColourCheckConfig {
 struct ColourEvidence {
   fw::ColourVerdict verdict = fw::ColourVerdict::kNotChecked;
   fw::ColourNote note = fw::ColourNote::kNone;
-  double score =
-      0.0;  // share of the disc (what shows of it) the ball's colours explain, 0 when a main colour is missing
+  // The share of the disc (of what shows of it) the ball's colours explain, 0 when a main colour is missing.
+  double score = 0.0;
   double outline = 0.0;  // share of the circle with an edge across it
 };
 
