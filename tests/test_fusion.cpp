@@ -161,7 +161,7 @@ TEST(FusionMeasurements, OmniPredictsTheGroundBallAndThePhantomOfABallInTheAir) 
   const fw::RobotPose pose = poseAt(-1.0, 0.5, 0.3, 0.0);
   fusion::OmniConfig omni;
   omni.viewpoint_height_m = 0.75;
-  const fusion::OmniMeasurement m(fw::OmniBallObservation{}, pose, omni, fusion::PoseConfig{}, kRadius, 0.0);
+  const fusion::OmniMeasurement m(fw::OmniBallObservation{}, pose, pose, omni, fusion::PoseConfig{}, kRadius, 0.0);
   // On the floor: bearing and distance of the ball itself.
   const Eigen::Vector3d ground_R(-1.0, 2.0, kRadius);
   const Eigen::VectorXd on_floor = m.predict(pose.T_F_R() * ground_R);
@@ -177,6 +177,53 @@ TEST(FusionMeasurements, OmniPredictsTheGroundBallAndThePhantomOfABallInTheAir) 
   a << M_PI - 0.01, 1.0;
   b << -M_PI + 0.01, 1.0;
   EXPECT_NEAR(m.residual(a, b)[0], -0.02, 1e-12);
+  EXPECT_NEAR(m.ownMotionRate(pose.T_F_R() * ground_R).norm(), 0.0, 1e-12) << "a robot standing still";
+  // The robot turning at 1.5 rad/s turns a still ball's bearing the other way, its distance not.
+  const double step_s = fusion::OmniMeasurement::kPoseRateStep_s;
+  const fusion::OmniMeasurement turning(fw::OmniBallObservation{}, pose, poseAt(-1.0, 0.5, 0.3 + 1.5 * step_s, step_s),
+                                        omni, fusion::PoseConfig{}, kRadius, 0.0);
+  EXPECT_NEAR(turning.ownMotionRate(pose.T_F_R() * ground_R)[0], -1.5, 1e-9);
+  EXPECT_NEAR(turning.ownMotionRate(pose.T_F_R() * ground_R)[1], 0.0, 1e-9);
+}
+
+TEST(FusionFilter, ABallAboveTheOmniViewNeitherExplainsNorIsMovedByAnOmniBall) {
+  const fw::RobotPose pose = poseAt(0.0, 0.0, 0.0, kT0);
+  const fusion::FusionConfig config = testConfig();
+  // Two modes: rolling 3 m out, or flying just under the mirror's viewpoint above the same spot,
+  // where a phantom's distance runs away with the height and a linearised update would throw the
+  // ball about.
+  fusion::Hypothesis rolling, flying;
+  rolling.x << 0.0, 3.0, kRadius, 0.0, 0.0, 0.0;
+  rolling.P = 0.01 * fusion::Matrix6d::Identity();
+  rolling.weight = 0.5;
+  flying = rolling;
+  flying.mode = fw::BallState::kAir;
+  flying.x.z() = 0.72;
+  const fusion::OmniMeasurement far_ball(omniView(Eigen::Vector3d(0.0, 5.0, kRadius), pose, 0.75), pose, pose,
+                                         config.omni, config.pose, kRadius, 0.0);
+  EXPECT_TRUE(std::isinf(fusion::BallFilter::mahalanobis({flying}, far_ball))) << "never associated by that branch";
+  fusion::BallFilter filter(config.motion, kT0, {rolling, flying});
+  filter.update(filter.branchesAt(kT0), kT0, far_ball);
+  EXPECT_EQ(filter.airProbability(), 0.0) << "the omni ball is credited to the ball it can see";
+}
+
+TEST(FusionFilter, ABallTheOmniCameraDoesNotSeeIsMoreLikelyAboveItsView) {
+  const fusion::FusionConfig config = testConfig();
+  fusion::Hypothesis rolling, flying;
+  rolling.x << 0.0, 3.0, kRadius, 0.0, 0.0, 0.0;
+  rolling.P = 0.01 * fusion::Matrix6d::Identity();
+  rolling.weight = 0.9;
+  flying = rolling;
+  flying.mode = fw::BallState::kAir;
+  flying.x << 0.0, 3.0, 1.0, 0.0, 2.0, 3.0;  // rising 1 m up
+  flying.weight = 0.1;
+  fusion::BallFilter filter(config.motion, kT0, {rolling, flying});
+  const auto seen_by_omni = [&](const fusion::Hypothesis& h) {
+    return config.omni.detection_probability * fusion::omniVisibleProbability(h, config.omni);
+  };
+  for (int i = 1; i <= 3; ++i) filter.notSeen(kT0 + i / 30.0, seen_by_omni);
+  EXPECT_GT(filter.airProbability(), 0.9) << "three images without the ball: it flies above the mirror's view";
+  EXPECT_DOUBLE_EQ(filter.time(), kT0) << "looking changes how likely each mode is, not where the ball is";
 }
 
 TEST(FusionPoseHistory, InterpolatesAcrossTheTurnAndExtrapolatesOnlyALittle) {
@@ -441,6 +488,21 @@ TEST(Fusion, LearnsTheOmniLatencyFromABallBothSeeRolling) {
   EXPECT_NEAR(*fusion.omniLatency_s(), 0.04, 0.01);
 }
 
+TEST(Fusion, LearnsTheOmniLatencyFromTheRobotsTurnWithTheBallAtRest) {
+  fusion::BallFusion fusion{fusion::FusionConfig()};
+  // The robot turns on the spot at 1.5 rad/s; the ball lies still, in the Kinect's 57 degrees once a
+  // turn. A late omni stamp shows as a bearing that lags the turn.
+  const auto turning = [](double t) { return poseAt(0.0, 0.0, 1.5 * (t - kT0), t); };
+  const Truth resting = [](double) { return Eigen::Vector3d(-0.8, 2.9, kRadius); };
+  const auto in_kinect_view = [&](double t, const Eigen::Vector3d& p_F) {
+    const Eigen::Vector3d p_R = turning(t).T_F_R().inverse() * p_F;
+    return std::abs(std::atan2(p_R.x(), p_R.y())) < fw::degreesToRadians(28.5);
+  };
+  feed(fusion, resting, 6.0, turning, in_kinect_view, true, /*omni_stamp_late_s=*/0.04);
+  ASSERT_TRUE(fusion.omniLatency_s()) << fusion.omniLatencyExamples() << " examples";
+  EXPECT_NEAR(*fusion.omniLatency_s(), 0.04, 0.01);
+}
+
 TEST(FusionConfig, ShippedDefaultsAreTheStructDefaults) {
   const fw::Config shipped = fw::Config::load(std::string(PROJECT_CONFIG_DIR) + "/defaults", "", {});
   const fusion::FusionConfig read = fusion::readFusionConfig(shipped.block("fusion"));
@@ -460,6 +522,8 @@ TEST(FusionConfig, ShippedDefaultsAreTheStructDefaults) {
   EXPECT_EQ(read.omni.source, code.omni.source);
   EXPECT_EQ(read.omni.latency_s, code.omni.latency_s);
   EXPECT_EQ(read.omni.viewpoint_height_m, code.omni.viewpoint_height_m);
+  EXPECT_EQ(read.omni.max_height_m, code.omni.max_height_m);
+  EXPECT_EQ(read.omni.detection_probability, code.omni.detection_probability);
   EXPECT_NEAR(read.omni.bearing_sigma_rad, code.omni.bearing_sigma_rad, 1e-4);  // 1.5 degrees
   EXPECT_EQ(read.omni.distance_sigma_m, code.omni.distance_sigma_m);
   EXPECT_EQ(read.omni.distance_sigma_fraction, code.omni.distance_sigma_fraction);
@@ -474,6 +538,17 @@ TEST(FusionConfig, ShippedDefaultsAreTheStructDefaults) {
   EXPECT_EQ(read.track.lost_after_s, code.track.lost_after_s);
   EXPECT_EQ(read.track.min_flight_speed_mps, code.track.min_flight_speed_mps);
   EXPECT_EQ(read.track.initial_speed_sigma_mps, code.track.initial_speed_sigma_mps);
+}
+
+TEST(FusionConfig, AnOmniViewTopAboveItsViewpointIsRefusedWithItsKey) {
+  const fw::Config config =
+      fw::Config::load(std::string(PROJECT_CONFIG_DIR) + "/defaults", "", {"fusion.omni.max_height_m=0.8"});
+  try {
+    fusion::readFusionConfig(config.block("fusion"));
+    FAIL() << "a view reaching above the viewpoint was accepted";
+  } catch (const fw::ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("fusion.omni.max_height_m"), std::string::npos) << e.what();
+  }
 }
 
 TEST(FusionConfig, AViewpointBelowTheBallIsRefusedWithItsKey) {

@@ -75,7 +75,7 @@ Innovation innovate(const Hypothesis& h, const MeasurementModel& measurement) {
   in.y = measurement.residual(measurement.value(), measurement.predict(p));
   in.H = jacobian(measurement, p);
   in.R = measurement.noise(p);
-  const Eigen::VectorXd rate = in.H.leftCols<3>() * h.x.tail<3>();
+  const Eigen::VectorXd rate = BallFilter::predictionRate(h, measurement);
   in.R += measurement.timingSigma_s() * measurement.timingSigma_s() * rate * rate.transpose();
   in.S = in.H * h.P * in.H.transpose() + in.R;
   return in;
@@ -195,12 +195,17 @@ std::vector<Hypothesis> BallFilter::branchesAt(double t_s) const {
   return branches;
 }
 
+Eigen::VectorXd BallFilter::predictionRate(const Hypothesis& h, const MeasurementModel& measurement) {
+  const Eigen::Vector3d p = h.x.head<3>();
+  return jacobian(measurement, p).leftCols<3>() * h.x.tail<3>() + measurement.ownMotionRate(p);
+}
+
 double BallFilter::mahalanobis(const std::vector<Hypothesis>& branches, const MeasurementModel& measurement) {
   double heaviest = 0.0;
   for (const Hypothesis& h : branches) heaviest = std::max(heaviest, h.weight);
   double best = std::numeric_limits<double>::infinity();
   for (const Hypothesis& h : branches) {
-    if (h.weight < kNegligibleWeight * heaviest) continue;
+    if (h.weight < kNegligibleWeight * heaviest || !measurement.canSee(h.x.head<3>())) continue;
     const Innovation in = innovate(h, measurement);
     best = std::min(best, std::sqrt(in.y.dot(in.S.ldlt().solve(in.y))));
   }
@@ -212,6 +217,12 @@ void BallFilter::update(std::vector<Hypothesis> branches, double t_s, const Meas
   double best_log = -std::numeric_limits<double>::infinity();
   for (std::size_t i = 0; i < branches.size(); ++i) {
     Hypothesis& h = branches[i];
+    // A ball where the sensor cannot see it did not make this measurement; its branch is not
+    // moved by it either (near an omni camera's viewpoint height the model is singular).
+    if (!measurement.canSee(h.x.head<3>())) {
+      log_likelihood[i] = -std::numeric_limits<double>::infinity();
+      continue;
+    }
     const Innovation in = innovate(h, measurement);
     const Eigen::LDLT<Eigen::MatrixXd> S(in.S);
     const Eigen::MatrixXd K = (S.solve(in.H * h.P)).transpose();  // P H' S^-1, S symmetric
@@ -226,6 +237,24 @@ void BallFilter::update(std::vector<Hypothesis> branches, double t_s, const Meas
   for (std::size_t i = 0; i < branches.size(); ++i) branches[i].weight *= std::exp(log_likelihood[i] - best_log);
   mergePerMode(branches);
   time_s_ = std::max(time_s_, t_s);
+}
+
+void BallFilter::notSeen(double t_s, const std::function<double(const Hypothesis&)>& detection_probability) {
+  // Each mode is looked for where it would be now, without branching: a look that found nothing
+  // says where the ball is not, and is no reason to widen the state by another step's kicks.
+  const double dt = t_s - time_s_;
+  double total = 0.0;
+  for (Hypothesis& h : hypotheses_) {
+    Hypothesis now = h;
+    if (dt > 0.0 && h.mode == fw::BallState::kGround) roll(now, dt);
+    double unused = 0.0;
+    if (dt > 0.0 && h.mode == fw::BallState::kAir) flyUntilFloor(now, dt, unused);
+    h.weight *= 1.0 - detection_probability(now);
+    total += h.weight;
+  }
+  if (total > 0.0) {
+    for (Hypothesis& h : hypotheses_) h.weight /= total;
+  }
 }
 
 void BallFilter::predict(double t_s) {

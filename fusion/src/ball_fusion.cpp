@@ -10,14 +10,15 @@
 namespace fusion {
 
 namespace {
-// What a track must show before its omni balls teach the latency: the Kinect saw it this recently,
-// it rolls at least this fast, and it is on the ground with at least this probability.
+// What a track must show before its omni balls teach the latency: the Kinect saw it this recently
+// (it anchors the ball in the field frame), it is on the ground with at least this probability,
+// and its bearing from the robot turns at least this fast (the ball crossing the view, or the
+// robot turning). A bearing further off than this is a misassociation, not a time offset.
 constexpr double kLatencyKinectWithin_s = 0.1;
-constexpr double kLatencyMinSpeed_mps = 0.5;
 constexpr double kLatencyMinGroundProbability = 0.95;
-constexpr double kLatencyMaxResidual_m = 1.0;
-constexpr double kLatencyMaxRadialCosine =
-    0.7;  // the motion at least 45 degrees off the line of sight  // farther off is a misassociation, not a time offset
+constexpr double kLatencyMinBearingRate_radps = 0.1;
+constexpr double kLatencyMaxBearingResidual_rad = 0.2;
+constexpr double kLatencyMaxOffset_s = 0.2;  // no camera's stamps are this far off what was learnt
 // Learnt latency is never trusted to better than this (the omni's exposure and the examples' spread).
 constexpr double kMinTimingSigma_s = 0.005;
 // The world's ball moves to another confirmed track when its own has had no support this long.
@@ -28,13 +29,10 @@ constexpr double kSourceRecent_s = 1.0;
 constexpr std::size_t kMaxTracks = 8;
 }  // namespace
 
-void LatencyEstimator::add(const Eigen::Vector2d& residual_m, const Eigen::Matrix2d& covariance_m2,
-                           const Eigen::Vector2d& velocity_mps, double applied_s) {
-  // The omni's ball is where the track was L - applied earlier: residual = -v (L - applied).
-  const double speed2 = velocity_mps.squaredNorm();
-  const Eigen::Vector2d along = velocity_mps / std::sqrt(speed2);
-  const double variance_s2 = along.dot(covariance_m2 * along) / speed2;
-  examples_.push_back({applied_s - residual_m.dot(velocity_mps) / speed2, 1.0 / variance_s2});
+void LatencyEstimator::add(double residual_rad, double variance_rad2, double bearing_rate_radps, double applied_s) {
+  // The omni saw the bearing of L - applied earlier: residual = -rate (L - applied).
+  examples_.push_back(
+      {applied_s - residual_rad / bearing_rate_radps, bearing_rate_radps * bearing_rate_radps / variance_rad2});
   if (examples_.size() > kWindow) examples_.pop_front();
 }
 
@@ -65,6 +63,7 @@ struct BallFusion::Candidate {
   bool in_air = false;
   bool is_static = false;  // an air ball in space occupied for seconds
   fw::ColourVerdict colour = fw::ColourVerdict::kNotChecked;
+  const fw::OmniBallObservation* omni = nullptr;  // the omni's ball, in the frame being processed
 };
 
 BallFusion::BallFusion(const FusionConfig& config)
@@ -174,7 +173,9 @@ std::vector<BallFusion::Candidate> BallFusion::candidatesOf(const Frame& frame, 
     candidates.push_back(std::move(c));
   }
   for (const fw::OmniBallObservation& ball : frame.omni) {
-    auto omni = std::make_unique<OmniMeasurement>(ball, pose, config_.omni, config_.pose, r, frame.omni_timing_sigma_s);
+    auto omni =
+        std::make_unique<OmniMeasurement>(ball, pose, poses_.at(frame.time_s + OmniMeasurement::kPoseRateStep_s),
+                                          config_.omni, config_.pose, r, frame.omni_timing_sigma_s);
     Candidate c{Source::kOmni, nullptr, omni->groundBall_F(), Eigen::Matrix3d::Zero()};
     // Bearing and distance noise turned into the floor's x, y (the Jacobian of the ground point).
     const Eigen::MatrixXd R = omni->noise(c.p_F);
@@ -184,6 +185,7 @@ std::vector<BallFusion::Candidate> BallFusion::candidatesOf(const Frame& frame, 
     const Eigen::Matrix2d turn = Eigen::Rotation2Dd(pose.theta_rad).toRotationMatrix();
     c.covariance_F.topLeftCorner<2, 2>() = turn * J * R * J.transpose() * turn.transpose();
     c.measurement = std::move(omni);
+    c.omni = &ball;
     candidates.push_back(std::move(c));
   }
   return candidates;
@@ -224,25 +226,23 @@ void BallFusion::process(const Frame& frame) {
     track.colour_confirmed |= c.colour == fw::ColourVerdict::kConfirmed;
     if (c.source == Source::kOmni && track.id == state.world_id && t - track.last_kinect_s < kLatencyKinectWithin_s &&
         track.filter.airProbability() < 1.0 - kLatencyMinGroundProbability) {
-      BallFilter predicted = track.filter;
-      predicted.predict(t);
-      const Vector6d x = predicted.best().x;
-      const Eigen::Vector2d residual = c.p_F.head<2>() - x.head<2>();
-      // Only balls crossing the camera's view: timed by the precise bearing, not the distance,
-      // whose errors (a hop, the floor's slope) would pass for a time offset.
-      const Eigen::Vector2d outwards = (c.p_F.head<2>() - Eigen::Vector2d(pose.x_m, pose.y_m)).normalized();
-      const bool crossing = std::abs(outwards.dot(x.segment<2>(3).normalized())) < kLatencyMaxRadialCosine;
-      if (crossing && x.segment<2>(3).norm() >= kLatencyMinSpeed_mps && residual.norm() < kLatencyMaxResidual_m) {
-        const Eigen::Matrix2d covariance =
-            c.covariance_F.topLeftCorner<2, 2>() + predicted.best().P.topLeftCorner<2, 2>();
-        state.latency.add(residual, covariance, x.segment<2>(3), frame.omni_latency_s);
-      }
+      learnLatency(track, c, t, frame.omni_latency_s, pose);
     }
     track.filter.update(branches[pair.track], t, *c.measurement);
     ++track.updates;
     track.last_support_s = t;
     (c.source == Source::kKinect ? track.last_kinect_s : track.last_omni_s) = t;
     if (track.filter.best().mode == fw::BallState::kGround) track.seen_on_ground = true;
+  }
+  // The omni camera looked all round and did not see these balls: where it should have, the
+  // ball is less likely (a ball gone from its view after a kick has most likely flown above it).
+  if (frame.source == Source::kOmni) {
+    const OmniConfig& omni = config_.omni;
+    for (std::size_t k = 0; k < state.tracks.size(); ++k) {
+      if (track_used[k]) continue;
+      state.tracks[k].filter.notSeen(
+          t, [&omni](const Hypothesis& h) { return omni.detection_probability * omniVisibleProbability(h, omni); });
+    }
   }
   for (std::size_t c = 0; c < candidates.size(); ++c) {
     if (candidate_used[c]) continue;
@@ -262,6 +262,26 @@ void BallFusion::process(const Frame& frame) {
 
 const std::string& BallFusion::nameOf(Source source) const {
   return source == Source::kKinect ? config_.kinect.source : config_.omni.source;
+}
+
+void BallFusion::learnLatency(const Track& track, const Candidate& candidate, double t, double applied_s,
+                              const fw::RobotPose& pose) {
+  BallFilter predicted = track.filter;
+  predicted.predict(t);
+  const Hypothesis& ball = predicted.best();
+  // The ball's bearing turns as it crosses the view and as the robot turns.
+  const MeasurementModel& measurement = *candidate.measurement;
+  const double rate = BallFilter::predictionRate(ball, measurement)[0];
+  if (std::abs(rate) < kLatencyMinBearingRate_radps) return;
+  const double residual = measurement.residual(measurement.value(), measurement.predict(ball.x.head<3>()))[0];
+  if (std::abs(residual) > kLatencyMaxBearingResidual_rad || std::abs(residual / rate) > kLatencyMaxOffset_s) return;
+  // The bearing's variance: the omni's own, and the track's across the line of sight.
+  const Eigen::Vector3d p_R = pose.T_F_R().inverse() * ball.x.head<3>();
+  const Eigen::Vector2d across_R = Eigen::Vector2d(-p_R.y(), p_R.x()) / p_R.head<2>().squaredNorm();
+  const Eigen::Vector2d across_F = Eigen::Rotation2Dd(pose.theta_rad).toRotationMatrix() * across_R;
+  const double sigma_b = omniBearingSigma_rad(*candidate.omni, config_.omni);
+  state_.latency.add(residual, sigma_b * sigma_b + across_F.dot(ball.P.topLeftCorner<2, 2>() * across_F), rate,
+                     applied_s);
 }
 
 void BallFusion::startTrack(const Candidate& candidate, double t_s) {

@@ -27,6 +27,8 @@ FusionConfig readFusionConfig(const fw::ConfigView& block) {
   config.omni.source = omni.getString("source");
   config.omni.latency_s = omni.getDouble("latency_s", -1.0, 1.0);
   config.omni.viewpoint_height_m = omni.getDouble("viewpoint_height_m", 0.2, 3.0);
+  config.omni.max_height_m = omni.getDouble("max_height_m", 0.0, 3.0);
+  config.omni.detection_probability = omni.getDouble("detection_probability", 0.0, 0.99);
   config.omni.bearing_sigma_rad = fw::degreesToRadians(omni.getDouble("bearing_sigma_deg", 0.01, 45.0));
   config.omni.distance_sigma_m = omni.getDouble("distance_sigma_m", 0.001, 5.0);
   config.omni.distance_sigma_fraction = omni.getDouble("distance_sigma_fraction", 0.0, 1.0);
@@ -36,6 +38,12 @@ FusionConfig readFusionConfig(const fw::ConfigView& block) {
     throw fw::ConfigError(omni.originOf("viewpoint_height_m") + ": " + omni.path() +
                           ".viewpoint_height_m must be above the ball's centre at rest (" + ball.path() +
                           ".radius_m = " + std::to_string(motion.radius_m) + ")");
+  }
+  if (config.omni.max_height_m < motion.radius_m || config.omni.max_height_m >= config.omni.viewpoint_height_m) {
+    throw fw::ConfigError(omni.originOf("max_height_m") + ": " + omni.path() +
+                          ".max_height_m must lie between the ball's centre at rest (" + ball.path() +
+                          ".radius_m = " + std::to_string(motion.radius_m) + ") and the viewpoint (" + omni.path() +
+                          ".viewpoint_height_m = " + std::to_string(config.omni.viewpoint_height_m) + ")");
   }
 
   const fw::ConfigView pose = block.child("pose");

@@ -31,10 +31,11 @@ PositionMeasurement::PositionMeasurement(const Eigen::Vector3d& p_R, const Eigen
 }
 
 OmniMeasurement::OmniMeasurement(const fw::OmniBallObservation& observation, const fw::RobotPose& pose,
-                                 const OmniConfig& omni, const PoseConfig& pose_config, double ball_radius_m,
-                                 double timing_sigma_s)
+                                 const fw::RobotPose& pose_after, const OmniConfig& omni, const PoseConfig& pose_config,
+                                 double ball_radius_m, double timing_sigma_s)
     : MeasurementModel(timing_sigma_s),
       pose_(pose),
+      pose_after_(pose_after),
       omni_(omni),
       pose_config_(pose_config),
       radius_m_(ball_radius_m),
@@ -43,8 +44,16 @@ OmniMeasurement::OmniMeasurement(const fw::OmniBallObservation& observation, con
   z_ << observation.bearing_rad, observation.distance_m;
 }
 
-Eigen::VectorXd OmniMeasurement::predict(const Eigen::Vector3d& p_F) const {
-  const Eigen::Vector3d p_R = pose_.T_F_R().inverse() * p_F;
+Eigen::VectorXd OmniMeasurement::predict(const Eigen::Vector3d& p_F) const { return predictFrom(pose_, p_F); }
+
+Eigen::VectorXd OmniMeasurement::ownMotionRate(const Eigen::Vector3d& p_F) const {
+  return residual(predictFrom(pose_after_, p_F), predictFrom(pose_, p_F)) / kPoseRateStep_s;
+}
+
+bool OmniMeasurement::canSee(const Eigen::Vector3d& p_F) const { return omniCanSee(p_F, omni_); }
+
+Eigen::VectorXd OmniMeasurement::predictFrom(const fw::RobotPose& pose, const Eigen::Vector3d& p_F) const {
+  const Eigen::Vector3d p_R = pose.T_F_R().inverse() * p_F;
   const double h = omni_.viewpoint_height_m;
   const double below = std::max(h - p_R.z(), kMinDepthBelowViewpoint_m);
   Eigen::VectorXd prediction(2);
@@ -80,6 +89,13 @@ Eigen::Vector3d OmniMeasurement::groundBall_F() const {
   Eigen::Vector3d p_F = pose_.T_F_R() * ground.groundPoint_R();
   p_F.z() = radius_m_;
   return p_F;
+}
+
+bool omniCanSee(const Eigen::Vector3d& p_F, const OmniConfig& omni) { return p_F.z() <= omni.max_height_m; }
+
+double omniVisibleProbability(const Hypothesis& h, const OmniConfig& omni) {
+  const double sigma_z = std::sqrt(std::max(h.P(2, 2), 1e-12));
+  return 0.5 * std::erfc((h.x.z() - omni.max_height_m) / (sigma_z * std::sqrt(2.0)));
 }
 
 double omniBearingSigma_rad(const fw::OmniBallObservation& observation, const OmniConfig& omni) {

@@ -118,7 +118,8 @@ class FusionPlugin : public fw::Plugin {
     latency_reported_ = true;
     fw::logInfo(name_, "omni camera's stamps are " + std::to_string(std::lround(1000 * *fusion_.omniLatency_s())) +
                            " ms late against the Kinect's (learnt from " +
-                           std::to_string(fusion_.omniLatencyExamples()) + " rolling balls); compensated");
+                           std::to_string(fusion_.omniLatencyExamples()) +
+                           " bearings of a ball both sensors saw); compensated");
   }
 
   fw::WorldState& world_;

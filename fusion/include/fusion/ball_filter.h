@@ -7,6 +7,7 @@
 // shows it, not after a timeout.
 #pragma once
 
+#include <functional>
 #include <vector>
 
 #include <Eigen/Core>
@@ -28,7 +29,8 @@ struct Hypothesis {
 
 // A measurement of the ball's centre: its value z, its noise R, and the model h(p_F) that predicts
 // it from a centre in the field frame. Only the position enters; Jacobians are numerical. A source
-// whose stamps are uncertain by timing_sigma_s adds what that does to a moving ball: H v sigma_t.
+// whose stamps are uncertain by timing_sigma_s adds what that does as the ball and the sensor move:
+// (H v + ownMotionRate) sigma_t.
 class MeasurementModel {
  public:
   explicit MeasurementModel(double timing_sigma_s = 0.0) : timing_sigma_s_(timing_sigma_s) {}
@@ -40,6 +42,13 @@ class MeasurementModel {
   virtual Eigen::MatrixXd noise(const Eigen::Vector3d& p_F) const = 0;
   // z - h; angles wrapped.
   virtual Eigen::VectorXd residual(const Eigen::VectorXd& z, const Eigen::VectorXd& h) const { return z - h; }
+  // How fast the prediction for a ball lying still at p_F changes because the sensor moves (a
+  // turning robot turns an omni ball's bearing): with the ball's own motion, what a stamp's error
+  // does.
+  virtual Eigen::VectorXd ownMotionRate(const Eigen::Vector3d&) const { return Eigen::VectorXd::Zero(value().size()); }
+  // Whether the sensor can see a ball at p_F at all (an omni camera sees nothing above some height);
+  // a branch it cannot see is neither credited with the measurement nor moved by it.
+  virtual bool canSee(const Eigen::Vector3d&) const { return true; }
 
  private:
   double timing_sigma_s_;
@@ -52,12 +61,19 @@ class BallFilter {
   double time() const { return time_s_; }
   // Every mode's successors at t_s, weighted by how likely each transition is (not yet merged).
   std::vector<Hypothesis> branchesAt(double t_s) const;
+  // How fast the measurement's prediction for the hypothesis changes: the ball's motion and the
+  // sensor's.
+  static Eigen::VectorXd predictionRate(const Hypothesis& h, const MeasurementModel& measurement);
   // The smallest Mahalanobis distance of the measurement from any branch that is not negligible.
   static double mahalanobis(const std::vector<Hypothesis>& branches, const MeasurementModel& measurement);
   // Updates every branch with the measurement, reweights and merges them per mode at t_s.
   void update(std::vector<Hypothesis> branches, double t_s, const MeasurementModel& measurement);
   // Moves to t_s without a measurement.
   void predict(double t_s);
+  // A sensor looked at t_s and did not see the ball: each mode loses weight by the chance that the
+  // sensor would have seen the ball where that mode puts it now (a ball rolling in the omni
+  // camera's view is seldom missed; one above its view always is).
+  void notSeen(double t_s, const std::function<double(const Hypothesis&)>& detection_probability);
 
   // The more probable mode's hypothesis, and the weight of the air mode.
   const Hypothesis& best() const;

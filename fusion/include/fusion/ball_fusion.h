@@ -44,21 +44,18 @@ struct FusionUpdate {
   std::vector<RejectedObservation> rejected;
 };
 
-// How the omni camera's latency relative to the Kinect is learnt: from omni balls on a track both
-// sensors support, rolling fast enough that a time offset shows as a position offset along the
-// velocity (an offset L moves the omni's ball by -v L).
+// How the omni camera's latency relative to the Kinect is learnt: from the bearings of omni balls on
+// a track the Kinect anchors, while that bearing turns (the ball crossing the view, or the robot
+// turning): an offset L shows as the bearing of L earlier, off by -rate L.
 class LatencyEstimator {
  public:
   static constexpr int kMinExamples = 10;
   static constexpr std::size_t kWindow = 200;
 
-  // One example: the omni's ground ball minus the track's prediction at the omni's corrected time,
-  // the covariance of that difference, the track's velocity, and the estimate that corrected that
-  // time. Examples count by how precisely they pin the time: speed over position error along the
-  // motion (a ball crossing the omni's view is timed by its precise bearing, one rolling straight
-  // away only by its noisy distance).
-  void add(const Eigen::Vector2d& residual_m, const Eigen::Matrix2d& covariance_m2, const Eigen::Vector2d& velocity_mps,
-           double applied_s);
+  // One example: the omni's bearing minus the track's at the omni's corrected time, that
+  // difference's variance, the rate at which the bearing turns, and the estimate that corrected
+  // that time. Examples count by how precisely they pin the time: rate over bearing error.
+  void add(double residual_rad, double variance_rad2, double bearing_rate_radps, double applied_s);
   // The relative latency (seconds the omni's stamps are late beyond its configured latency), once
   // kMinExamples were seen.
   std::optional<double> estimate() const;
@@ -126,6 +123,11 @@ class BallFusion {
   };
 
   struct Candidate;
+
+  // Teaches the latency estimator from an omni ball (at corrected time t, corrected by applied_s) on
+  // the world's track.
+  void learnLatency(const Track& track, const Candidate& candidate, double t, double applied_s,
+                    const fw::RobotPose& pose);
 
   // The time-line rule for a frame of source stamped stamp_s (its own clock): true to use it.
   bool onTimeLine(Source source, double stamp_s, double time_s);

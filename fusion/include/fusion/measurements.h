@@ -30,25 +30,37 @@ class PositionMeasurement : public MeasurementModel {
 // the phantom constrains the ray instead of pulling the ball to the wrong place.
 class OmniMeasurement : public MeasurementModel {
  public:
-  OmniMeasurement(const fw::OmniBallObservation& observation, const fw::RobotPose& pose, const OmniConfig& omni,
-                  const PoseConfig& pose_config, double ball_radius_m, double timing_sigma_s);
+  // pose: where the robot stood when the camera looked; pose_after: kPoseRateStep_s later.
+  OmniMeasurement(const fw::OmniBallObservation& observation, const fw::RobotPose& pose,
+                  const fw::RobotPose& pose_after, const OmniConfig& omni, const PoseConfig& pose_config,
+                  double ball_radius_m, double timing_sigma_s);
+  static constexpr double kPoseRateStep_s = 0.02;
 
   Eigen::VectorXd predict(const Eigen::Vector3d& p_F) const override;
   const Eigen::VectorXd& value() const override { return z_; }
   Eigen::MatrixXd noise(const Eigen::Vector3d& p_F) const override;
   Eigen::VectorXd residual(const Eigen::VectorXd& z, const Eigen::VectorXd& h) const override;
+  Eigen::VectorXd ownMotionRate(const Eigen::Vector3d& p_F) const override;
+  bool canSee(const Eigen::Vector3d& p_F) const override;
 
   // Where a ball on the floor would be for this observation, in the field frame (z = radius).
   Eigen::Vector3d groundBall_F() const;
 
  private:
-  fw::RobotPose pose_;
+  Eigen::VectorXd predictFrom(const fw::RobotPose& pose, const Eigen::Vector3d& p_F) const;
+
+  fw::RobotPose pose_, pose_after_;
   OmniConfig omni_;
   PoseConfig pose_config_;
   double radius_m_;
   fw::OmniBallObservation observation_;
   Eigen::VectorXd z_;
 };
+
+// Whether the omni camera can see a ball centre at p_F: below the top of its mirror's view.
+bool omniCanSee(const Eigen::Vector3d& p_F, const OmniConfig& omni);
+// The chance that the ball of hypothesis h is below the top of the omni camera's view.
+double omniVisibleProbability(const Hypothesis& h, const OmniConfig& omni);
 
 // The omni camera's noise for a ground ball distance_m away: the observation's own sigmas where it
 // carries them, else the configured model (the distance's growing with the distance).
