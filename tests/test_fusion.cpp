@@ -201,10 +201,25 @@ TEST(FusionFilter, ABallAboveTheOmniViewNeitherExplainsNorIsMovedByAnOmniBall) {
   flying.x.z() = 0.72;
   const fusion::OmniMeasurement far_ball(omniView(Eigen::Vector3d(0.0, 5.0, kRadius), pose, 0.75), pose, pose,
                                          config.omni, config.pose, kRadius, 0.0);
-  EXPECT_TRUE(std::isinf(fusion::BallFilter::mahalanobis({flying}, far_ball))) << "never associated by that branch";
+  EXPECT_TRUE(std::isinf(fusion::BallFilter::fit({flying}, far_ball).mahalanobis)) << "never associated by that branch";
   fusion::BallFilter filter(config.motion, kT0, {rolling, flying});
   filter.update(filter.branchesAt(kT0), kT0, far_ball);
   EXPECT_EQ(filter.airProbability(), 0.0) << "the omni ball is credited to the ball it can see";
+}
+
+TEST(FusionFilter, AMeasurementIsLikelierOnTheTrackThatExplainsItThanOnOneThatExplainsAnything) {
+  const fw::RobotPose pose = poseAt(0.0, 0.0, 0.0, kT0);
+  const fusion::PositionMeasurement ball(Eigen::Vector3d(0.05, 3.0, kRadius), 1e-4 * Eigen::Matrix3d::Identity(), pose,
+                                         fusion::PoseConfig{});
+  fusion::Hypothesis known, stale;  // seen a moment ago; unseen for long, a metre either way
+  known.x << 0.0, 3.0, kRadius, 0.0, 0.0, 0.0;
+  known.P = 1e-3 * fusion::Matrix6d::Identity();
+  stale.x << 0.0, 3.5, kRadius, 0.0, 0.0, 0.0;
+  stale.P = fusion::Matrix6d::Identity();
+  const fusion::MeasurementFit on_known = fusion::BallFilter::fit({known}, ball);
+  const fusion::MeasurementFit on_stale = fusion::BallFilter::fit({stale}, ball);
+  ASSERT_LT(on_stale.mahalanobis, on_known.mahalanobis) << "in sigmas the stale track is nearer";
+  EXPECT_GT(on_known.log_likelihood, on_stale.log_likelihood + 3.0) << "but the known track explains the ball";
 }
 
 TEST(FusionFilter, ABallTheOmniCameraDoesNotSeeIsMoreLikelyAboveItsView) {

@@ -200,16 +200,25 @@ Eigen::VectorXd BallFilter::predictionRate(const Hypothesis& h, const Measuremen
   return jacobian(measurement, p).leftCols<3>() * h.x.tail<3>() + measurement.ownMotionRate(p);
 }
 
-double BallFilter::mahalanobis(const std::vector<Hypothesis>& branches, const MeasurementModel& measurement) {
-  double heaviest = 0.0;
-  for (const Hypothesis& h : branches) heaviest = std::max(heaviest, h.weight);
-  double best = std::numeric_limits<double>::infinity();
+MeasurementFit BallFilter::fit(const std::vector<Hypothesis>& branches, const MeasurementModel& measurement) {
+  double heaviest = 0.0, total = 0.0;
+  for (const Hypothesis& h : branches) {
+    heaviest = std::max(heaviest, h.weight);
+    total += h.weight;
+  }
+  MeasurementFit fit{std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity()};
+  double likelihood = 0.0;
   for (const Hypothesis& h : branches) {
     if (h.weight < kNegligibleWeight * heaviest || !measurement.canSee(h.x.head<3>())) continue;
     const Innovation in = innovate(h, measurement);
-    best = std::min(best, std::sqrt(in.y.dot(in.S.ldlt().solve(in.y))));
+    const Eigen::LDLT<Eigen::MatrixXd> S(in.S);
+    const double d2 = in.y.dot(S.solve(in.y));
+    fit.mahalanobis = std::min(fit.mahalanobis, std::sqrt(d2));
+    const double log_det = S.vectorD().array().log().sum();
+    likelihood += h.weight / total * std::exp(-0.5 * (d2 + log_det + in.y.size() * std::log(2.0 * M_PI)));
   }
-  return best;
+  if (likelihood > 0.0) fit.log_likelihood = std::log(likelihood);
+  return fit;
 }
 
 void BallFilter::update(std::vector<Hypothesis> branches, double t_s, const MeasurementModel& measurement) {

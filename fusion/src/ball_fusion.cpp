@@ -198,11 +198,11 @@ void BallFusion::process(const Frame& frame) {
   state.update = FusionUpdate{t, std::nullopt, {}};
   std::vector<Candidate> candidates = candidatesOf(frame, pose);
 
-  // Gate every candidate against every track's branches at t, then pair them nearest first.
+  // Gate every candidate against every track's branches at t, then pair them most likely first.
   std::vector<std::vector<Hypothesis>> branches;
   for (const Track& track : state.tracks) branches.push_back(track.filter.branchesAt(t));
   struct Pair {
-    double distance;
+    double log_likelihood;
     std::size_t candidate, track;
   };
   std::vector<Pair> pairs;
@@ -212,11 +212,12 @@ void BallFusion::process(const Frame& frame) {
       // A ball the colour image rejected is not followed; a static floater only continues a confirmed flight.
       if (candidates[c].colour == fw::ColourVerdict::kRejected) continue;
       if (candidates[c].is_static && !(track.confirmed && track.filter.airProbability() > 0.5)) continue;
-      const double d = BallFilter::mahalanobis(branches[k], *candidates[c].measurement);
-      if (d <= config_.track.gate_sigma) pairs.push_back({d, c, k});
+      const MeasurementFit fit = BallFilter::fit(branches[k], *candidates[c].measurement);
+      if (fit.mahalanobis <= config_.track.gate_sigma) pairs.push_back({fit.log_likelihood, c, k});
     }
   }
-  std::sort(pairs.begin(), pairs.end(), [](const Pair& a, const Pair& b) { return a.distance < b.distance; });
+  std::sort(pairs.begin(), pairs.end(),
+            [](const Pair& a, const Pair& b) { return a.log_likelihood > b.log_likelihood; });
   std::vector<bool> candidate_used(candidates.size(), false), track_used(state.tracks.size(), false);
   for (const Pair& pair : pairs) {
     if (candidate_used[pair.candidate] || track_used[pair.track]) continue;

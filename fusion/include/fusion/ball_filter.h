@@ -54,6 +54,15 @@ class MeasurementModel {
   double timing_sigma_s_;
 };
 
+struct MeasurementFit {
+  // The smallest Mahalanobis distance from any branch (the gate: a surprising measurement is
+  // exactly the one an unlikely branch, a kick, explains) ...
+  double mahalanobis;
+  // ... and the log of its density under all branches, each by its weight (the choice between
+  // tracks: a track that has been unseen long explains anything a little, its own ball well).
+  double log_likelihood;
+};
+
 class BallFilter {
  public:
   BallFilter(const MotionConfig& config, double time_s, std::vector<Hypothesis> hypotheses);
@@ -64,8 +73,8 @@ class BallFilter {
   // How fast the measurement's prediction for the hypothesis changes: the ball's motion and the
   // sensor's.
   static Eigen::VectorXd predictionRate(const Hypothesis& h, const MeasurementModel& measurement);
-  // The smallest Mahalanobis distance of the measurement from any branch that is not negligible.
-  static double mahalanobis(const std::vector<Hypothesis>& branches, const MeasurementModel& measurement);
+  // How the measurement fits the branches that are not negligible.
+  static MeasurementFit fit(const std::vector<Hypothesis>& branches, const MeasurementModel& measurement);
   // Updates every branch with the measurement, reweights and merges them per mode at t_s.
   void update(std::vector<Hypothesis> branches, double t_s, const MeasurementModel& measurement);
   // Moves to t_s without a measurement.
