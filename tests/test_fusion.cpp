@@ -503,6 +503,21 @@ TEST(Fusion, LearnsTheOmniLatencyFromABallBothSeeRolling) {
   EXPECT_NEAR(*fusion.omniLatency_s(), 0.04, 0.01);
 }
 
+TEST(Fusion, LearnsTheOmniLatencyFromLowLobsBothSeeFlyingPast) {
+  fusion::BallFusion fusion{fusion::FusionConfig()};
+  // Low lobs (under the omni's view top) across the robot's front, 1.5 m away, one a second; the
+  // Kinect sees the ball only in flight, so only flights can teach the latency.
+  const Truth lobs = [](double t) {
+    const double kick_t = kT0 + std::floor(t - kT0);
+    const double x0 = static_cast<int>(std::floor(t - kT0)) % 2 == 0 ? -2.0 : 2.0;
+    return lobAt(t, kick_t, Eigen::Vector3d(x0, 1.5, kRadius), Eigen::Vector3d(x0 < 0 ? 5.0 : -5.0, 0.0, 2.8));
+  };
+  const auto in_flight = [](double, const Eigen::Vector3d& p_F) { return p_F.z() > kRadius + 0.03; };
+  feed(fusion, lobs, 6.0, standingAtOrigin, in_flight, true, /*omni_stamp_late_s=*/0.04);
+  ASSERT_TRUE(fusion.omniLatency_s()) << fusion.omniLatencyExamples() << " examples";
+  EXPECT_NEAR(*fusion.omniLatency_s(), 0.04, 0.01);
+}
+
 TEST(Fusion, LearnsTheOmniLatencyFromTheRobotsTurnWithTheBallAtRest) {
   fusion::BallFusion fusion{fusion::FusionConfig()};
   // The robot turns on the spot at 1.5 rad/s; the ball lies still, in the Kinect's 57 degrees once a

@@ -11,11 +11,10 @@ namespace fusion {
 
 namespace {
 // What a track must show before its omni balls teach the latency: the Kinect saw it this recently
-// (it anchors the ball in the field frame), it is on the ground with at least this probability,
-// and its bearing from the robot turns at least this fast (the ball crossing the view, or the
-// robot turning). A bearing further off than this is a misassociation, not a time offset.
+// (it anchors the ball in the field frame), and its bearing from the robot turns at least this fast
+// (the ball crossing the view, or the robot turning). On the floor or in the air: a phantom lies on
+// the ball's own bearing. A bearing further off than this is a misassociation, not a time offset.
 constexpr double kLatencyKinectWithin_s = 0.1;
-constexpr double kLatencyMinGroundProbability = 0.95;
 constexpr double kLatencyMinBearingRate_radps = 0.1;
 constexpr double kLatencyMaxBearingResidual_rad = 0.2;
 constexpr double kLatencyMaxOffset_s = 0.2;  // no camera's stamps are this far off what was learnt
@@ -225,8 +224,7 @@ void BallFusion::process(const Frame& frame) {
     const Candidate& c = candidates[pair.candidate];
     Track& track = state.tracks[pair.track];
     track.colour_confirmed |= c.colour == fw::ColourVerdict::kConfirmed;
-    if (c.source == Source::kOmni && track.id == state.world_id && t - track.last_kinect_s < kLatencyKinectWithin_s &&
-        track.filter.airProbability() < 1.0 - kLatencyMinGroundProbability) {
+    if (c.source == Source::kOmni && track.id == state.world_id && t - track.last_kinect_s < kLatencyKinectWithin_s) {
       learnLatency(track, c, t, frame.omni_latency_s, pose);
     }
     track.filter.update(branches[pair.track], t, *c.measurement);
