@@ -22,10 +22,11 @@ namespace fs = std::filesystem;
 using kinect3d::DepthFrame;
 using kinect3d::ReadResult;
 
-// Up to `count` frames from a source, waiting at most 10 s in all.
+// Up to `count` frames from a source, waiting at most a generous minute in all (a busy machine under a
+// sanitizer renders the simulated device's frames slowly; the device may even be reopened meanwhile).
 std::vector<DepthFrame> readFrames(kinect3d::DepthSource& source, int count) {
   std::vector<DepthFrame> frames;
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
   DepthFrame frame;
   while (static_cast<int>(frames.size()) < count && std::chrono::steady_clock::now() < deadline) {
     const ReadResult result = source.read(frame);
