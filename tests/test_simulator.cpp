@@ -192,6 +192,30 @@ TEST(Simulator, BallPhysicsFallsBouncesAndRolls) {
   EXPECT_NEAR(curving.velocityAt(0.5).head<2>().norm(), 8.0, 0.01) << "the Magnus force turns, it does not slow";
 }
 
+TEST(Simulator, ABallShotAtARobotSpringsBackOffItsHullAndDrops) {
+  const kinect3d::sim::Scene scene = kinect3d::sim::loadScene("ball_hits_robot");
+  const kinect3d::sim::BallMotion hitting(*scene.ball, scene.physics, scene.duration_s, scene.objects);
+  const kinect3d::sim::BallMotion unhindered(*scene.ball, scene.physics, scene.duration_s);
+  // The opponent's hull: a box 0.5 m wide and 0.78 m tall on the floor at (0.3, 2.5).
+  const auto inside_hull = [](const Eigen::Vector3d& p) {
+    return std::abs(p.x() - 0.3) < 0.25 + 0.10 && std::abs(p.y() - 2.5) < 0.25 + 0.10 && p.z() < 0.78 + 0.10;
+  };
+  bool went_through = false, entered = false;
+  for (double t = scene.ball->launch_time_s; t < scene.duration_s; t += 0.005) {
+    went_through |= inside_hull(unhindered.positionAt(t));
+    entered |= inside_hull(hitting.positionAt(t));
+  }
+  EXPECT_TRUE(went_through) << "the shot is aimed at the robot";
+  EXPECT_FALSE(entered) << "the ball never passes into the hull";
+  const Eigen::Vector3d before = hitting.velocityAt(0.75), after = hitting.velocityAt(1.0);
+  EXPECT_LT(before.y(), -3.0);
+  // Off the hull's front face: the speed into it comes back at the hull's restitution (0.4), the
+  // speed along it stays.
+  EXPECT_NEAR(after.y(), -0.4 * before.y(), 0.1 * -before.y()) << "it springs back";
+  EXPECT_NEAR(after.x(), before.x(), 0.1 * std::abs(before.x()));
+  EXPECT_NEAR(hitting.positionAt(scene.duration_s).z(), scene.physics.radius_m, 1e-6) << "and drops to the floor";
+}
+
 TEST(Simulator, TruthAndRepeatability) {
   Scene scene = kinect3d::sim::loadScene("kick_away");
   KinectSimulator a(scene), b(scene);

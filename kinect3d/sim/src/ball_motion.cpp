@@ -3,14 +3,44 @@
 #include <algorithm>
 #include <cmath>
 
+#include <Eigen/Geometry>
+
 namespace kinect3d::sim {
 
 namespace {
 // Below this vertical speed after a bounce the ball stops hopping and rolls.
 constexpr double kRollingThreshold_mps = 0.3;
+// A robot's hull (aluminium and hard plastic) returns this share of the speed into it.
+constexpr double kRobotRestitution = 0.4;
 }  // namespace
 
-BallMotion::BallMotion(const BallLaunch& launch, const BallPhysics& physics, double duration_s)
+void BallMotion::bounceOffRobots(State& s, double radius_m, double t_s, const std::vector<SceneObject>& obstacles) {
+  for (const SceneObject& object : obstacles) {
+    if (object.type != "robot") continue;
+    const Eigen::Vector3d offset = object.displacementAt(t_s);
+    const Eigen::Vector3d robot_v = (object.displacementAt(t_s + kStep_s) - offset) / kStep_s;
+    for (const Shape& shape : object.shapes) {
+      if (shape.kind != Shape::Kind::kBox) continue;
+      // The hull's point nearest the ball's centre, in the box's own frame.
+      const Eigen::Rotation2Dd turn(shape.yaw_rad);
+      Eigen::Vector3d local = s.p - (shape.center_m + offset);
+      local.head<2>() = turn.inverse() * local.head<2>();
+      const Eigen::Vector3d half = 0.5 * shape.size_m;
+      Eigen::Vector3d normal = local - local.cwiseMax(-half).cwiseMin(half);
+      const double gap = normal.norm();
+      if (gap >= radius_m || gap == 0.0) continue;
+      normal /= gap;
+      normal.head<2>() = turn * normal.head<2>();
+      const double into = (s.v - robot_v).dot(normal);
+      if (into >= 0.0) continue;  // already leaving it
+      s.v -= (1.0 + kRobotRestitution) * into * normal;
+      s.p += (radius_m - gap) * normal;
+    }
+  }
+}
+
+BallMotion::BallMotion(const BallLaunch& launch, const BallPhysics& physics, double duration_s,
+                       const std::vector<SceneObject>& obstacles)
     : launch_time_s_(launch.launch_time_s) {
   State s{launch.position_m, launch.hanging ? Eigen::Vector3d::Zero() : launch.velocity_mps};
   const double r = physics.radius_m;
@@ -21,6 +51,7 @@ BallMotion::BallMotion(const BallLaunch& launch, const BallPhysics& physics, dou
   for (int i = 0; i < steps; ++i) {
     states_.push_back(s);
     if (launch.hanging) continue;
+    bounceOffRobots(s, r, launch_time_s_ + i * kStep_s, obstacles);
     const bool rolling = s.p.z() <= r + 1e-9 && std::abs(s.v.z()) < 1e-9;
     if (rolling) {
       // Rolling resistance slows the ball until it stops.

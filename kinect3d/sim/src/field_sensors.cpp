@@ -21,7 +21,8 @@ double phantomFactor(double viewpoint_m, double radius_m, double z_m) {
 
 OmniCameraSimulator::OmniCameraSimulator(const Scene& scene, const OmniCameraModel& model)
     : scene_(scene), model_(model) {
-  if (scene_.ball) ball_ = std::make_unique<BallMotion>(*scene_.ball, scene_.physics, scene_.duration_s + 1.0);
+  if (scene_.ball)
+    ball_ = std::make_unique<BallMotion>(*scene_.ball, scene_.physics, scene_.duration_s + 1.0, scene_.objects);
   // Orange things: a Poisson process over the scene, each somewhere 1.5-6 m around the robot.
   std::mt19937_64 random(model_.seed);
   std::exponential_distribution<double> gap(std::max(model_.false_rate_hz, 1e-9));

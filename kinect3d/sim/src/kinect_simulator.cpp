@@ -351,8 +351,8 @@ void addInterference(const Scene& scene, int frame_index, DepthFrame& frame) {
 
 KinectSimulator::KinectSimulator(Scene scene) : scene_(std::move(scene)), renderer_(std::make_unique<Renderer>()) {
   if (scene_.ball) {
-    ball_motion_ =
-        std::make_unique<BallMotion>(*scene_.ball, scene_.physics, scene_.duration_s + scene_.noise.exposure_s);
+    ball_motion_ = std::make_unique<BallMotion>(*scene_.ball, scene_.physics,
+                                                scene_.duration_s + scene_.noise.exposure_s, scene_.objects);
   }
   renderer_->resize(static_cast<std::size_t>(scene_.intrinsics.width) * scene_.intrinsics.height);
   renderer_->scene = &scene_;

@@ -32,7 +32,7 @@ struct FlightTruth {
 };
 
 FlightTruth truthOf(const sim::Scene& scene) {
-  const sim::BallMotion motion(*scene.ball, scene.physics, scene.duration_s);
+  const sim::BallMotion motion(*scene.ball, scene.physics, scene.duration_s, scene.objects);
   FlightTruth truth;
   truth.launch_s = scene.ball->launch_time_s;
   const double r = scene.physics.radius_m;

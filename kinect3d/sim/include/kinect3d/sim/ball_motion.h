@@ -1,5 +1,6 @@
 // The ball's flight: gravity, quadratic air drag, bounces with restitution, then rolling with
-// friction. Integrated once at construction; positionAt() interpolates.
+// friction; it bounces off the robots among the obstacles (their hulls, moving as they drive).
+// Integrated once at construction; positionAt() interpolates.
 #pragma once
 
 #include <vector>
@@ -12,7 +13,8 @@ namespace kinect3d::sim {
 
 class BallMotion {
  public:
-  BallMotion(const BallLaunch& launch, const BallPhysics& physics, double duration_s);
+  BallMotion(const BallLaunch& launch, const BallPhysics& physics, double duration_s,
+             const std::vector<SceneObject>& obstacles = {});
 
   Eigen::Vector3d positionAt(double t_s) const;
   Eigen::Vector3d velocityAt(double t_s) const;
@@ -24,6 +26,8 @@ class BallMotion {
     Eigen::Vector3d v;
   };
   State stateAt(double t_s) const;
+  // Off any robot's hull the ball touches at scene time t.
+  static void bounceOffRobots(State& s, double radius_m, double t_s, const std::vector<SceneObject>& obstacles);
 
   double launch_time_s_;
   std::vector<State> states_;  // from launch, every kStep_s
