@@ -24,6 +24,20 @@ fw::RobotPose poseAt(double x, double y, double theta, double t) {
   return pose;
 }
 
+// One mode's Gaussian: position and velocity x, every variance the same, and its weight.
+fusion::Hypothesis hypothesis(fw::BallState mode, const fusion::Vector6d& x, double variance, double weight = 1.0) {
+  fusion::Hypothesis h;
+  h.mode = mode;
+  h.x = x;
+  h.P = variance * fusion::Matrix6d::Identity();
+  h.weight = weight;
+  return h;
+}
+
+fusion::Vector6d state(double x, double y, double z, double vx = 0.0, double vy = 0.0, double vz = 0.0) {
+  return (fusion::Vector6d() << x, y, z, vx, vy, vz).finished();
+}
+
 // A true ball: position in the field frame at time t.
 using Truth = std::function<Eigen::Vector3d(double)>;
 
@@ -192,13 +206,8 @@ TEST(FusionFilter, ABallAboveTheOmniViewNeitherExplainsNorIsMovedByAnOmniBall) {
   // Two modes: rolling 3 m out, or flying just under the mirror's viewpoint above the same spot,
   // where a phantom's distance runs away with the height and a linearised update would throw the
   // ball about.
-  fusion::Hypothesis rolling, flying;
-  rolling.x << 0.0, 3.0, kRadius, 0.0, 0.0, 0.0;
-  rolling.P = 0.01 * fusion::Matrix6d::Identity();
-  rolling.weight = 0.5;
-  flying = rolling;
-  flying.mode = fw::BallState::kAir;
-  flying.x.z() = 0.72;
+  const fusion::Hypothesis rolling = hypothesis(fw::BallState::kGround, state(0.0, 3.0, kRadius), 0.01, 0.5);
+  const fusion::Hypothesis flying = hypothesis(fw::BallState::kAir, state(0.0, 3.0, 0.72), 0.01, 0.5);
   const fusion::OmniMeasurement far_ball(omniView(Eigen::Vector3d(0.0, 5.0, kRadius), pose, 0.75), pose, pose,
                                          config.omni, config.pose, kRadius, 0.0);
   EXPECT_TRUE(std::isinf(fusion::BallFilter::fit({flying}, far_ball).mahalanobis)) << "never associated by that branch";
@@ -211,11 +220,9 @@ TEST(FusionFilter, AMeasurementIsLikelierOnTheTrackThatExplainsItThanOnOneThatEx
   const fw::RobotPose pose = poseAt(0.0, 0.0, 0.0, kT0);
   const fusion::PositionMeasurement ball(Eigen::Vector3d(0.05, 3.0, kRadius), 1e-4 * Eigen::Matrix3d::Identity(), pose,
                                          fusion::PoseConfig{});
-  fusion::Hypothesis known, stale;  // seen a moment ago; unseen for long, a metre either way
-  known.x << 0.0, 3.0, kRadius, 0.0, 0.0, 0.0;
-  known.P = 1e-3 * fusion::Matrix6d::Identity();
-  stale.x << 0.0, 3.5, kRadius, 0.0, 0.0, 0.0;
-  stale.P = fusion::Matrix6d::Identity();
+  // Seen a moment ago; unseen for long, a metre either way.
+  const fusion::Hypothesis known = hypothesis(fw::BallState::kGround, state(0.0, 3.0, kRadius), 1e-3);
+  const fusion::Hypothesis stale = hypothesis(fw::BallState::kGround, state(0.0, 3.5, kRadius), 1.0);
   const fusion::MeasurementFit on_known = fusion::BallFilter::fit({known}, ball);
   const fusion::MeasurementFit on_stale = fusion::BallFilter::fit({stale}, ball);
   ASSERT_LT(on_stale.mahalanobis, on_known.mahalanobis) << "in sigmas the stale track is nearer";
@@ -224,14 +231,9 @@ TEST(FusionFilter, AMeasurementIsLikelierOnTheTrackThatExplainsItThanOnOneThatEx
 
 TEST(FusionFilter, ABallTheOmniCameraDoesNotSeeIsMoreLikelyAboveItsView) {
   const fusion::FusionConfig config = testConfig();
-  fusion::Hypothesis rolling, flying;
-  rolling.x << 0.0, 3.0, kRadius, 0.0, 0.0, 0.0;
-  rolling.P = 0.01 * fusion::Matrix6d::Identity();
-  rolling.weight = 0.9;
-  flying = rolling;
-  flying.mode = fw::BallState::kAir;
-  flying.x << 0.0, 3.0, 1.0, 0.0, 2.0, 3.0;  // rising 1 m up
-  flying.weight = 0.1;
+  const fusion::Hypothesis rolling = hypothesis(fw::BallState::kGround, state(0.0, 3.0, kRadius), 0.01, 0.9);
+  const fusion::Hypothesis flying =
+      hypothesis(fw::BallState::kAir, state(0.0, 3.0, 1.0, 0.0, 2.0, 3.0), 0.01, 0.1);  // rising 1 m up
   fusion::BallFilter filter(config.motion, kT0, {rolling, flying});
   const auto seen_by_omni = [&](const fusion::Hypothesis& h) {
     return config.omni.detection_probability * fusion::omniVisibleProbability(h, config.omni);

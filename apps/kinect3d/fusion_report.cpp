@@ -232,8 +232,8 @@ void writeFusionReport(const fw::Config& config, int seeds, const std::string& o
       << "|---|---|---|---|---|---|---|---|---|---|---|\n"
       << table
       << "\n## Omni latency learnt online\n\nThe omni camera's stamps are late by a simulated amount unknown to the "
-         "fusion; it learns the offset from the bearings of a ball the Kinect sees while that bearing turns (the ball "
-         "crossing the view, or the robot turning).\n\n"
+         "fusion; it learns the offset from the bearings of a ball the Kinect sees, on the floor or in the air, while "
+         "that bearing turns (the ball crossing the view or flying past, or the robot turning).\n\n"
       << "| scene | seed | simulated (ms) | estimated (ms) | examples |\n|---|---|---|---|---|\n"
       << latency;
   if (!out.flush()) throw std::runtime_error(out_path + ": write failed");
