@@ -517,6 +517,7 @@ void addCalibrate(CLI::App& app) {
 void addReport(CLI::App& app) {
   struct Options {
     std::string kind, out, keep, log;
+    std::vector<std::string> scenes;
     kinect3d::ReportOptions report;
     ConfigOptions config;
   };
@@ -549,6 +550,10 @@ void addReport(CLI::App& app) {
       ->check(CLI::ExistingDirectory);
   command->add_option("--keep", options->keep,
                       "fusion: keep every case's input files and fused output here; calibration: every session");
+  command
+      ->add_option("--scenes", options->scenes,
+                   "fusion: only these scenes (comma-separated; default all: " + kinect3d::fusionReportScenes() + ")")
+      ->delimiter(',');
   options->config.addTo(command, /*with_robot_file=*/false);
   command->callback([options] {
     if ((options->kind == "match") != !options->log.empty()) {
@@ -564,7 +569,7 @@ void addReport(CLI::App& app) {
     } else if (options->kind == "trajectory") {
       kinect3d::writeTrajectoryReport(config, options->out);
     } else if (options->kind == "fusion") {
-      kinect3d::writeFusionReport(config, options->report.seeds, options->out, options->keep);
+      kinect3d::writeFusionReport(config, options->report.seeds, options->out, options->keep, options->scenes);
     } else {
       kinect3d::writeAccuracyReport(config, options->report, options->out);
     }
