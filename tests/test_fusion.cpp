@@ -216,6 +216,24 @@ TEST(FusionFilter, ABallAboveTheOmniViewNeitherExplainsNorIsMovedByAnOmniBall) {
   EXPECT_EQ(filter.airProbability(), 0.0) << "the omni ball is credited to the ball it can see";
 }
 
+TEST(FusionFilter, AnOmniPhantomMovesAFlyingBallAlongItsRayNotPastTheMirrorsView) {
+  const fw::RobotPose pose = poseAt(0.0, 0.0, 0.0, kT0);
+  const fusion::FusionConfig config = testConfig();
+  // Believed 0.2 m up (+- 0.2 m), the ball is 0.55 m up: its phantom lies 6.4 m out, not the 2.3 m
+  // predicted. Linearised once about the belief, the update puts the ball above the mirror's view.
+  fusion::Hypothesis flying = hypothesis(fw::BallState::kAir, state(0.0, 2.0, 0.2, 0.0, -3.0, 3.0), 0.04);
+  flying.P.bottomRightCorner<3, 3>() = Eigen::Matrix3d::Identity();
+  const Eigen::Vector3d truth(0.0, 2.0, 0.55);
+  const fusion::OmniMeasurement phantom(omniView(truth, pose, 0.75), pose, pose, config.omni, config.pose, kRadius,
+                                        0.0);
+  fusion::BallFilter filter(config.motion, kT0, {flying});
+  filter.update(filter.branchesAt(kT0), kT0, phantom);
+  const Eigen::Vector3d updated = filter.best().x.head<3>();
+  EXPECT_LE(updated.z(), config.omni.max_height_m) << "where the camera sees it";
+  EXPECT_GT(updated.z(), 0.4) << "higher than believed, as the phantom says";
+  EXPECT_LT((updated - truth).head<2>().norm(), 0.1) << "on its own spot, not out at the phantom";
+}
+
 TEST(FusionFilter, AMeasurementIsLikelierOnTheTrackThatExplainsItThanOnOneThatExplainsAnything) {
   const fw::RobotPose pose = poseAt(0.0, 0.0, 0.0, kT0);
   const fusion::PositionMeasurement ball(Eigen::Vector3d(0.05, 3.0, kRadius), 1e-4 * Eigen::Matrix3d::Identity(), pose,
@@ -241,6 +259,33 @@ TEST(FusionFilter, ABallTheOmniCameraDoesNotSeeIsMoreLikelyAboveItsView) {
   for (int i = 1; i <= 3; ++i) filter.notSeen(kT0 + i / 30.0, seen_by_omni);
   EXPECT_GT(filter.airProbability(), 0.9) << "three images without the ball: it flies above the mirror's view";
   EXPECT_DOUBLE_EQ(filter.time(), kT0) << "looking changes how likely each mode is, not where the ball is";
+}
+
+TEST(FusionFilter, ABounceFromAHighFallHopsOnAndALowOneEndsTheHops) {
+  const fusion::FusionConfig config = testConfig();
+  // Touching down at 4 m/s no restitution within reason leaves the ball rolling; at 1.2 m/s it
+  // would take a restitution 3 sigma above the configured one to hop 5 cm.
+  fusion::BallFilter high(config.motion, kT0,
+                          {hypothesis(fw::BallState::kAir, state(0.0, 3.0, 0.2, 0.0, 1.0, -4.0), 1e-4)});
+  high.predict(kT0 + 0.05);
+  EXPECT_GT(high.airProbability(), 0.95) << "a ball falling fast bounces";
+  fusion::BallFilter low(config.motion, kT0,
+                         {hypothesis(fw::BallState::kAir, state(0.0, 3.0, 0.13, 0.0, 1.0, -1.2), 1e-4)});
+  low.predict(kT0 + 0.05);
+  EXPECT_LT(low.airProbability(), 0.05) << "a ball falling slowly rolls on";
+}
+
+TEST(FusionFilter, AHopLowerThanARobotNoticesIsNotAFlight) {
+  const fusion::BallFilter filter(fusion::MotionConfig{}, kT0, {});
+  auto hops = [&](fw::BallState mode, double z, double vz) {
+    return filter.hopsNoticeably(hypothesis(mode, state(0.0, 3.0, z, 0.0, 1.0, vz), 1e-4));
+  };
+  EXPECT_TRUE(hops(fw::BallState::kAir, kRadius, 2.0)) << "kicked up: it will rise 20 cm";
+  EXPECT_FALSE(hops(fw::BallState::kAir, kRadius, 0.5)) << "it will rise 1.3 cm";
+  EXPECT_TRUE(hops(fw::BallState::kAir, kRadius + 0.02, -3.0)) << "it comes down fast and bounces high";
+  EXPECT_FALSE(hops(fw::BallState::kAir, kRadius + 0.02, -0.6)) << "the end of the last hop";
+  EXPECT_TRUE(hops(fw::BallState::kAir, 1.0, -0.6)) << "a metre up";
+  EXPECT_FALSE(hops(fw::BallState::kGround, kRadius, 0.0));
 }
 
 TEST(FusionPoseHistory, InterpolatesAcrossTheTurnAndExtrapolatesOnlyALittle) {
@@ -490,6 +535,31 @@ TEST(Fusion, AFalseOrangeObjectDoesNotTakeTheBallAway) {
   }
 }
 
+TEST(Fusion, FollowsAFlyingBallThatHitsARobot) {
+  // A shot at 6 m/s a metre up springs back off a robot's hull 0.3 s later with 40 % of its speed.
+  const double hit_t = kT0 + 0.3;
+  auto flight = [](Eigen::Vector3d p, Eigen::Vector3d v, double t0) {
+    fw::BallTrajectory f;
+    f.state = fw::BallState::kAir;
+    f.position_m = p;
+    f.velocity_mps = v;
+    f.drag_per_m = fusion::MotionConfig{}.drag_per_m;
+    f.time_s = t0;
+    return f;
+  };
+  const fw::BallTrajectory shot = flight({0.0, 1.5, 1.0}, {0.0, 6.0, 1.0}, kT0);
+  const fw::BallTrajectory at_hit = shot.movedTo(hit_t);
+  const Eigen::Vector3d rebound(at_hit.velocity_mps.x(), -0.4 * at_hit.velocity_mps.y(), at_hit.velocity_mps.z());
+  const fw::BallTrajectory back = flight(at_hit.position_m, rebound, hit_t);
+  const Truth ball = [&](double t) { return (t < hit_t ? shot : back).movedTo(t).position_m; };
+  fusion::BallFusion fusion(testConfig());
+  const FedRun run = feed(fusion, ball, 0.5, standingAtOrigin, always, /*with_omni=*/false);
+  ASSERT_TRUE(run.updates.back().ball);
+  EXPECT_LT((run.updates.back().ball->position_F - run.truth.back()).norm(), 0.06)
+      << "0.2 s after the hit the ball flies back, and the world's ball with it";
+  EXPECT_LT((run.updates.back().ball->velocity_F - back.movedTo(run.updates.back().time_s).velocity_mps).norm(), 0.5);
+}
+
 TEST(Fusion, LearnsTheOmniLatencyFromABallBothSeeRolling) {
   fusion::FusionConfig config;  // estimate_latency on, as shipped
   ASSERT_TRUE(config.omni.estimate_latency);
@@ -543,11 +613,14 @@ TEST(FusionConfig, ShippedDefaultsAreTheStructDefaults) {
   EXPECT_EQ(read.motion.radius_m, code.motion.radius_m);
   EXPECT_EQ(read.motion.drag_per_m, code.motion.drag_per_m);
   EXPECT_EQ(read.motion.rolling_decel_mps2, code.motion.rolling_decel_mps2);
+  EXPECT_EQ(read.motion.drag_sigma_per_m, code.motion.drag_sigma_per_m);
   EXPECT_EQ(read.motion.restitution, code.motion.restitution);
+  EXPECT_EQ(read.motion.restitution_sigma, code.motion.restitution_sigma);
   EXPECT_EQ(read.motion.bounce_friction, code.motion.bounce_friction);
   EXPECT_EQ(read.motion.air_accel_sigma_mps2, code.motion.air_accel_sigma_mps2);
   EXPECT_EQ(read.motion.ground_accel_sigma_mps2, code.motion.ground_accel_sigma_mps2);
   EXPECT_EQ(read.motion.kick_rate_hz, code.motion.kick_rate_hz);
+  EXPECT_EQ(read.motion.deflection_rate_hz, code.motion.deflection_rate_hz);
   EXPECT_EQ(read.motion.kick_speed_sigma_mps, code.motion.kick_speed_sigma_mps);
   EXPECT_EQ(read.kinect.source, code.kinect.source);
   EXPECT_EQ(read.kinect.latency_s, code.kinect.latency_s);

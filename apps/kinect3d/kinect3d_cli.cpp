@@ -404,9 +404,12 @@ void runCalibrateDrag(const std::vector<std::string>& files, const fw::Config& c
       "  drag_per_m: %.4f\n  drag_sigma_per_m: %.4f\n",
       fit.drag_per_m, fit.drag_sigma_per_m);
   if (fit.restitution) {
-    std::printf("  restitution: %.2f%s\n", *fit.restitution,
-                fit.restitution_sigma ? ("  # +- " + std::to_string(*fit.restitution_sigma).substr(0, 4)).c_str()
-                                      : "  # from one bounce");
+    std::printf("  restitution: %.2f\n", *fit.restitution);
+    if (fit.restitution_sigma) {
+      std::printf("  restitution_sigma: %.2f\n", *fit.restitution_sigma);
+    } else {
+      std::printf("  # restitution from one bounce: restitution_sigma not measured\n");
+    }
   } else {
     std::printf("# no bounce seen: restitution not measured\n");
   }

@@ -20,9 +20,11 @@ constexpr double kNegligibleWeight = 1e-6;
 constexpr double kPruneWeight = 0.01;
 // A kick is seen at most this long after it happened (a sensor frame at 30 Hz).
 constexpr double kKickWindow_s = 1.0 / 30.0;
-// Below this vertical speed after a bounce the ball most likely rolls on: its hops stay under 5 cm,
-// which a robot treats as a ball on the floor.
-constexpr double kLandingSpeed_mps = 1.0;
+constexpr double kLandingProbabilityFloor = 0.02;
+// The iterated update stops when an iteration moves the ball less than this, or after this many.
+constexpr double kUpdateSettled_m = 1e-3;
+constexpr int kMaxUpdateIterations = 5;
+constexpr int kMaxStepHalvings = 6;
 
 // Position and velocity of the mean after dt, by the same propagation as fw::BallTrajectory.
 void propagateMean(Vector6d& x, fw::BallState mode, const MotionConfig& config, double dt) {
@@ -69,13 +71,17 @@ struct Innovation {
   Eigen::MatrixXd H, R, S;
 };
 
-Innovation innovate(const Hypothesis& h, const MeasurementModel& measurement) {
-  const Eigen::Vector3d p = h.x.head<3>();
+// The measurement's innovation for hypothesis h, linearised about x_lin (h's own mean, or an
+// iterate of the update): y = z - h(x_lin) - H (x - x_lin).
+Innovation innovate(const Hypothesis& h, const MeasurementModel& measurement, const Vector6d& x_lin) {
+  const Eigen::Vector3d p = x_lin.head<3>();
   Innovation in;
-  in.y = measurement.residual(measurement.value(), measurement.predict(p));
   in.H = jacobian(measurement, p);
+  in.y = measurement.residual(measurement.value(), measurement.predict(p)) - in.H * (h.x - x_lin);
   in.R = measurement.noise(p);
-  const Eigen::VectorXd rate = BallFilter::predictionRate(h, measurement);
+  Hypothesis at_lin = h;
+  at_lin.x = x_lin;
+  const Eigen::VectorXd rate = BallFilter::predictionRate(at_lin, measurement);
   in.R += measurement.timingSigma_s() * measurement.timingSigma_s() * rate * rate.transpose();
   in.S = in.H * h.P * in.H.transpose() + in.R;
   return in;
@@ -106,8 +112,10 @@ void BallFilter::roll(Hypothesis& h, double dt) const {
 }
 
 void BallFilter::fly(Hypothesis& h, double dt) const {
+  // Drag pulls by drag v^2: an uncertain drag is an acceleration uncertain by drag_sigma v^2.
+  const double drag_sigma_mps2 = config_.drag_sigma_per_m * h.x.tail<3>().squaredNorm();
   propagateMean(h.x, fw::BallState::kAir, config_, dt);
-  propagateCovariance(h.P, dt, config_.air_accel_sigma_mps2, 3);
+  propagateCovariance(h.P, dt, std::hypot(config_.air_accel_sigma_mps2, drag_sigma_mps2), 3);
 }
 
 bool BallFilter::flyUntilFloor(Hypothesis& h, double dt, double& dt_left) const {
@@ -141,45 +149,56 @@ std::vector<Hypothesis> BallFilter::branchesAt(double t_s) const {
   if (dt <= 0.0) return hypotheses_;
   std::vector<Hypothesis> branches;
   const double kick = 1.0 - std::exp(-config_.kick_rate_hz * dt);
+  const double deflection = 1.0 - std::exp(-config_.deflection_rate_hz * dt);
   const double sk2 = config_.kick_speed_sigma_mps * config_.kick_speed_sigma_mps;
+  // A kick at some instant within dt: any new velocity, the position moved by up to dt of it. With
+  // two sensors interleaved dt may be a millisecond, but a kick shows in the sensor that sees it up
+  // to a frame later: the position spreads over at least that frame.
+  const double since_kick = std::max(dt, kKickWindow_s);
+  auto kicked = [&](Hypothesis h, double weight, int axes) {
+    h.weight = weight;
+    for (int i = 0; i < axes; ++i) {
+      h.P(i + 3, i + 3) += sk2;
+      h.P(i, i) += sk2 * since_kick * since_kick / 4.0;
+    }
+    return h;
+  };
   for (const Hypothesis& h : hypotheses_) {
     if (h.mode == fw::BallState::kGround) {
       Hypothesis rolling = h;
       roll(rolling, dt);
       rolling.weight = h.weight * (1.0 - 2.0 * kick);
       branches.push_back(rolling);
-      // A kick at some instant within dt: any new velocity, the position moved by up to dt of it.
-      // With two sensors interleaved dt may be a millisecond, but a kick shows in the sensor that
-      // sees it up to a frame later: the position spreads over at least that frame.
-      const double since_kick = std::max(dt, kKickWindow_s);
-      Hypothesis along_ground = rolling;
-      along_ground.weight = h.weight * kick;
-      for (int i = 0; i < 2; ++i) {
-        along_ground.P(i + 3, i + 3) += sk2;
-        along_ground.P(i, i) += sk2 * since_kick * since_kick / 4.0;
-      }
-      branches.push_back(along_ground);
-      Hypothesis into_air = along_ground;
+      branches.push_back(kicked(rolling, h.weight * kick, 2));
+      Hypothesis into_air = kicked(rolling, h.weight * kick, 3);
       into_air.mode = fw::BallState::kAir;
-      into_air.P(kZ, kZ) += sk2 * since_kick * since_kick / 4.0;
-      into_air.P(kVz, kVz) += sk2;
       branches.push_back(into_air);
       continue;
     }
     Hypothesis flying = h;
     double dt_left = 0.0;
     if (flyUntilFloor(flying, dt, dt_left)) {
+      // Flying on, or deflected: a robot's hull, a head or a post gives it a new velocity.
+      flying.weight = h.weight * (1.0 - deflection);
       branches.push_back(flying);
+      branches.push_back(kicked(flying, h.weight * deflection, 3));
       continue;
     }
-    // At the floor: a bounce (restitution and friction uncertain) or the end of the hops.
+    // At the floor: a bounce (restitution and friction uncertain) or the end of the hops: the
+    // chance that the restitution leaves the ball too slow to hop higher than a rolling ball does,
+    // never quite 0 or 1 (a ball trapped by a robot, a floor softer than calibrated).
     const double vz_in = flying.x[kVz];
     const double vz_out = -config_.restitution * vz_in;
-    const double land = std::abs(vz_out) < kLandingSpeed_mps ? 0.9 : 0.2;
+    const double landing_speed_mps = std::sqrt(2.0 * fw::kGravity_mps2 * kNoticeableHop_m);
+    const double restitution_to_land = landing_speed_mps / std::max(std::abs(vz_in), 1e-6);
+    const double sigma = std::max(config_.restitution_sigma, 1e-3);
+    const double land =
+        std::clamp(0.5 * std::erfc((config_.restitution - restitution_to_land) / (sigma * std::sqrt(2.0))),
+                   kLandingProbabilityFloor, 1.0 - kLandingProbabilityFloor);
     Hypothesis bounce = flying;
     bounce.x[kVz] = vz_out;
     bounce.x.segment<2>(3) *= 1.0 - config_.bounce_friction;
-    bounce.P(kVz, kVz) += std::pow(0.25 * vz_out, 2);
+    bounce.P(kVz, kVz) += std::pow(sigma * vz_in, 2);
     for (int i = 3; i < 5; ++i) bounce.P(i, i) += std::pow(0.2 * bounce.x[i], 2);
     bounce.weight = h.weight * (1.0 - land);
     Hypothesis landed = bounce;
@@ -210,7 +229,7 @@ MeasurementFit BallFilter::fit(const std::vector<Hypothesis>& branches, const Me
   double likelihood = 0.0;
   for (const Hypothesis& h : branches) {
     if (h.weight < kNegligibleWeight * heaviest || !measurement.canSee(h.x.head<3>())) continue;
-    const Innovation in = innovate(h, measurement);
+    const Innovation in = innovate(h, measurement, h.x);
     const Eigen::LDLT<Eigen::MatrixXd> S(in.S);
     const double d2 = in.y.dot(S.solve(in.y));
     fit.mahalanobis = std::min(fit.mahalanobis, std::sqrt(d2));
@@ -232,10 +251,29 @@ void BallFilter::update(std::vector<Hypothesis> branches, double t_s, const Meas
       log_likelihood[i] = -std::numeric_limits<double>::infinity();
       continue;
     }
-    const Innovation in = innovate(h, measurement);
+    // Iterated: linearised again about the updated state until it stays put. An omni phantom's
+    // distance bends so steeply with the height that one linearisation about the prior can throw
+    // the ball metres away. A step that leaves the ball where the sensor could not have seen it
+    // (the model is only held finite there) is halved until it does not.
+    Vector6d x = h.x;
+    Innovation in;
+    Eigen::MatrixXd K;
+    for (int iteration = 0; iteration < kMaxUpdateIterations; ++iteration) {
+      const Innovation at_x = innovate(h, measurement, x);
+      const Eigen::MatrixXd K_at_x = Eigen::LDLT<Eigen::MatrixXd>(at_x.S).solve(at_x.H * h.P).transpose();  // P H' S^-1
+      Vector6d next = h.x + K_at_x * at_x.y;
+      for (int halving = 0; halving < kMaxStepHalvings && !measurement.canSee(next.head<3>()); ++halving) {
+        next = x + 0.5 * (next - x);
+      }
+      if (iteration > 0 && !measurement.canSee(next.head<3>())) break;
+      const bool settled = (next - x).head<3>().norm() < kUpdateSettled_m;
+      in = at_x;
+      K = K_at_x;
+      x = next;
+      if (settled) break;
+    }
     const Eigen::LDLT<Eigen::MatrixXd> S(in.S);
-    const Eigen::MatrixXd K = (S.solve(in.H * h.P)).transpose();  // P H' S^-1, S symmetric
-    h.x += K * in.y;
+    h.x = x;
     const Matrix6d I_KH = Matrix6d::Identity() - K * in.H;
     h.P = I_KH * h.P * I_KH.transpose() + K * in.R * K.transpose();  // Joseph form: stays symmetric
     if (h.mode == fw::BallState::kGround) keepOnFloor(h);
@@ -313,6 +351,16 @@ void BallFilter::mergePerMode(std::vector<Hypothesis>& branches) {
 const Hypothesis& BallFilter::best() const {
   return *std::max_element(hypotheses_.begin(), hypotheses_.end(),
                            [](const Hypothesis& a, const Hypothesis& b) { return a.weight < b.weight; });
+}
+
+bool BallFilter::hopsNoticeably(const Hypothesis& h) const {
+  if (h.mode != fw::BallState::kAir) return false;
+  const double height = h.x[kZ] - config_.radius_m, vz = h.x[kVz];
+  const double two_g = 2.0 * fw::kGravity_mps2;
+  if (vz > 0.0) return height + vz * vz / two_g >= kNoticeableHop_m;
+  // Coming down: the next hop rises by the restitution's share of the speed at touchdown.
+  const double touchdown_speed2 = vz * vz + two_g * std::max(height, 0.0);
+  return std::max(height, config_.restitution * config_.restitution * touchdown_speed2 / two_g) >= kNoticeableHop_m;
 }
 
 double BallFilter::airProbability() const {

@@ -368,7 +368,7 @@ std::optional<fw::FusedBall> BallFusion::worldBall(double t_s) const {
   ball.velocity_F = best.x.tail<3>();
   ball.covariance_F = best.P.topLeftCorner<3, 3>();
   ball.position_R = poses_.at(t_s).T_F_R().inverse() * ball.position_F;
-  ball.state = best.mode;
+  ball.state = filter.hopsNoticeably(best) ? fw::BallState::kAir : fw::BallState::kGround;
   ball.air_probability = filter.airProbability();
   if (t_s - world->last_kinect_s <= kSourceRecent_s) ball.sources.push_back(config_.kinect.source);
   if (t_s - world->last_omni_s <= kSourceRecent_s) ball.sources.push_back(config_.omni.source);

@@ -10,13 +10,16 @@ FusionConfig readFusionConfig(const fw::ConfigView& block) {
   MotionConfig& motion = config.motion;
   motion.radius_m = ball.getDouble("radius_m", 0.02, 0.5);
   motion.drag_per_m = ball.getDouble("drag_per_m", 0.0, 1.0);
+  motion.drag_sigma_per_m = ball.getDouble("drag_sigma_per_m", 0.0, 1.0);
   motion.rolling_decel_mps2 = ball.getDouble("rolling_decel_mps2", 0.0, 10.0);
   motion.restitution = ball.getDouble("restitution", 0.0, 1.0);
+  motion.restitution_sigma = ball.getDouble("restitution_sigma", 0.0, 1.0);
   motion.bounce_friction = ball.getDouble("bounce_friction", 0.0, 1.0);
   const fw::ConfigView noise = block.child("motion");
   motion.air_accel_sigma_mps2 = noise.getDouble("air_accel_sigma_mps2", 0.01, 100.0);
   motion.ground_accel_sigma_mps2 = noise.getDouble("ground_accel_sigma_mps2", 0.01, 100.0);
   motion.kick_rate_hz = noise.getDouble("kick_rate_hz", 0.0, 10.0);
+  motion.deflection_rate_hz = noise.getDouble("deflection_rate_hz", 0.0, 10.0);
   motion.kick_speed_sigma_mps = noise.getDouble("kick_speed_sigma_mps", 0.1, 50.0);
 
   const fw::ConfigView kinect = block.child("kinect");

@@ -17,6 +17,10 @@
 
 namespace fusion {
 
+// A hop lower than this (the ball's centre above rest) is a ball rolling on: a bounce that leaves
+// the ball too slow to rise this high ends the hops.
+constexpr double kNoticeableHop_m = 0.05;
+
 using Vector6d = Eigen::Matrix<double, 6, 1>;  // position (m), velocity (m/s), field frame
 using Matrix6d = Eigen::Matrix<double, 6, 6>;
 
@@ -86,6 +90,9 @@ class BallFilter {
 
   // The more probable mode's hypothesis, and the weight of the air mode.
   const Hypothesis& best() const;
+  // Whether a flying hypothesis rises, now or after its next bounce, higher than kNoticeableHop_m
+  // above rest: lower hops are the ball rolling on for any robot, and are reported on the ground.
+  bool hopsNoticeably(const Hypothesis& h) const;
   double airProbability() const;
   const std::vector<Hypothesis>& hypotheses() const { return hypotheses_; }
 

@@ -13,12 +13,15 @@ namespace fusion {
 struct MotionConfig {
   double radius_m = 0.11;
   double drag_per_m = 0.02;              // quadratic air drag rho Cd A / 2m (as fw::BallTrajectory)
+  double drag_sigma_per_m = 0.007;       // how far this ball's drag may be off drag_per_m
   double rolling_decel_mps2 = 0.4;       // a rolling ball slows by this
   double restitution = 0.6;              // vertical speed kept at a bounce
+  double restitution_sigma = 0.07;       // its spread from bounce to bounce
   double bounce_friction = 0.2;          // share of horizontal speed lost at a bounce
-  double air_accel_sigma_mps2 = 2.0;     // unmodelled acceleration in flight (drag and spin unknown)
+  double air_accel_sigma_mps2 = 0.4;     // unmodelled acceleration in flight beyond the drag's spread (spin)
   double ground_accel_sigma_mps2 = 1.0;  // on the ground (dribbling, nudges, uneven carpet)
   double kick_rate_hz = 0.5;             // how often a ball on the ground is expected to be kicked
+  double deflection_rate_hz = 0.02;      // how often a flying ball is deflected (a robot's hull, a head, a post)
   double kick_speed_sigma_mps = 6.0;     // spread of the velocity a kick gives
 };
 
