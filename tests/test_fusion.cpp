@@ -560,6 +560,33 @@ TEST(Fusion, FollowsAFlyingBallThatHitsARobot) {
   EXPECT_LT((run.updates.back().ball->velocity_F - back.movedTo(run.updates.back().time_s).velocity_mps).norm(), 0.5);
 }
 
+TEST(Fusion, AFlightNoSensorSeesStaysTheWorldsBallThoughAnotherBallIsSeen) {
+  fusion::BallFusion fusion(testConfig());
+  const Eigen::Vector3d p0(0.0, 2.0, kRadius), v0(0.0, 2.0, 6.0);  // up to 1.9 m, a second above the omni's view
+  const double kick_t = kT0 + 0.3;
+  const Truth lob = [&](double t) { return lobAt(t, kick_t, p0, v0); };
+  const Eigen::Vector3d shirt(-3.0, -2.0, kRadius);  // orange, seen by the omni camera all along
+  std::mt19937 random(3);
+  int checked = 0;
+  for (int i = 0; i < 36; ++i) {
+    const double t = kT0 + i / 30.0;
+    fusion.addPose(standingAtOrigin(t));
+    std::vector<fw::BallObservation> kinect;
+    if (t < kick_t + 0.3) kinect.push_back(kinectView(lob(t), standingAtOrigin(t), random));  // then above it
+    fusion.addKinectFrame(t, kinect);
+    const double t_omni = t + 0.01;
+    std::vector<fw::OmniBallObservation> omni{omniView(shirt, standingAtOrigin(t_omni), 0.75)};
+    if (lob(t_omni).z() < 0.6) omni.push_back(omniView(lob(t_omni), standingAtOrigin(t_omni), 0.75));
+    fusion.addPose(standingAtOrigin(t_omni));
+    const fusion::FusionUpdate& update = fusion.addOmniFrame(t_omni, omni);
+    if (t < kick_t + 0.3) continue;
+    ++checked;
+    ASSERT_TRUE(update.ball);
+    EXPECT_LT((update.ball->position_F - lob(t_omni)).norm(), 0.3) << (t - kick_t) << " s after the kick";
+  }
+  EXPECT_GT(checked, 15) << "over half a second that only physics carries";
+}
+
 TEST(Fusion, LearnsTheOmniLatencyFromABallBothSeeRolling) {
   fusion::FusionConfig config;  // estimate_latency on, as shipped
   ASSERT_TRUE(config.omni.estimate_latency);

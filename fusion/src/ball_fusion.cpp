@@ -340,11 +340,16 @@ void BallFusion::maintainTracks(double t_s) {
     track.confirmed = track.colour_confirmed || track.seen_on_ground ||
                       best.x.tail<3>().norm() - speed_sigma > config.min_flight_speed_mps;
   }
-  // The world's ball is kept while it is supported; without support for kWorldSwitchAfter_s it
-  // gives way to a confirmed track supported since, and it is dropped when lost.
+  // The world's ball is kept while it is supported, and while it flies (a flight above the omni's
+  // view and out of the Kinect's is carried, not swapped for another ball); on the ground without
+  // support for kWorldSwitchAfter_s it gives way to a confirmed track supported since, and it is
+  // dropped when lost.
   const auto world =
       std::find_if(tracks.begin(), tracks.end(), [&](const Track& track) { return track.id == state_.world_id; });
-  if (world != tracks.end() && t_s - world->last_support_s <= kWorldSwitchAfter_s) return;
+  if (world != tracks.end() &&
+      (t_s - world->last_support_s <= kWorldSwitchAfter_s || world->filter.airProbability() > 0.5)) {
+    return;
+  }
   const Track* chosen = world != tracks.end() ? &*world : nullptr;
   for (const Track& track : tracks) {
     if (!track.confirmed) continue;
