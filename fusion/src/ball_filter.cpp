@@ -20,6 +20,7 @@ constexpr double kNegligibleWeight = 1e-6;
 constexpr double kPruneWeight = 0.01;
 // A kick is seen at most this long after it happened (a sensor frame at 30 Hz).
 constexpr double kKickWindow_s = 1.0 / 30.0;
+// No bounce is certain to hop on or to end the hops (a ball trapped by a robot, a softer floor).
 constexpr double kLandingProbabilityFloor = 0.02;
 // The iterated update stops when an iteration moves the ball less than this, or after this many.
 constexpr double kUpdateSettled_m = 1e-3;
@@ -184,9 +185,8 @@ std::vector<Hypothesis> BallFilter::branchesAt(double t_s) const {
       branches.push_back(kicked(flying, h.weight * deflection, 3));
       continue;
     }
-    // At the floor: a bounce (restitution and friction uncertain) or the end of the hops: the
-    // chance that the restitution leaves the ball too slow to hop higher than a rolling ball does,
-    // never quite 0 or 1 (a ball trapped by a robot, a floor softer than calibrated).
+    // At the floor: a bounce (restitution and friction uncertain) or the end of the hops, by the
+    // chance that this bounce's restitution leaves the ball too slow to hop noticeably.
     const double vz_in = flying.x[kVz];
     const double vz_out = -config_.restitution * vz_in;
     const double landing_speed_mps = std::sqrt(2.0 * fw::kGravity_mps2 * kNoticeableHop_m);

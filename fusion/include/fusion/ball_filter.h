@@ -1,10 +1,10 @@
 // One ball's state in the field frame, under two motion modes at once: rolling on the ground and
 // flying. Each step, every mode hypothesis branches into what can happen next (a ground ball keeps
-// rolling, is kicked along the ground or into the air; a flying ball keeps flying, bounces or
-// lands), each branch is weighted by how likely that is and how well it explains the measurement,
-// and the branches are merged per mode (a GPB2 multiple-model filter). A wrong mode guess is thus
-// recovered within a few measurements, and a kick or touchdown switches the mode when the data
-// shows it, not after a timeout.
+// rolling, is kicked along the ground or into the air; a flying ball keeps flying, is deflected,
+// bounces or lands), each branch is weighted by how likely that is and how well it explains the
+// measurement, and the branches are merged per mode (a GPB2 multiple-model filter). A wrong mode
+// guess is thus recovered within a few measurements, and a kick or touchdown switches the mode when
+// the data shows it, not after a timeout.
 #pragma once
 
 #include <functional>
