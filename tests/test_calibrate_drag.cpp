@@ -1,4 +1,4 @@
-// `kinect3d calibrate drag`: the ball's drag and restitution from recorded flights, checked on
+// `kinect3d calibrate drag`: the ball's drag and bounce from recorded flights, checked on
 // balls whose physics the fit was not told (the library on clean tracks, the command on the
 // detector's output of a simulated lob), and the printed lines used as a robot file.
 #include <gtest/gtest.h>
@@ -35,18 +35,26 @@ std::vector<fw::BallFrame> seenLob(const kinect3d::sim::BallPhysics& physics, in
   return frames;
 }
 
-TEST(CalibrateDrag, RecoversTheDragAndRestitutionOfBallsAcrossTheRange) {
-  for (const auto& [drag, restitution] : {std::pair{0.011, 0.75}, std::pair{0.027, 0.55}}) {
-    SCOPED_TRACE("drag " + std::to_string(drag) + ", restitution " + std::to_string(restitution));
+TEST(CalibrateDrag, RecoversTheDragRestitutionAndBounceFrictionOfBallsAcrossTheRange) {
+  struct Ball {
+    double drag, restitution, friction;
+  };
+  for (const Ball& ball : {Ball{0.011, 0.75, 0.1}, Ball{0.027, 0.55, 0.3}}) {
+    const double drag = ball.drag, restitution = ball.restitution;
+    SCOPED_TRACE("drag " + std::to_string(drag) + ", restitution " + std::to_string(restitution) + ", friction " +
+                 std::to_string(ball.friction));
     kinect3d::sim::BallPhysics physics;
     physics.drag_per_m = drag;
     physics.restitution = restitution;
+    physics.bounce_friction = ball.friction;
     const kinect3d::BallPhysicsCalibration fit = kinect3d::calibrateBallPhysics(seenLob(physics, 3), 0.11);
     ASSERT_GE(fit.flights.size(), 2u) << "the lob and the hop after its bounce";
     EXPECT_NEAR(fit.drag_per_m, drag, 0.003);
     EXPECT_GE(fit.drag_sigma_per_m, 0.002) << "the prior never pins the drag";
     ASSERT_TRUE(fit.restitution.has_value());
     EXPECT_NEAR(*fit.restitution, restitution, 0.08);
+    ASSERT_TRUE(fit.bounce_friction.has_value());
+    EXPECT_NEAR(*fit.bounce_friction, ball.friction, 0.05);
   }
 }
 
@@ -63,7 +71,8 @@ TEST(CalibrateDrag, SaysWhatIsMissingWhenNothingFlies) {
 }
 
 TEST(CalibrateDragCommand, FitsTheDetectorsFlightsAndPrintsARobotFile) {
-  // A lob by a ball with less drag and more bounce than the shipped prior, through the detector.
+  // A lob by a ball with less drag, more bounce and more friction than the shipped prior, through the
+  // detector.
   ScopedTempDir dir;
   const std::string d = dir.path().string(), exe = KINECT3D_EXE;
   std::ofstream(d + "/lob.yaml") << "name: lob\nduration_s: 2.2\n"
@@ -71,7 +80,7 @@ TEST(CalibrateDragCommand, FitsTheDetectorsFlightsAndPrintsARobotFile) {
                                     "0.0, roll_deg: 0.0}\n"
                                     "ball:\n  position: [0.1, 1.5, 0.11]\n  velocity: [0.2, 5.5, 4.6]\n"
                                     "  launch_time_s: 0.2\n"
-                                    "physics:\n  drag_per_m: 0.013\n  restitution: 0.75\n";
+                                    "physics:\n  drag_per_m: 0.013\n  restitution: 0.75\n  bounce_friction: 0.3\n";
   ASSERT_EQ(
       runCommand(exe + " detect --source sim:" + d + "/lob.yaml --output " + d + "/detect.jsonl 2>/dev/null").first, 0);
   const auto [status, out] = runCommand(exe + " calibrate drag " + d + "/detect.jsonl 2>&1");
@@ -82,7 +91,9 @@ TEST(CalibrateDragCommand, FitsTheDetectorsFlightsAndPrintsARobotFile) {
   const fw::Config config = fw::Config::load(std::string(PROJECT_CONFIG_DIR) + "/defaults", d + "/robot.yaml", {});
   const kinect3d::TrajectoryConfig prior = kinect3d::readTrajectoryConfig(config.block("kinect3d"));
   EXPECT_NEAR(prior.drag_per_m, 0.013, 0.004) << out;
-  EXPECT_NEAR(fusion::readFusionConfig(config.block("fusion")).motion.restitution, 0.75, 0.1) << out;
+  const fusion::MotionConfig motion = fusion::readFusionConfig(config.block("fusion")).motion;
+  EXPECT_NEAR(motion.restitution, 0.75, 0.1) << out;
+  EXPECT_NEAR(motion.bounce_friction, 0.3, 0.08) << out;
 }
 
 TEST(CalibrateDragCommand, ABadLineIsNamedWithItsFileAndLine) {

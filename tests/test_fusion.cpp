@@ -644,6 +644,7 @@ TEST(FusionConfig, ShippedDefaultsAreTheStructDefaults) {
   EXPECT_EQ(read.motion.restitution, code.motion.restitution);
   EXPECT_EQ(read.motion.restitution_sigma, code.motion.restitution_sigma);
   EXPECT_EQ(read.motion.bounce_friction, code.motion.bounce_friction);
+  EXPECT_EQ(read.motion.bounce_friction_sigma, code.motion.bounce_friction_sigma);
   EXPECT_EQ(read.motion.air_accel_sigma_mps2, code.motion.air_accel_sigma_mps2);
   EXPECT_EQ(read.motion.ground_accel_sigma_mps2, code.motion.ground_accel_sigma_mps2);
   EXPECT_EQ(read.motion.kick_rate_hz, code.motion.kick_rate_hz);

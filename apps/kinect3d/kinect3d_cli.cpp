@@ -396,23 +396,27 @@ void runCalibrateDrag(const std::vector<std::string>& files, const fw::Config& c
                 flight.drag_sigma_per_m, flight.rms_m);
   }
   for (const kinect3d::BounceFit& bounce : fit.bounces) {
-    std::printf("  bounce at %.3f s: restitution %.2f\n", bounce.t_s - frames.front().stamp.source_time_s,
+    std::printf("  bounce at %.3f s: restitution %.2f", bounce.t_s - frames.front().stamp.source_time_s,
                 bounce.restitution);
+    if (bounce.friction) std::printf(", friction %.2f", *bounce.friction);
+    std::printf("\n");
   }
   std::printf(
       "\nFor the robot file (the trajectory's drag prior and the fusion's bounce):\n\nball:\n"
       "  drag_per_m: %.4f\n  drag_sigma_per_m: %.4f\n",
       fit.drag_per_m, fit.drag_sigma_per_m);
-  if (fit.restitution) {
-    std::printf("  restitution: %.2f\n", *fit.restitution);
-    if (fit.restitution_sigma) {
-      std::printf("  restitution_sigma: %.2f\n", *fit.restitution_sigma);
+  // Each measured value with its spread, or a comment saying why there is none.
+  auto print = [](const char* key, const std::optional<double>& mean, const std::optional<double>& sigma) {
+    if (!mean) {
+      std::printf("  # no bounce to measure %s from\n", key);
+    } else if (!sigma) {
+      std::printf("  %s: %.2f\n  # %s from one bounce: %s_sigma not measured\n", key, *mean, key, key);
     } else {
-      std::printf("  # restitution from one bounce: restitution_sigma not measured\n");
+      std::printf("  %s: %.2f\n  %s_sigma: %.2f\n", key, *mean, key, *sigma);
     }
-  } else {
-    std::printf("# no bounce seen: restitution not measured\n");
-  }
+  };
+  print("restitution", fit.restitution, fit.restitution_sigma);
+  print("bounce_friction", fit.bounce_friction, fit.bounce_friction_sigma);
 }
 
 // `calibrate ball-colour`: the match ball's colours from a recording of it, written into the robot file.

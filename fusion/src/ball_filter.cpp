@@ -199,7 +199,7 @@ std::vector<Hypothesis> BallFilter::branchesAt(double t_s) const {
     bounce.x[kVz] = vz_out;
     bounce.x.segment<2>(3) *= 1.0 - config_.bounce_friction;
     bounce.P(kVz, kVz) += std::pow(sigma * vz_in, 2);
-    for (int i = 3; i < 5; ++i) bounce.P(i, i) += std::pow(0.2 * bounce.x[i], 2);
+    for (int i = 3; i < 5; ++i) bounce.P(i, i) += std::pow(config_.bounce_friction_sigma * flying.x[i], 2);
     bounce.weight = h.weight * (1.0 - land);
     Hypothesis landed = bounce;
     landed.mode = fw::BallState::kGround;

@@ -15,6 +15,7 @@ FusionConfig readFusionConfig(const fw::ConfigView& block) {
   motion.restitution = ball.getDouble("restitution", 0.0, 1.0);
   motion.restitution_sigma = ball.getDouble("restitution_sigma", 0.0, 1.0);
   motion.bounce_friction = ball.getDouble("bounce_friction", 0.0, 1.0);
+  motion.bounce_friction_sigma = ball.getDouble("bounce_friction_sigma", 0.0, 1.0);
   const fw::ConfigView noise = block.child("motion");
   motion.air_accel_sigma_mps2 = noise.getDouble("air_accel_sigma_mps2", 0.01, 100.0);
   motion.ground_accel_sigma_mps2 = noise.getDouble("ground_accel_sigma_mps2", 0.01, 100.0);

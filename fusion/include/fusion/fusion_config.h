@@ -18,6 +18,7 @@ struct MotionConfig {
   double restitution = 0.6;              // vertical speed kept at a bounce
   double restitution_sigma = 0.07;       // its spread from bounce to bounce
   double bounce_friction = 0.2;          // share of horizontal speed lost at a bounce
+  double bounce_friction_sigma = 0.1;    // its spread from bounce to bounce
   double air_accel_sigma_mps2 = 0.4;     // unmodelled acceleration in flight beyond the drag's spread (spin)
   double ground_accel_sigma_mps2 = 1.0;  // on the ground (dribbling, nudges, uneven carpet)
   double kick_rate_hz = 0.5;             // how often a ball on the ground is expected to be kicked

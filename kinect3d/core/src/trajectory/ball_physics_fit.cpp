@@ -20,6 +20,7 @@ constexpr int kMinDetections = 8;
 constexpr double kMinSpan_s = 0.2;
 constexpr double kMinSpeed_mps = 2.0;          // slower flights say almost nothing about drag
 constexpr double kMaxBounceGap_s = 0.25;       // between the end of one flight and the next's start
+constexpr double kMinFrictionSpeed_mps = 0.5;  // slower along the floor, a bounce says little of its friction
 constexpr double kMinDragSigma_per_m = 0.002;  // the prior never pins the drag: a ball's drag moves with speed
 // A flight whose own drag is this uncertain (short, slow, far) says little about the ball; it
 // would only inflate the spread between flights, so the prior leaves it out when others say more.
@@ -96,6 +97,16 @@ std::optional<FlightFit> fitFlight(const std::vector<Detection>& run) {
   fit.drag_sigma_per_m = std::sqrt(covariance(6, 6));
   fit.rms_m = std::sqrt(residual.squaredNorm() / run.size());
   return fit;
+}
+
+// The mean of values, and from two of them on their spread (sample standard deviation).
+void meanAndSpread(const std::vector<double>& values, std::optional<double>& mean, std::optional<double>& sigma) {
+  if (values.empty()) return;
+  double sum = 0.0, squares = 0.0;
+  for (const double v : values) sum += v, squares += v * v;
+  const double n = static_cast<double>(values.size());
+  mean = sum / n;
+  if (n >= 2) sigma = std::sqrt(std::max(0.0, (squares - sum * sum / n) / (n - 1)));
 }
 
 // Where a flight's model meets the floor (the centre at the ball's radius), searched forward or
@@ -190,15 +201,18 @@ BallPhysicsCalibration calibrateBallPhysics(const std::vector<fw::BallFrame>& fr
     const auto up = atFloor(after.trajectory, radius_m, -1.0);
     if (!down || !up || down->velocity_mps.z() >= 0.0 || up->velocity_mps.z() <= 0.0) continue;
     if (std::abs(down->time_s - up->time_s) > 0.05 || (down->position_m - up->position_m).norm() > 0.3) continue;
-    result.bounces.push_back({0.5 * (down->time_s + up->time_s), up->velocity_mps.z() / -down->velocity_mps.z()});
+    BounceFit bounce{0.5 * (down->time_s + up->time_s), up->velocity_mps.z() / -down->velocity_mps.z(), {}};
+    const double along_in = down->velocity_mps.head<2>().norm();
+    if (along_in >= kMinFrictionSpeed_mps) bounce.friction = 1.0 - up->velocity_mps.head<2>().norm() / along_in;
+    result.bounces.push_back(bounce);
   }
-  if (!result.bounces.empty()) {
-    double sum = 0.0, squares = 0.0;
-    for (const BounceFit& b : result.bounces) sum += b.restitution, squares += b.restitution * b.restitution;
-    const double n = static_cast<double>(result.bounces.size());
-    result.restitution = sum / n;
-    if (n >= 2) result.restitution_sigma = std::sqrt(std::max(0.0, (squares - sum * sum / n) / (n - 1)));
+  std::vector<double> restitutions, frictions;
+  for (const BounceFit& b : result.bounces) {
+    restitutions.push_back(b.restitution);
+    if (b.friction) frictions.push_back(*b.friction);
   }
+  meanAndSpread(restitutions, result.restitution, result.restitution_sigma);
+  meanAndSpread(frictions, result.bounce_friction, result.bounce_friction_sigma);
   return result;
 }
 
