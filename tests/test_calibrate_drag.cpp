@@ -19,7 +19,7 @@ namespace {
 
 // A lob and its first bounce seen at 30 Hz with 5 mm of noise, as the detector reports it.
 std::vector<fw::BallFrame> seenLob(const kinect3d::sim::BallPhysics& physics, int seed) {
-  const kinect3d::sim::BallMotion motion({{0.2, 1.5, 0.11}, {0.4, 6.5, 5.0}, 0.0, false}, physics, 2.5);
+  const kinect3d::sim::BallMotion motion({{0.2, 1.5, 0.11}, {0.4, 6.5, 5.0}, 0.0, false}, physics, 2.5, {});
   std::mt19937 rng(seed);
   std::normal_distribution<double> noise(0.0, 0.005);
   std::vector<fw::BallFrame> frames;

@@ -43,7 +43,7 @@ TEST(FusionPlugins, TheDemoRobotFusesTheLobFlyingOverItWhileItDrives) {
                                              std::string(PROJECT_CONFIG_DIR) + "/robots/demo.yaml",
                                              {"host.plugins=[localisation, kinect3d, omni, fusion]"});
   const kinect3d::sim::Scene scene = kinect3d::sim::loadScene("lob_over_robot");
-  const kinect3d::sim::BallMotion truth(*scene.ball, scene.physics, scene.duration_s);
+  const kinect3d::sim::BallMotion truth(*scene.ball, scene.physics, scene.duration_s, scene.objects);
   fw::Host host(config, PRODUCT_PLUGIN_DIR);
   // The scene plays in real time (3.5 s).
   int samples = 0, in_air_from_both = 0, far_off_in_air = 0;

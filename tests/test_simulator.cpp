@@ -170,7 +170,7 @@ TEST(Simulator, FastBallLeavesTrailBehindIt) {
 TEST(Simulator, BallPhysicsFallsBouncesAndRolls) {
   kinect3d::sim::BallPhysics physics;
   physics.drag_per_m = 0.0;
-  kinect3d::sim::BallMotion motion({{0, 0, 0.11}, {0, 5, 5}, 0.0, false}, physics, 5.0);
+  kinect3d::sim::BallMotion motion({{0, 0, 0.11}, {0, 5, 5}, 0.0, false}, physics, 5.0, {});
   // Without drag: apex at t = 5/9.81 s, height 0.11 + 25 / (2 * 9.81).
   EXPECT_NEAR(motion.positionAt(5.0 / 9.81).z(), 0.11 + 25.0 / 19.62, 0.01);
   EXPECT_NEAR(motion.positionAt(10.0 / 9.81).y(), 50.0 / 9.81, 0.01);
@@ -180,14 +180,14 @@ TEST(Simulator, BallPhysicsFallsBouncesAndRolls) {
   EXPECT_LT(motion.velocityAt(4.9).norm(), motion.velocityAt(3.0).norm());
 
   physics.drag_per_m = 0.024;
-  kinect3d::sim::BallMotion dragged({{0, 0, 0.11}, {0, 5, 5}, 0.0, false}, physics, 3.0);
+  kinect3d::sim::BallMotion dragged({{0, 0, 0.11}, {0, 5, 5}, 0.0, false}, physics, 3.0, {});
   EXPECT_LT(dragged.positionAt(10.0 / 9.81 - 0.05).y(), motion.positionAt(10.0 / 9.81 - 0.05).y() - 0.1);
 
   // Sidespin, counter-clockwise seen from above, bends a ball flying along +y to the left (-x):
   // 10 rev/s at 8 m/s is about 1.5 m/s^2, so about 0.5 * 1.5 * 0.5^2 = 0.18 m after half a second.
   physics.drag_per_m = 0.0;
   physics.spin_rps = 10.0;
-  kinect3d::sim::BallMotion curving({{0, 0, 0.11}, {0, 8, 4}, 0.0, false}, physics, 1.0);
+  kinect3d::sim::BallMotion curving({{0, 0, 0.11}, {0, 8, 4}, 0.0, false}, physics, 1.0, {});
   EXPECT_NEAR(curving.positionAt(0.5).x(), -0.5 * physics.magnus_m * 2 * M_PI * 10.0 * 8.0 * 0.25, 0.02);
   EXPECT_NEAR(curving.velocityAt(0.5).head<2>().norm(), 8.0, 0.01) << "the Magnus force turns, it does not slow";
 }
@@ -195,7 +195,7 @@ TEST(Simulator, BallPhysicsFallsBouncesAndRolls) {
 TEST(Simulator, ABallShotAtARobotSpringsBackOffItsHullAndDrops) {
   const kinect3d::sim::Scene scene = kinect3d::sim::loadScene("ball_hits_robot");
   const kinect3d::sim::BallMotion hitting(*scene.ball, scene.physics, scene.duration_s, scene.objects);
-  const kinect3d::sim::BallMotion unhindered(*scene.ball, scene.physics, scene.duration_s);
+  const kinect3d::sim::BallMotion unhindered(*scene.ball, scene.physics, scene.duration_s, {});  // no robots
   // The opponent's hull: a box 0.5 m wide and 0.78 m tall on the floor at (0.3, 2.5).
   const auto inside_hull = [](const Eigen::Vector3d& p) {
     return std::abs(p.x() - 0.3) < 0.25 + 0.10 && std::abs(p.y() - 2.5) < 0.25 + 0.10 && p.z() < 0.78 + 0.10;

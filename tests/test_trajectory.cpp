@@ -96,7 +96,7 @@ TEST(BallisticTrajectory, RejectsAnOutlierWithoutRestarting) {
 TEST(BallisticTrajectory, ABounceStartsANewSegment) {
   kinect3d::sim::BallPhysics physics;
   physics.drag_per_m = 0.0;
-  const kinect3d::sim::BallMotion motion({{0, 2, 0.11}, {0, 5, 3.0}, 0.0, false}, physics, 2.0);
+  const kinect3d::sim::BallMotion motion({{0, 2, 0.11}, {0, 5, 3.0}, 0.0, false}, physics, 2.0, {});
   const double first_bounce = 2 * 3.0 / 9.81;
   auto estimator = kinect3d::makeTrajectoryEstimator(ballistic());
   std::optional<fw::BallTrajectory> before, after;
@@ -158,7 +158,7 @@ TEST(BallisticTrajectory, RollingBallSlowsAndCrossesTheLine) {
 
 TEST(BallisticTrajectory, DragOptionFitsDraggedFlights) {
   kinect3d::sim::BallPhysics physics;  // drag 0.024 per metre
-  const kinect3d::sim::BallMotion motion({{0, 1.5, 0.11}, {0, 9, 5.0}, 0.0, false}, physics, 2.0);
+  const kinect3d::sim::BallMotion motion({{0, 1.5, 0.11}, {0, 9, 5.0}, 0.0, false}, physics, 2.0, {});
   double t_land = 0.5;  // the first time the centre comes down to the radius
   while (t_land < 2.0 && motion.positionAt(t_land).z() > 0.11 + 1e-6) t_land += 0.0005;
   ASSERT_LT(t_land, 2.0);
@@ -184,7 +184,7 @@ TEST(BallisticTrajectory, EstimatesTheDragOfABallItWasNotToldAbout) {
     SCOPED_TRACE("drag " + std::to_string(true_drag));
     kinect3d::sim::BallPhysics physics;
     physics.drag_per_m = true_drag;
-    const kinect3d::sim::BallMotion motion({{0, 1.5, 0.11}, {0.5, 9, 5.0}, 0.0, false}, physics, 2.0);
+    const kinect3d::sim::BallMotion motion({{0, 1.5, 0.11}, {0.5, 9, 5.0}, 0.0, false}, physics, 2.0, {});
     double t_land = 0.5;
     while (t_land < 2.0 && motion.positionAt(t_land).z() > 0.11 + 1e-6) t_land += 0.0005;
     ASSERT_LT(t_land, 2.0);
@@ -207,7 +207,7 @@ TEST(BallisticTrajectory, DroppedLateAndJitteredFramesNeitherResetNorBiasTheFlig
   // frames dropped, stamps jittered by up to 3 ms and every tenth frame delivered after the next.
   kinect3d::sim::BallPhysics physics;
   physics.drag_per_m = 0.015;
-  const kinect3d::sim::BallMotion motion({{0.3, 1.5, 0.11}, {-0.4, 7.5, 5.0}, 0.0, false}, physics, 2.0);
+  const kinect3d::sim::BallMotion motion({{0.3, 1.5, 0.11}, {-0.4, 7.5, 5.0}, 0.0, false}, physics, 2.0, {});
   double t_land = 0.5;
   while (motion.positionAt(t_land).z() > 0.11 + 1e-6) t_land += 0.0005;
   const Eigen::Vector2d landing = motion.positionAt(t_land).head<2>();
@@ -253,7 +253,7 @@ TEST(BallisticTrajectory, FollowsACurvingShotAndItsCrossing) {
   kinect3d::sim::BallPhysics physics;
   physics.drag_per_m = 0.02;
   physics.spin_rps = 10.0;
-  const kinect3d::sim::BallMotion motion({{0.3, 6.0, 0.11}, {-0.2, -9.0, 4.4}, 0.0, false}, physics, 2.0);
+  const kinect3d::sim::BallMotion motion({{0.3, 6.0, 0.11}, {-0.2, -9.0, 4.4}, 0.0, false}, physics, 2.0, {});
   double t_cross = 0.0;
   while (motion.positionAt(t_cross).y() > 0.0) t_cross += 0.0005;
   const Eigen::Vector3d crossing = motion.positionAt(t_cross);
@@ -325,7 +325,7 @@ TEST(TrajectoryScenario, GoalkeeperSeesWhereAShotCrossesItsLine) {
     kinect3d::DetectorConfig detector = kinect3d::readDetectorConfig(config.block("kinect3d"));
     detector.ground.pose = scene.sensor_pose;
     const auto frames = kinect3d::sim::runDetectorOnScene(scene, detector);
-    const kinect3d::sim::BallMotion motion(*scene.ball, scene.physics, scene.duration_s);
+    const kinect3d::sim::BallMotion motion(*scene.ball, scene.physics, scene.duration_s, scene.objects);
     double t_cross = scene.ball->launch_time_s;
     while (motion.positionAt(t_cross).y() > 0.0) t_cross += 0.0005;
     const Eigen::Vector3d truth = motion.positionAt(t_cross);

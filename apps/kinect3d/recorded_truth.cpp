@@ -10,7 +10,7 @@ RecordedTruth::RecordedTruth(const RunInfo& run) {
     const std::string source = root.child("kinect3d").getString("source");
     if (source.rfind("sim:", 0) != 0) return;
     scene_ = sim::loadScene(source.substr(4));
-    if (scene_->ball) motion_.emplace(*scene_->ball, scene_->physics, scene_->duration_s);
+    if (scene_->ball) motion_.emplace(*scene_->ball, scene_->physics, scene_->duration_s, scene_->objects);
   } catch (const std::exception&) {
     scene_.reset();  // a log without a simulated source, or whose scene is gone: no truth to draw
   }

@@ -210,7 +210,7 @@ void BallFusion::process(const Frame& frame) {
       const Track& track = state.tracks[k];
       // A ball the colour image rejected is not followed; a static floater only continues a confirmed flight.
       if (candidates[c].colour == fw::ColourVerdict::kRejected) continue;
-      if (candidates[c].is_static && !(track.confirmed && track.filter.airProbability() > 0.5)) continue;
+      if (candidates[c].is_static && !(track.confirmed && track.flying())) continue;
       const MeasurementFit fit = BallFilter::fit(branches[k], *candidates[c].measurement);
       if (fit.mahalanobis <= config_.track.gate_sigma) pairs.push_back({fit.log_likelihood, c, k});
     }
@@ -327,9 +327,8 @@ void BallFusion::maintainTracks(double t_s) {
                               }),
                tracks.end());
   // While a confirmed ball flies, new omni tracks are most likely its phantoms: they wait.
-  const bool ball_in_air = std::any_of(tracks.begin(), tracks.end(), [](const Track& track) {
-    return track.confirmed && track.filter.airProbability() > 0.5;
-  });
+  const bool ball_in_air =
+      std::any_of(tracks.begin(), tracks.end(), [](const Track& track) { return track.confirmed && track.flying(); });
   for (Track& track : tracks) {
     if (track.confirmed || track.updates < config.confirm_updates) continue;
     if (track.omni_born && ball_in_air) continue;
@@ -346,8 +345,7 @@ void BallFusion::maintainTracks(double t_s) {
   // dropped when lost.
   const auto world =
       std::find_if(tracks.begin(), tracks.end(), [&](const Track& track) { return track.id == state_.world_id; });
-  if (world != tracks.end() &&
-      (t_s - world->last_support_s <= kWorldSwitchAfter_s || world->filter.airProbability() > 0.5)) {
+  if (world != tracks.end() && (t_s - world->last_support_s <= kWorldSwitchAfter_s || world->flying())) {
     return;
   }
   const Track* chosen = world != tracks.end() ? &*world : nullptr;

@@ -186,6 +186,7 @@ struct FusedBall {
   Eigen::Vector3d position_R = Eigen::Vector3d::Zero();  // with the robot pose at the same time
   Eigen::Vector3d velocity_F = Eigen::Vector3d::Zero();
   Eigen::Matrix3d covariance_F = Eigen::Matrix3d::Identity();  // of position_F, m^2
+  // kAir while it flies or hops higher than 5 cm above rest; lower hops are a ball rolling on.
   BallState state = BallState::kGround;
   double air_probability = 0.0;      // of the motion modes, how much the air mode explains the data
   std::vector<std::string> sources;  // those that supported it during the last second, e.g. {"kinect3d", "omni"}

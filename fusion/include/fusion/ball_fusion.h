@@ -104,6 +104,9 @@ class BallFusion {
     bool omni_born = false;         // started by an omni ball: perhaps the phantom of a ball in the air
     bool colour_confirmed = false;  // the colour image confirmed one of its Kinect balls
     bool confirmed = false;
+
+    // The air mode explains more of the data than the ground mode.
+    bool flying() const { return filter.airProbability() > 0.5; }
   };
   struct State {
     std::vector<Track> tracks;

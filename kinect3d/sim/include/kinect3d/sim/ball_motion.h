@@ -13,8 +13,10 @@ namespace kinect3d::sim {
 
 class BallMotion {
  public:
+  // obstacles: the scene's objects (the ball springs off those that are robots); a scene's ball
+  // moves among its scene.objects, or the truth and the rendered ball part ways.
   BallMotion(const BallLaunch& launch, const BallPhysics& physics, double duration_s,
-             const std::vector<SceneObject>& obstacles = {});
+             const std::vector<SceneObject>& obstacles);
 
   Eigen::Vector3d positionAt(double t_s) const;
   Eigen::Vector3d velocityAt(double t_s) const;
