@@ -67,6 +67,14 @@ TEST(MatchLog, RoundTripsEveryKindOfPublication) {
   health.frames = 30;
   health.processing_p99_s = 0.004;
   health.dropped_frames = 2;
+  fw::TeamMessage teammate;
+  teammate.team_id = 5;
+  teammate.robot_id = 3;
+  teammate.sequence = 1700000000123456ull;
+  teammate.robot_name = "defender";
+  teammate.kinect_balls = {ball};
+  teammate.clock_offset_s = -0.8;
+  teammate.receive_time_s = 2000.05;
   const std::vector<fw::JournalEntry> written = {
       {1.0, fw::BallFrame{ball.stamp, {ball, ball}, ball.source}},
       {1.1, fw::OmniFrame{{99.9, 2000.02}, {omni}, omni.source}},
@@ -78,6 +86,7 @@ TEST(MatchLog, RoundTripsEveryKindOfPublication) {
       {1.6, fw::RobotPose{1.0, -2.0, 0.3, {99.8, 2000.0}}},
       {1.7, fw::Event{"kinect3d", "floor_found", "aligned", {100.0, 2000.0}}},
       {1.8, health},
+      {1.85, teammate},
       {1.9, smallDepthImage(0)},
   };
   {
@@ -117,6 +126,14 @@ TEST(MatchLog, RoundTripsEveryKindOfPublication) {
   EXPECT_EQ(std::get<fw::Event>(read[8].item).kind, "floor_found");
   EXPECT_EQ(std::get<fw::PluginHealth>(read[9].item).dropped_frames, 2u);
   EXPECT_DOUBLE_EQ(std::get<fw::PluginHealth>(read[9].item).processing_p99_s, 0.004);
+  const auto& message = std::get<fw::TeamMessage>(read[10].item);
+  EXPECT_EQ(message.robot_id, 3);
+  EXPECT_EQ(message.sequence, teammate.sequence);
+  EXPECT_EQ(message.robot_name, "defender");
+  EXPECT_DOUBLE_EQ(message.clock_offset_s, -0.8);
+  EXPECT_DOUBLE_EQ(message.receive_time_s, 2000.05);
+  ASSERT_EQ(message.kinect_balls.size(), 1u);
+  EXPECT_TRUE(message.kinect_balls[0].position_m.isApprox(ball.position_m));
 
   ASSERT_EQ(log.depthSources(), (std::vector<std::pair<std::string, std::uint64_t>>{{"kinect3d", 2}}));
   kinect3d::MatchLogReader::DepthFrames frames(log, "kinect3d");
@@ -131,6 +148,23 @@ TEST(MatchLog, RoundTripsEveryKindOfPublication) {
     EXPECT_DOUBLE_EQ(image.fx, 57.5);
   }
   EXPECT_FALSE(frames.next(image, wall_s));
+}
+
+TEST(MatchLog, AVersion3LogFromBeforeTheTeamStillReads) {
+  ScopedTempDir dir;
+  {
+    kinect3d::MatchLogWriter writer(dir.path().string(), {});
+    writer.write({1.0, fw::RobotPose{1.0, -2.0, 0.3, {99.8, 2000.0}}});
+  }
+  sqlite3* db = nullptr;
+  ASSERT_EQ(sqlite3_open((dir.path() / kinect3d::kMatchLogFile).c_str(), &db), SQLITE_OK);
+  ASSERT_EQ(sqlite3_exec(db, "DROP TABLE team_message; PRAGMA user_version=3", nullptr, nullptr, nullptr), SQLITE_OK);
+  sqlite3_close(db);
+  std::int64_t last_seq = -1;
+  const std::vector<fw::JournalEntry> read = kinect3d::MatchLogReader(dir.path().string()).entries(0, &last_seq);
+  ASSERT_EQ(read.size(), 1u);
+  EXPECT_DOUBLE_EQ(std::get<fw::RobotPose>(read[0].item).y_m, -2.0);
+  EXPECT_GT(last_seq, 0);
 }
 
 TEST(MatchLog, NeverWritesOverAnotherLog) {
@@ -169,7 +203,7 @@ TEST(MatchLog, ABadLogIsNamedWithItsFileAndWhatIsWrong) {
   sqlite3_exec(db, "PRAGMA user_version=99", nullptr, nullptr, nullptr);
   sqlite3_close(db);
   EXPECT_NE(
-      errorOf(dir.path().string()).find(file.string() + ": schema version 99, this program reads versions 2 to 3"),
+      errorOf(dir.path().string()).find(file.string() + ": schema version 99, this program reads versions 2 to 4"),
       std::string::npos)
       << errorOf(dir.path().string());
 }

@@ -20,6 +20,9 @@ PACKAGES=(
   libjs-chart.js                # the match report's and the viewer's charts
   libjs-three                   # the viewer's 3D view (three.js and its orbit controls)
   libcpp-httplib-dev            # the viewer's web server
+  libmsgpack-cxx-dev            # the team message (plugins/team, the match log)
+  libzstd-dev                   # the team packets' compression
+  libsodium-dev                 # the team packets' authentication with the team key
 )
 if [ "${1:-}" = "--tests" ]; then
   PACKAGES+=(

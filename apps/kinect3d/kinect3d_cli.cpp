@@ -45,6 +45,7 @@
 #include "match_tools.h"
 #include "match_view.h"
 #include "offline_fusion.h"
+#include "team_packet.h"
 #include "view_server.h"
 
 namespace {
@@ -657,6 +658,24 @@ std::string joined(const std::vector<std::string>& urls, const std::string& suff
   return text;
 }
 
+void addTeamKey(CLI::App& app) {
+  auto out = std::make_shared<std::string>();
+  CLI::App* command =
+      app.add_subcommand("team-key", "Write a new random team key, for every robot's team.key_file (docs/team.md)");
+  command->add_option("--out", *out, "Key file to create (it must not exist; readable by its owner only)")->required();
+  command->callback([out] {
+    if (fs::exists(*out)) throw std::runtime_error(*out + " exists: a team key is never overwritten");
+    {
+      std::ofstream file(*out);
+      if (!file) throw std::runtime_error("cannot create '" + *out + "'");
+      fs::permissions(*out, fs::perms::owner_read | fs::perms::owner_write);
+      file << team::TeamKey::random().hex() << "\n";
+      if (!file.flush()) throw std::runtime_error("cannot write '" + *out + "'");
+    }
+    std::cout << "wrote a team key to " << *out << ": copy it to every robot of the team" << std::endl;
+  });
+}
+
 void addView(CLI::App& app) {
   struct Options {
     std::string log, live;
@@ -737,6 +756,7 @@ int main(int argc, char** argv) {
   addReport(app);
   addReplay(app);
   addExport(app);
+  addTeamKey(app);
   addView(app);
   try {
     app.parse(argc, argv);

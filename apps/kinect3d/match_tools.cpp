@@ -94,7 +94,8 @@ void replayMatch(const std::string& log_folder, const std::string& defaults_dir,
   const fw::Config configured = fw::Config::load(defaults_dir, robot, overrides);
   std::string plugins;
   for (const std::string& plugin : configured.block("host").getStringList("plugins")) {
-    if (plugin != "console" && plugin != "logger") plugins += plugin + ", ";
+    // team: a replay must not talk to the robot network (the teammates' messages are in the log).
+    if (plugin != "console" && plugin != "logger" && plugin != "team") plugins += plugin + ", ";
   }
   replay_overrides.insert(replay_overrides.end(), {"host.plugins=[" + plugins + "logger]", "logger.folder=" + output,
                                                    "logger.fallback_folder=\"\"", "host.replay_of=" + log_folder});

@@ -127,6 +127,19 @@ std::optional<SensorPose> WorldState::sensorPose(const std::string& source) cons
   return valueAt(sensor_poses_, source);
 }
 
+void WorldState::publishTeamMessage(const TeamMessage& message) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  team_messages_[message.robot_id] = message;
+  takePlace(message);
+  journal(message);
+  ++version_;
+}
+
+std::map<int, TeamMessage> WorldState::teamMessages() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return team_messages_;
+}
+
 void WorldState::clearFusedBall() {
   std::lock_guard<std::mutex> lock(mutex_);
   if (fused_ball_) {

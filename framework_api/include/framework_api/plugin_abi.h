@@ -11,8 +11,8 @@
 #include <cstddef>
 #include <cstdint>
 
-#define FW_PLUGIN_API_MAJOR 1
-#define FW_PLUGIN_API_MINOR 1
+#define FW_PLUGIN_API_MAJOR 2
+#define FW_PLUGIN_API_MINOR 0
 
 #define FW_PLUGIN_DESCRIPTOR_SYMBOL "fw_plugin_descriptor"
 #define FW_PLUGIN_EXPORT __attribute__((visibility("default")))

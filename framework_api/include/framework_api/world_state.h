@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "framework_api/sensor_pose.h"
+#include "framework_api/team_message.h"
 #include "framework_api/types.h"
 
 namespace fw {
@@ -26,7 +27,7 @@ struct FusedBallCleared {};
 
 // One publication as the journal keeps it, with the host's wall clock when it was published.
 using WorldItem = std::variant<BallFrame, OmniFrame, BallTrajectory, TrajectoryCleared, FusedBall, FusedBallCleared,
-                               RobotPose, DepthImage, Event, PluginHealth>;
+                               RobotPose, DepthImage, Event, PluginHealth, TeamMessage>;
 struct JournalEntry {
   double wall_time_s = 0.0;
   WorldItem item;
@@ -50,10 +51,14 @@ class WorldState {
   // measurements; replaced when it changes.
   void publishSensorPose(const std::string& source, const SensorPose& pose);
   std::optional<SensorPose> sensorPose(const std::string& source) const;
+  // A teammate's message as the team plugin received it, its times on this host's clock.
+  void publishTeamMessage(const TeamMessage& message);
+  // The newest message of each teammate, by robot id.
+  std::map<int, TeamMessage> teamMessages() const;
 
   // What the fusion takes in, in the order it came: robot poses, every depth frame's balls (a frame
-  // without a ball too: it is evidence), omni images.
-  using Measurement = std::variant<RobotPose, BallFrame, OmniFrame>;
+  // without a ball too: it is evidence), omni images, teammates' messages.
+  using Measurement = std::variant<RobotPose, BallFrame, OmniFrame, TeamMessage>;
   // A depth frame takes its place among the measurements when it arrives, before its balls are
   // known, and the poses published before it are handed to its detector at the same moment: so
   // whatever the threads' timing, a reader of measurementsSince() and the detector see what a
@@ -144,6 +149,7 @@ class WorldState {
   std::optional<FusedBall> fused_ball_;
   History<RobotPose> robot_poses_;
   std::map<std::string, SensorPose> sensor_poses_;
+  std::map<int, TeamMessage> team_messages_;
   std::deque<Place> places_;       // the newest kMeasurementsKept measurements
   std::uint64_t first_place_ = 0;  // the number of places_.front()
   std::map<std::string, std::uint64_t> dropped_frames_;

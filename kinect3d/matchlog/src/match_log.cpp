@@ -61,6 +61,9 @@ CREATE INDEX depth_frame_by_source ON depth_frame (source, seq);
 CREATE TABLE colour_frame (seq INTEGER PRIMARY KEY, source_time_s REAL NOT NULL, width INTEGER NOT NULL,
   height INTEGER NOT NULL, fx REAL, fy REAL, cx REAL, cy REAL, offset_x_S_m REAL, offset_y_S_m REAL,
   offset_z_S_m REAL, jpeg BLOB NOT NULL);
+CREATE TABLE team_message (seq INTEGER PRIMARY KEY, wall_time_s REAL NOT NULL, team_id INTEGER NOT NULL,
+  robot_id INTEGER NOT NULL, sequence INTEGER NOT NULL, receive_time_s REAL NOT NULL, clock_offset_s REAL NOT NULL,
+  clock_offset_sigma_s REAL NOT NULL, body BLOB NOT NULL);
 )sql";
 
 struct Statement {
@@ -400,6 +403,12 @@ void MatchLogWriter::write(const fw::JournalEntry& entry) {
                 .run(seq, wall, h.plugin, h.frames, h.rate_hz, h.processing_p50_s, h.processing_p99_s, h.dropped_frames,
                      h.errors, h.stuck, h.wall_time_s);
           },
+          [&](const fw::TeamMessage& m) {
+            const std::string body = fw::packTeamMessage(m);
+            statement("INSERT INTO team_message VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?)")
+                .run(seq, wall, m.team_id, m.robot_id, static_cast<std::int64_t>(m.sequence), m.receive_time_s,
+                     m.clock_offset_s, m.clock_offset_sigma_s, std::vector<unsigned char>(body.begin(), body.end()));
+          },
       },
       entry.item);
 }
@@ -694,13 +703,36 @@ std::vector<fw::JournalEntry> MatchLogReader::entries(std::int64_t after_seq, st
       by_seq[q.integer(0)] = {q.real(1), h};
     }
   }
+  if (schema_ >= 4) {  // version 4 added the teammates' messages
+    const auto messages = query(
+        "SELECT seq, wall_time_s, team_id, robot_id, sequence, receive_time_s, clock_offset_s, clock_offset_sigma_s, "
+        "body FROM team_message WHERE seq > ?");
+    Statement& q = *messages;
+    while (q.row()) {
+      const auto* body = static_cast<const std::uint8_t*>(sqlite3_column_blob(q.stmt, 8));
+      fw::TeamMessage m;
+      try {
+        m = fw::unpackTeamMessage(body, static_cast<std::size_t>(sqlite3_column_bytes(q.stmt, 8)));
+      } catch (const fw::TeamMessageError& e) {
+        fail("team_message row of seq " + std::to_string(q.integer(0)) + ": " + e.what());
+      }
+      m.team_id = static_cast<int>(q.integer(2));
+      m.robot_id = static_cast<int>(q.integer(3));
+      m.sequence = static_cast<std::uint64_t>(q.integer(4));
+      m.receive_time_s = q.real(5);
+      m.clock_offset_s = q.real(6);
+      m.clock_offset_sigma_s = q.real(7);
+      by_seq[q.integer(0)] = {q.real(1), m};
+    }
+  }
   if (last_seq != nullptr) {
     const auto latest = query(
         "SELECT max(seq) FROM (SELECT seq FROM ball WHERE seq > ?1 UNION ALL "
         "SELECT seq FROM omni_frame WHERE seq > ?1 UNION ALL SELECT seq FROM trajectory WHERE "
         "seq > ?1 UNION ALL SELECT seq FROM fused_ball WHERE seq > ?1 UNION ALL SELECT seq FROM "
         "robot_pose WHERE seq > ?1 UNION ALL SELECT seq FROM event WHERE seq > ?1 UNION ALL "
-        "SELECT seq FROM health WHERE seq > ?1 UNION ALL SELECT seq FROM depth_frame WHERE seq > ?1)");
+        "SELECT seq FROM health WHERE seq > ?1 UNION ALL SELECT seq FROM depth_frame WHERE seq > ?1" +
+        std::string(schema_ >= 4 ? " UNION ALL SELECT seq FROM team_message WHERE seq > ?1)" : ")"));
     *last_seq = latest->row() && !latest->isNull(0) ? latest->integer(0) : after_seq;
   }
   std::vector<fw::JournalEntry> entries;

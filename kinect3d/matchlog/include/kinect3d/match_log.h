@@ -24,8 +24,9 @@ struct sqlite3_stmt;
 
 namespace kinect3d {
 
-constexpr int kMatchLogSchemaVersion = 3;
-// Logs back to this version are read (version 2 has no colour verdicts: its balls read as not checked).
+constexpr int kMatchLogSchemaVersion = 4;
+// Logs back to this version are read (version 2 has no colour verdicts: its balls read as not checked;
+// versions 2 and 3 have no teammates' messages).
 constexpr int kOldestReadableSchemaVersion = 2;
 // Colour images are kept as JPEG at this quality (docs/match-log.md: size and time per frame).
 constexpr int kColourJpegQuality = 90;

@@ -1,0 +1,354 @@
+// team: what this robot sees of the ball, shared with its teammates, and what they share, received
+// (docs/team.md). Each step reads the packets that arrived (refusing, and counting, those from
+// outside the team, replayed or malformed), publishes each teammate's message into the world state
+// with its times moved onto this host's clock, then sends this robot's own message: its pose with
+// the localisation's uncertainty, its Kinect's balls and its omni camera's ball rays since the last
+// message (field frame), its world ball and the touchdown its Kinect predicts, and the clock
+// exchange's echoes.
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <deque>
+#include <map>
+#include <optional>
+#include <set>
+#include <string>
+#include <variant>
+#include <vector>
+
+#include "framework_api/log.h"
+#include "framework_api/plugin.h"
+#include "framework_api/pose_history.h"
+#include "fusion/fusion_config.h"
+#include "fusion/measurements.h"
+#include "team_packet.h"
+#include "udp_channel.h"
+
+namespace {
+
+// A source's stamps on this host's clock: by the smallest receive-minus-source gap of its recent
+// items, the one that waited least on its way to the host.
+class HostClockOf {
+ public:
+  void add(const fw::Stamp& stamp) {
+    const double gap_s = stamp.receive_time_s - stamp.source_time_s;
+    if (!std::isfinite(gap_s)) return;
+    gaps_s_.push_back(gap_s);
+    if (gaps_s_.size() > kKept) gaps_s_.pop_front();
+  }
+  bool known() const { return !gaps_s_.empty(); }
+  double toHost(double source_time_s) const {
+    return source_time_s + *std::min_element(gaps_s_.begin(), gaps_s_.end());
+  }
+
+ private:
+  static constexpr std::size_t kKept = 300;  // ten seconds at 30 Hz
+  std::deque<double> gaps_s_;
+};
+
+// Teammates' newest message is echoed for this long (then the exchange has too long a round trip to help).
+constexpr double kEchoFor_s = 2.0;
+// At most this many of each kind of observation go into one message: the newest.
+constexpr std::size_t kMaxObservationsPerMessage = 8;
+// Refusals are summed up in the log at most this often.
+constexpr double kRefusalReportEvery_s = 10.0;
+
+class TeamPlugin : public fw::Plugin {
+ public:
+  explicit TeamPlugin(const fw::PluginContext& context)
+      : world_(*context.world),
+        name_(context.config.path()),
+        fusion_(fusion::readFusionConfig(context.config.block("fusion"))),
+        team_id_(context.config.getInt("team_id", 0, 255)),
+        robot_id_(context.config.getInt("robot_id", 1, 255)),
+        robot_name_(context.robot_config->block("host").getString("robot_name")),
+        key_(readKey(context.config)),
+        channel_(openChannel(context.config)),
+        sequence_(static_cast<std::uint64_t>(fw::wallClockNow_s() * 1e6)) {
+    fw::logInfo(name_, "robot " + std::to_string(robot_id_) + " of team " + std::to_string(team_id_) +
+                           ", sharing on port " + std::to_string(context.config.getInt("port", 1, 65535)));
+  }
+
+  fw::StepResult step() override {
+    const auto started = std::chrono::steady_clock::now();
+    receive();
+    readOwnMeasurements();
+    send();
+    reportRefusals();
+    world_.reportProcessingTime(name_,
+                                std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count());
+    return fw::StepResult::kProcessed;
+  }
+
+ private:
+  static team::TeamKey readKey(const fw::ConfigView& config) {
+    const std::string path = config.getString("key_file");
+    if (path.empty()) {
+      throw fw::ConfigError(config.originOf("key_file") + ": " + config.path() +
+                            ".key_file is empty: every robot of the team needs the team's key file "
+                            "(kinect3d team-key --out FILE makes one)");
+    }
+    try {
+      return team::TeamKey::fromFile(path);
+    } catch (const std::runtime_error& e) {
+      throw fw::ConfigError(config.originOf("key_file") + ": " + config.path() + ".key_file: " + e.what());
+    }
+  }
+
+  static team::UdpChannel openChannel(const fw::ConfigView& config) {
+    team::UdpSettings settings;
+    settings.port = config.getInt("port", 1, 65535);
+    settings.bind_address = config.getString("bind_address");
+    settings.multicast_group = config.getString("multicast_group");
+    settings.interface_address = config.getString("interface");
+    settings.peers = config.getStringList("peers");
+    if (settings.multicast_group.empty() && settings.peers.empty()) {
+      throw fw::ConfigError(config.originOf("peers") + ": " + config.path() +
+                            ".peers is empty and so is multicast_group: set one, or no teammate hears this robot");
+    }
+    try {
+      return team::UdpChannel(settings);
+    } catch (const std::runtime_error& e) {
+      throw fw::ConfigError(config.path() + ": " + e.what() + " (" + config.originOf("port") + ")");
+    }
+  }
+
+  void receive() {
+    while (std::optional<team::Datagram> datagram = channel_.receive()) {
+      const double arrived_s = datagram->arrival_time_s > 0.0 ? datagram->arrival_time_s : fw::wallClockNow_s();
+      team::OpenedPacket opened = team::openPacket(datagram->bytes.data(), datagram->bytes.size(), key_, team_id_);
+      if (opened.refusal == team::Refusal::kNone && opened.header.robot_id == robot_id_) {
+        opened.refusal = team::Refusal::kOwn;
+      }
+      if (opened.refusal == team::Refusal::kNone &&
+          !replay_window_.accept(opened.header.robot_id, opened.header.sequence)) {
+        opened.refusal = team::Refusal::kReplayed;
+        opened.detail = "robot " + std::to_string(opened.header.robot_id) + "'s sequence " +
+                        std::to_string(opened.header.sequence) + " came before";
+      }
+      fw::TeamMessage message;
+      if (opened.refusal == team::Refusal::kNone) {
+        try {
+          message =
+              fw::unpackTeamMessage(reinterpret_cast<const std::uint8_t*>(opened.body.data()), opened.body.size());
+        } catch (const fw::TeamMessageError& e) {
+          opened.refusal = team::Refusal::kMalformed;
+          opened.detail = e.what();
+        }
+      }
+      if (opened.refusal != team::Refusal::kNone) {
+        refuse(opened.refusal, datagram->from, opened.detail);
+        continue;
+      }
+      message.team_id = opened.header.team_id;
+      message.robot_id = opened.header.robot_id;
+      message.sequence = opened.header.sequence;
+      accept(std::move(message), arrived_s);
+    }
+  }
+
+  // A teammate's message: its echo of ours completes a clock exchange; once the offset between the
+  // clocks is known, its times are moved onto ours and it is published.
+  void accept(fw::TeamMessage message, double received_s) {
+    Teammate& mate = teammates_[message.robot_id];
+    mate.last_sent_s = message.sent_time_s;
+    mate.last_received_s = received_s;
+    for (const fw::ClockEcho& echo : message.echoes) {
+      if (echo.robot_id == robot_id_)
+        mate.clock.addExchange(echo.their_sent_s, echo.received_s, message.sent_time_s, received_s);
+    }
+    const std::optional<double> offset_s = mate.clock.offset_s();
+    if (!offset_s) {
+      refuse(team::Refusal::kNoClock, message.robot_name, "");
+      return;
+    }
+    if (!mate.announced || std::abs(*offset_s - mate.announced_offset_s) > kOffsetChangeWorthSaying_s) {
+      announce(message, *offset_s, mate.clock.sigma_s(), mate.announced);
+      mate.announced = true;
+      mate.announced_offset_s = *offset_s;
+    }
+    message.shiftTimes(-*offset_s);
+    message.clock_offset_s = *offset_s;
+    message.clock_offset_sigma_s = mate.clock.sigma_s();
+    message.receive_time_s = received_s;
+    world_.publishTeamMessage(message);
+  }
+  static constexpr double kOffsetChangeWorthSaying_s = 0.05;
+
+  void announce(const fw::TeamMessage& message, double offset_s, double sigma_s, bool again) {
+    char text[200];
+    std::snprintf(text, sizeof text, "%s robot %d (%s): its clock is %+.3f s from ours (+-%.3f s), corrected",
+                  again ? "the clock of" : "hearing", message.robot_id, message.robot_name.c_str(), offset_s, sigma_s);
+    fw::logInfo(name_, text);
+    world_.publishEvent({name_, "teammate_clock", text, fw::Stamp::now()});
+  }
+
+  // Counted per reason; said once per reason and sender, and summed up every kRefusalReportEvery_s.
+  void refuse(team::Refusal reason, const std::string& from, const std::string& detail) {
+    ++refused_[reason];
+    if (reason == team::Refusal::kOwn) return;  // multicast hands every robot its own packets
+    if (reason != team::Refusal::kNoClock) world_.reportDroppedFrames(name_, ++dropped_);
+    if (!said_.insert({reason, from}).second) return;
+    const std::string message = std::string("refused a packet from ") + from + ": " + team::toString(reason) +
+                                (detail.empty() ? "" : " (" + detail + ")") + "; further ones are counted";
+    if (reason == team::Refusal::kNoClock) {
+      fw::logInfo(name_, "waiting for the clock exchange with " + from + " before using its messages");
+      return;
+    }
+    fw::logWarn(name_, message);
+    world_.publishEvent({name_, "team_refused", message, fw::Stamp::now()});
+  }
+
+  void reportRefusals() {
+    const double now_s = fw::wallClockNow_s();
+    if (now_s - last_refusal_report_s_ < kRefusalReportEvery_s || dropped_ == reported_dropped_) return;
+    last_refusal_report_s_ = now_s;
+    reported_dropped_ = dropped_;
+    std::string counts;
+    for (const auto& [reason, count] : refused_) {
+      if (reason == team::Refusal::kOwn) continue;
+      counts += (counts.empty() ? "" : ", ") + std::to_string(count) + " " + team::toString(reason);
+    }
+    fw::logWarn(name_, "packets refused since start: " + counts);
+  }
+
+  // This robot's own measurements since the last step (the fusion's inputs, in their order): each
+  // Kinect ball and omni ray placed in the field with the pose at its time.
+  void readOwnMeasurements() {
+    for (const fw::WorldState::Measurement& measurement : world_.measurementsSince(&cursor_)) {
+      if (const auto* pose = std::get_if<fw::RobotPose>(&measurement)) {
+        poses_.add(*pose);
+        pose_clock_.add(pose->stamp);
+        newest_pose_ = *pose;
+      } else if (const auto* frame = std::get_if<fw::BallFrame>(&measurement)) {
+        if (frame->source != fusion_.kinect.source) continue;
+        kinect_clock_.add(frame->stamp);
+        for (const fw::BallObservation& ball : frame->balls) {
+          if (ball.followed()) kinect_balls_.push_back(toField(ball));
+        }
+      } else if (const auto* omni = std::get_if<fw::OmniFrame>(&measurement)) {
+        if (omni->source != fusion_.omni.source) continue;
+        omni_clock_.add(omni->stamp);
+        for (const fw::OmniBallObservation& ball : omni->balls) omni_rays_.push_back(rayOf(ball, omni->stamp));
+      }
+    }
+    keepNewest(kinect_balls_);
+    keepNewest(omni_rays_);
+  }
+
+  template <typename T>
+  static void keepNewest(std::vector<T>& items) {
+    if (items.size() > kMaxObservationsPerMessage) items.erase(items.begin(), items.end() - kMaxObservationsPerMessage);
+  }
+
+  fw::BallObservation toField(const fw::BallObservation& ball_R) const {
+    const fw::RobotPose pose = poses_.at(ball_R.stamp.source_time_s);
+    const Eigen::Matrix3d rotation = pose.T_F_R().linear();
+    fw::BallObservation ball = ball_R;
+    ball.position_m = pose.fieldFromRobot(ball_R.position_m);
+    ball.covariance_m2 = rotation * ball_R.covariance_m2 * rotation.transpose();
+    ball.frame = fw::Frame::kField;
+    ball.stamp.source_time_s = kinect_clock_.toHost(ball_R.stamp.source_time_s);
+    return ball;
+  }
+
+  // The omni camera's ray through a ball it reports: from its mirror's viewpoint to the ball's centre
+  // if the ball rests on the floor.
+  fw::BallRay rayOf(const fw::OmniBallObservation& ball, const fw::Stamp& stamp) const {
+    const fw::RobotPose pose = poses_.at(stamp.source_time_s);
+    const double h = fusion_.omni.viewpoint_height_m, r = fusion_.motion.radius_m;
+    Eigen::Vector3d centre_R = ball.groundPoint_R();
+    centre_R.z() = r;
+    fw::BallRay ray;
+    ray.origin_F = pose.fieldFromRobot({0.0, 0.0, h});
+    ray.direction_F = (pose.fieldFromRobot(centre_R) - ray.origin_F).normalized();
+    ray.bearing_sigma_rad = fusion::omniBearingSigma_rad(ball, fusion_.omni);
+    // A distance error along the floor turns the ray up or down by this much.
+    const double d = ball.distance_m, drop = h - r;
+    ray.elevation_sigma_rad = fusion::omniDistanceSigma_m(ball, fusion_.omni, d) * drop / (d * d + drop * drop);
+    ray.time_s = omni_clock_.toHost(stamp.source_time_s);
+    return ray;
+  }
+
+  void send() {
+    const double now_s = fw::wallClockNow_s();
+    fw::TeamMessage message;
+    message.team_id = team_id_;
+    message.robot_id = robot_id_;
+    message.sequence = ++sequence_;
+    message.robot_name = robot_name_;
+    message.sent_time_s = now_s;
+    if (newest_pose_ && pose_clock_.known()) {
+      message.pose = *newest_pose_;
+      message.pose->stamp.source_time_s = pose_clock_.toHost(newest_pose_->stamp.source_time_s);
+      message.pose_sigma_xy_m = fusion_.pose.sigma_xy_m;
+      message.pose_sigma_theta_rad = fusion_.pose.sigma_theta_rad;
+    }
+    message.kinect_balls.swap(kinect_balls_);
+    message.omni_rays.swap(omni_rays_);
+    // The world ball and the touchdown are on the Kinect's clock (the fusion's reference).
+    if (kinect_clock_.known()) {
+      if (std::optional<fw::FusedBall> ball = world_.fusedBall()) {
+        ball->stamp.source_time_s = kinect_clock_.toHost(ball->stamp.source_time_s);
+        message.world_ball = ball;
+      }
+      if (const std::optional<fw::BallTrajectory> flight = world_.trajectory(fusion_.kinect.source);
+          flight && flight->touchdown) {
+        const fw::RobotPose pose = poses_.at(flight->time_s);
+        const Eigen::Vector3d point_F =
+            pose.fieldFromRobot({flight->touchdown->point_m.x(), flight->touchdown->point_m.y(), 0.0});
+        message.touchdown = fw::Touchdown{point_F.head<2>(), kinect_clock_.toHost(flight->touchdown->time_s),
+                                          flight->touchdown->sigma_m};
+      }
+    }
+    for (const auto& [robot_id, mate] : teammates_) {
+      if (now_s - mate.last_received_s <= kEchoFor_s) {
+        message.echoes.push_back({robot_id, mate.last_sent_s, mate.last_received_s});
+      }
+    }
+    const std::vector<std::uint8_t> packet =
+        team::sealPacket({team_id_, robot_id_, message.sequence}, fw::packTeamMessage(message), key_);
+    if (!channel_.send(packet) && !send_failure_said_) {
+      send_failure_said_ = true;
+      fw::logWarn(name_, "a team packet could not be sent to every teammate (network down?); sending goes on");
+    }
+  }
+
+  struct Teammate {
+    team::TeammateClock clock;
+    double last_sent_s = 0.0;        // its newest message's send time (its clock)
+    double last_received_s = -1e18;  // and when it came (ours)
+    bool announced = false;
+    double announced_offset_s = 0.0;
+  };
+
+  fw::WorldState& world_;
+  const std::string name_;
+  const fusion::FusionConfig fusion_;  // the sources' names, the localisation's and the omni camera's uncertainty
+  const int team_id_;
+  const int robot_id_;
+  const std::string robot_name_;
+  const team::TeamKey key_;
+  team::UdpChannel channel_;
+  std::uint64_t sequence_;
+  team::ReplayWindow replay_window_;
+  std::map<int, Teammate> teammates_;
+
+  std::uint64_t cursor_ = 0;  // what was read of the measurements (fw::WorldState)
+  fw::PoseHistory poses_;
+  std::optional<fw::RobotPose> newest_pose_;
+  HostClockOf pose_clock_, kinect_clock_, omni_clock_;
+  std::vector<fw::BallObservation> kinect_balls_;  // since the last message, field frame, host clock
+  std::vector<fw::BallRay> omni_rays_;
+
+  std::map<team::Refusal, std::uint64_t> refused_;
+  std::set<std::pair<team::Refusal, std::string>> said_;
+  std::uint64_t dropped_ = 0, reported_dropped_ = 0;
+  double last_refusal_report_s_ = fw::wallClockNow_s();
+  bool send_failure_said_ = false;
+};
+
+}  // namespace
+
+FW_REGISTER_PLUGIN(TeamPlugin, "team", "0.1.0")

@@ -1,0 +1,139 @@
+// The team plugin between hosts over loopback (one 127.0.0.N address per robot, never a multicast
+// group): a robot's Kinect balls reach a teammate placed in the field, and packets from outside the
+// team are refused and said.
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <fstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "framework_api/host.h"
+#include "kinect3d/sim/ball_motion.h"
+#include "kinect3d/sim/scene.h"
+#include "run_command.h"
+#include "scoped_temp_dir.h"
+#include "team_packet.h"
+
+namespace {
+
+std::string writeKey(const ScopedTempDir& dir, const std::string& name, const team::TeamKey& key) {
+  const std::string path = (dir.path() / name).string();
+  std::ofstream(path) << key.hex() << "\n";
+  return path;
+}
+
+// A robot of team 5 on 127.0.0.<address>, talking to the given peers on port.
+fw::Config robotConfig(const std::string& name, int robot_id, int address, const std::vector<int>& peers, int port,
+                       const std::string& key_file, const std::string& plugins) {
+  std::string peer_list;
+  for (const int peer : peers)
+    peer_list += (peer_list.empty() ? "" : ", ") + std::string("127.0.0.") + std::to_string(peer);
+  return fw::Config::load(
+      std::string(PROJECT_CONFIG_DIR) + "/defaults", std::string(PROJECT_CONFIG_DIR) + "/robots/demo.yaml",
+      {"host.robot_name=" + name, "host.plugins=" + plugins, "team.team_id=5",
+       "team.robot_id=" + std::to_string(robot_id), "team.bind_address=127.0.0." + std::to_string(address),
+       "team.port=" + std::to_string(port), "team.peers=[" + peer_list + "]", "team.key_file=" + key_file});
+}
+
+TEST(TeamPlugin, ATeammatesKinectBallsArriveInTheFieldOnThisRobotsClockAndOutsidersAreRefused) {
+  const ScopedTempDir dir;
+  // The team's key as a team makes it; a second run never overwrites it.
+  const std::string team_key = (dir.path() / "team.key").string();
+  ASSERT_EQ(runCommand(std::string(KINECT3D_EXE) + " team-key --out " + team_key).first, 0);
+  const std::string first_key = team::TeamKey::fromFile(team_key).hex();
+  EXPECT_NE(runCommand(std::string(KINECT3D_EXE) + " team-key --out " + team_key + " 2>&1").first, 0);
+  EXPECT_EQ(team::TeamKey::fromFile(team_key).hex(), first_key);
+  const std::string other_key = writeKey(dir, "other.key", team::TeamKey::random());
+  constexpr int kPort = 50431;  // this test's own: tests running beside it use other ports
+  // The keeper sees the demo's lob; the defender only listens; a stranger with another key sends too.
+  fw::Host keeper(robotConfig("keeper", 1, 21, {22}, kPort, team_key, "[localisation, kinect3d, omni, fusion, team]"),
+                  PRODUCT_PLUGIN_DIR);
+  fw::Host defender(robotConfig("defender", 2, 22, {21}, kPort, team_key, "[team]"), PRODUCT_PLUGIN_DIR);
+  fw::Host stranger(robotConfig("stranger", 3, 23, {22}, kPort, other_key, "[team]"), PRODUCT_PLUGIN_DIR);
+  defender.world().openJournal(false);
+  keeper.world().openJournal(false);
+
+  const kinect3d::sim::Scene scene = kinect3d::sim::loadScene("lob_over_robot");
+  const kinect3d::sim::BallMotion truth(*scene.ball, scene.physics, scene.duration_s, scene.objects);
+  defender.start();
+  stranger.start();
+  keeper.start();
+  // The keeper's gap between its host clock and the scene's, from its own Kinect frames.
+  double host_minus_scene_s = 1e18;
+  std::vector<fw::JournalEntry> keeper_journal;
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(90);
+  while (!keeper.sourcesFinished() && std::chrono::steady_clock::now() < deadline) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    keeper.watch();
+    defender.watch();
+    for (fw::JournalEntry& entry : keeper.world().takeJournal(nullptr)) keeper_journal.push_back(std::move(entry));
+  }
+  // A last message after the scene's end reaches the defender within a few steps.
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  keeper.stop();
+  stranger.stop();
+  defender.stop();
+  ASSERT_TRUE(keeper.sourcesFinished());
+  for (const fw::JournalEntry& entry : keeper_journal) {
+    if (const auto* frame = std::get_if<fw::BallFrame>(&entry.item)) {
+      host_minus_scene_s = std::min(host_minus_scene_s, frame->stamp.receive_time_s - frame->stamp.source_time_s);
+    }
+  }
+  ASSERT_LT(host_minus_scene_s, 1e17) << "the keeper's Kinect saw the lob";
+
+  int messages = 0, kinect_balls = 0, far_off = 0;
+  bool refused_stranger = false, said_clock = false;
+  for (const fw::JournalEntry& entry : defender.world().takeJournal(nullptr)) {
+    if (const auto* message = std::get_if<fw::TeamMessage>(&entry.item)) {
+      ++messages;
+      EXPECT_EQ(message->robot_id, 1) << "only the keeper's messages are taken";
+      EXPECT_EQ(message->robot_name, "keeper");
+      EXPECT_NEAR(message->clock_offset_s, 0.0, 0.01) << "one machine, one clock (kernel arrival times)";
+      EXPECT_LE(message->receive_time_s - message->sent_time_s, 0.5);
+      for (const fw::BallObservation& ball : message->kinect_balls) {
+        ++kinect_balls;
+        EXPECT_EQ(ball.frame, fw::Frame::kField);
+        const double scene_t = ball.stamp.source_time_s - host_minus_scene_s - scene.start_time_s;
+        if ((ball.position_m - truth.positionAt(scene_t)).norm() > 0.3) ++far_off;
+      }
+    } else if (const auto* event = std::get_if<fw::Event>(&entry.item)) {
+      refused_stranger |= event->kind == "team_refused" && event->message.find("127.0.0.23") != std::string::npos &&
+                          event->message.find("not signed with the team key") != std::string::npos;
+      said_clock |= event->kind == "teammate_clock" && event->message.find("keeper") != std::string::npos;
+    }
+  }
+  EXPECT_GE(messages, 40) << "20 messages a second for the scene's 3.5 s";
+  EXPECT_GE(kinect_balls, 20) << "the lob the keeper's Kinect saw";
+  EXPECT_LE(far_off, kinect_balls / 10) << "placed in the field with the keeper's pose at their time";
+  EXPECT_TRUE(refused_stranger);
+  EXPECT_TRUE(said_clock);
+  EXPECT_GT(defender.world().droppedFrames("team"), 0u) << "the stranger's packets, counted";
+}
+
+TEST(TeamPlugin, ARobotFileWithoutItsIdOrKeyIsRefusedNamingTheKey) {
+  const auto error = [](const std::vector<std::string>& overrides) {
+    std::vector<std::string> all{"host.plugins=[team]", "team.peers=[127.0.0.2]"};
+    all.insert(all.end(), overrides.begin(), overrides.end());
+    try {
+      fw::Host host(fw::Config::load(std::string(PROJECT_CONFIG_DIR) + "/defaults",
+                                     std::string(PROJECT_CONFIG_DIR) + "/robots/demo.yaml", all),
+                    PRODUCT_PLUGIN_DIR);
+    } catch (const std::exception& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  EXPECT_NE(error({}).find("team.robot_id"), std::string::npos) << error({});
+  EXPECT_NE(error({"team.robot_id=4"}).find("team.key_file is empty"), std::string::npos);
+  EXPECT_NE(error({"team.robot_id=4", "team.key_file=/nonexistent/team.key"}).find("/nonexistent/team.key"),
+            std::string::npos);
+  const ScopedTempDir dir;
+  const std::string key = "team.key_file=" + writeKey(dir, "team.key", team::TeamKey::random());
+  EXPECT_NE(error({"team.robot_id=4", key, "team.peers=[]"}).find("team.peers is empty"), std::string::npos);
+  EXPECT_NE(error({"team.robot_id=4", key, "team.peers=[robot7]"}).find("'robot7' is not an IPv4 address"),
+            std::string::npos);
+}
+
+}  // namespace
