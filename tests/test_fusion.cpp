@@ -3,9 +3,11 @@
 // mode switches and the omni latency it learns.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <functional>
 #include <limits>
+#include <optional>
 #include <random>
 
 #include "framework_api/pose_history.h"
@@ -99,6 +101,7 @@ fusion::FusionConfig testConfig() {
 struct FedRun {
   std::vector<fusion::FusionUpdate> updates;
   std::vector<Eigen::Vector3d> truth;  // at each update's time
+  std::vector<bool> from_teammate;     // feedWithTeammate: which updates a teammate's message made
 };
 
 // Feeds a Kinect at 30 Hz and an omni camera at 30 Hz (half a frame later) watching `truth` from
@@ -587,6 +590,159 @@ TEST(Fusion, AFlightNoSensorSeesStaysTheWorldsBallThoughAnotherBallIsSeen) {
   EXPECT_GT(checked, 15) << "over half a second that only physics carries";
 }
 
+// What a teammate standing at true_pose but believing it stands at believed_pose tells of the ball
+// at p_F seen at time t: its Kinect's ball, placed in the field with the pose it believes.
+fw::TeamMessage teammateMessage(const fw::RobotPose& true_pose, const fw::RobotPose& believed_pose,
+                                const std::vector<std::pair<double, Eigen::Vector3d>>& seen, std::mt19937& random) {
+  fw::TeamMessage message;
+  message.robot_id = 4;
+  message.robot_name = "keeper";
+  message.pose = believed_pose;
+  message.pose_sigma_xy_m = 0.03;
+  message.pose_sigma_theta_rad = 0.0175;
+  for (const auto& [t, p_F] : seen) {
+    fw::BallObservation ball = kinectView(p_F, true_pose, random);
+    ball.position_m = believed_pose.fieldFromRobot(ball.position_m);
+    ball.frame = fw::Frame::kField;
+    ball.stamp.source_time_s = t;
+    message.kinect_balls.push_back(ball);
+  }
+  return message;
+}
+
+// This robot at the origin watches `truth` with its Kinect while kinect_sees and with its omni camera
+// while omni_sees (and the ball is in its view); a teammate's Kinect sees it all the time from true_pose and sends what
+// it saw every 50 ms, each message 80-130 ms late and a fifth of them lost (none sent without a believed_pose).
+// Everything reaches the fusion in arrival order.
+FedRun feedWithTeammate(fusion::BallFusion& fusion, const Truth& truth, double duration_s,
+                        const std::function<bool(double, const Eigen::Vector3d&)>& kinect_sees,
+                        const std::function<bool(double, const Eigen::Vector3d&)>& omni_sees,
+                        const fw::RobotPose& true_pose, const std::optional<fw::RobotPose>& believed_pose) {
+  std::mt19937 random(11);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  FedRun run;
+  std::vector<std::pair<double, Eigen::Vector3d>> unsent;
+  std::vector<std::pair<double, fw::TeamMessage>> in_flight;  // arrival time, message
+  for (int i = 0; i * (1.0 / 30) < duration_s; ++i) {
+    const double t = kT0 + i / 30.0;
+    for (auto it = in_flight.begin(); it != in_flight.end();) {
+      if (it->first > t) {
+        ++it;
+        continue;
+      }
+      run.updates.push_back(fusion.addTeamMessage(it->second, 0.0));
+      run.truth.push_back(truth(run.updates.back().time_s));
+      run.from_teammate.push_back(true);
+      it = in_flight.erase(it);
+    }
+    unsent.emplace_back(t, truth(t));  // the teammate's Kinect, in step with this robot's
+    if (i % 3 != 0 || i == 0) {
+      // Every 50 ms (every one and a half frames: here every third frame carries two) a message goes.
+      if (unit(random) > 0.2 && believed_pose) {
+        fw::RobotPose believed = *believed_pose;
+        believed.stamp.source_time_s = t;
+        in_flight.emplace_back(t + 0.08 + 0.05 * unit(random), teammateMessage(true_pose, believed, unsent, random));
+      }
+      unsent.clear();
+    }
+    fusion.addPose(standingAtOrigin(t));
+    const Eigen::Vector3d p = truth(t);
+    std::vector<fw::BallObservation> kinect;
+    if (kinect_sees(t, p)) kinect.push_back(kinectView(p, standingAtOrigin(t), random));
+    run.updates.push_back(fusion.addKinectFrame(t, kinect));
+    run.truth.push_back(p);
+    run.from_teammate.push_back(false);
+    const double t_omni = t + 0.5 / 30.0;
+    const Eigen::Vector3d q = truth(t_omni);
+    std::vector<fw::OmniBallObservation> omni;
+    if (q.z() < 0.6 && omni_sees(t_omni, q)) omni.push_back(omniView(q, standingAtOrigin(t_omni), 0.75));
+    fusion.addPose(standingAtOrigin(t_omni));
+    run.updates.push_back(fusion.addOmniFrame(t_omni, omni));
+    run.truth.push_back(q);
+    run.from_teammate.push_back(false);
+  }
+  return run;
+}
+
+TEST(Fusion, ALobOnlyATeammatesKinectSeesIsHeldInTheAirFromItsMessages) {
+  fusion::BallFusion fusion(testConfig());
+  // Kicked from in front of this robot over its head; the keeper, 7 m away facing it, sees it all.
+  const Eigen::Vector3d p0(0.3, 2.5, kRadius), v0(0.0, -3.5, 5.0);
+  const Truth lob = [&](double t) { return lobAt(t, kT0 + 0.5, p0, v0); };
+  const fw::RobotPose keeper = poseAt(0.5, 7.0, M_PI, kT0);
+  const FedRun run = feedWithTeammate(fusion, lob, 2.5, never, always, keeper, keeper);
+  std::vector<double> air_errors_m;
+  int from_teammate = 0;
+  for (std::size_t i = 0; i < run.updates.size(); ++i) {
+    const auto& ball = run.updates[i].ball;
+    if (run.truth[i].z() < 0.3) continue;
+    ASSERT_TRUE(ball) << "update " << i << ": the lob is the world's ball all through its flight";
+    air_errors_m.push_back((ball->position_F - run.truth[i]).norm());
+    EXPECT_EQ(ball->state, fw::BallState::kAir) << "update " << i;
+    from_teammate += std::count(ball->sources.begin(), ball->sources.end(), "team:keeper") > 0 ? 1 : 0;
+  }
+  ASSERT_GT(air_errors_m.size(), 20u);
+  EXPECT_LE(fw::quantile(air_errors_m, 0.5), 0.15);
+  EXPECT_EQ(from_teammate, static_cast<int>(air_errors_m.size()));
+  ASSERT_EQ(fusion.teammates().count(4), 1u);
+  EXPECT_FALSE(fusion.teammates().at(4).discounted);
+}
+
+TEST(Fusion, AMislocalisedTeammateIsDiscountedAndDoesNotMoveTheBall) {
+  // The ball rolls in front of this robot, which sees it with both sensors for 1.5 s, then a robot
+  // hides it; the keeper sees it all the time but believes it stands a metre from where it does, or
+  // turned by twenty degrees. After each of this robot's own frames, its world ball must lie where it
+  // would without the keeper: its balls must not become the world's when this robot's own go.
+  const Truth rolling = [](double t) {
+    const double tau = std::min(t - kT0, 2.5);  // 1 m/s, slowing by 0.4 m/s^2 as the fusion expects
+    return Eigen::Vector3d(-0.5 + tau - 0.2 * tau * tau, 3.0, kRadius);
+  };
+  const auto until_hidden = [](double t, const Eigen::Vector3d&) { return t < kT0 + 1.5; };
+  const fw::RobotPose keeper = poseAt(0.5, 7.0, M_PI, kT0);
+  fusion::BallFusion alone(testConfig());
+  const FedRun without = feedWithTeammate(alone, rolling, 4.0, until_hidden, until_hidden, keeper, std::nullopt);
+  for (const fw::RobotPose& believed : {poseAt(1.5, 7.0, M_PI, kT0), poseAt(0.5, 7.0, M_PI + 0.35, kT0)}) {
+    fusion::BallFusion fusion(testConfig());
+    const FedRun run = feedWithTeammate(fusion, rolling, 4.0, until_hidden, until_hidden, keeper, believed);
+    std::vector<const fusion::FusionUpdate*> own;
+    for (std::size_t i = 0; i < run.updates.size(); ++i) {
+      if (!run.from_teammate[i]) own.push_back(&run.updates[i]);
+    }
+    ASSERT_EQ(own.size(), without.updates.size());
+    int published = 0, with_keeper = 0;
+    double moved_m = 0.0;
+    for (std::size_t i = 0; i < own.size(); ++i) {
+      ASSERT_EQ(own[i]->ball.has_value(), without.updates[i].ball.has_value()) << "update " << i;
+      if (!own[i]->ball) continue;
+      ++published;
+      moved_m = std::max(moved_m, (own[i]->ball->position_F - without.updates[i].ball->position_F).norm());
+      const std::vector<std::string>& sources = own[i]->ball->sources;
+      with_keeper += std::count(sources.begin(), sources.end(), "team:keeper") > 0 ? 1 : 0;
+    }
+    EXPECT_GT(published, 100);
+    EXPECT_LE(moved_m, 0.2) << "believed (" << believed.x_m << ", " << believed.theta_rad << ")";
+    EXPECT_EQ(with_keeper, 0) << "the world's ball never rested on its balls";
+    ASSERT_EQ(fusion.teammates().count(4), 1u);
+    const fusion::TeammateStanding& standing = fusion.teammates().at(4);
+    EXPECT_TRUE(standing.discounted);
+    EXPECT_GT(standing.median_gap_m, 0.7);
+  }
+}
+
+TEST(Fusion, AWellLocalisedTeammateSeeingTheSameBallIsUsedBesideThisRobotsSensors) {
+  const Truth rolling = [](double t) { return Eigen::Vector3d(-0.5 + 0.4 * (t - kT0), 3.0, kRadius); };
+  const fw::RobotPose keeper = poseAt(0.5, 7.0, M_PI, kT0);
+  fusion::BallFusion fusion(testConfig());
+  const FedRun run = feedWithTeammate(fusion, rolling, 3.0, always, always, keeper, keeper);
+  ASSERT_TRUE(run.updates.back().ball);
+  EXPECT_EQ(run.updates.back().ball->sources, (std::vector<std::string>{"kinect3d", "omni", "team:keeper"}));
+  EXPECT_LT((run.updates.back().ball->position_F - run.truth.back()).norm(), 0.05);
+  const fusion::TeammateStanding& standing = fusion.teammates().at(4);
+  EXPECT_FALSE(standing.discounted);
+  EXPECT_EQ(standing.examples, 10);
+  EXPECT_LT(standing.median_gap_m, 0.15);
+}
+
 TEST(Fusion, LearnsTheOmniLatencyFromABallBothSeeRolling) {
   fusion::FusionConfig config;  // estimate_latency on, as shipped
   ASSERT_TRUE(config.omni.estimate_latency);
@@ -671,6 +827,10 @@ TEST(FusionConfig, ShippedDefaultsAreTheStructDefaults) {
   EXPECT_EQ(read.track.lost_after_s, code.track.lost_after_s);
   EXPECT_EQ(read.track.min_flight_speed_mps, code.track.min_flight_speed_mps);
   EXPECT_EQ(read.track.initial_speed_sigma_mps, code.track.initial_speed_sigma_mps);
+  EXPECT_EQ(read.team.use, code.team.use);
+  EXPECT_EQ(read.team.max_delay_s, code.team.max_delay_s);
+  EXPECT_EQ(read.team.judge_examples, code.team.judge_examples);
+  EXPECT_EQ(read.team.discount_sigma, code.team.discount_sigma);
 }
 
 TEST(FusionConfig, AnOmniViewTopAboveItsViewpointIsRefusedWithItsKey) {

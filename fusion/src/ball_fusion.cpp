@@ -26,6 +26,14 @@ constexpr double kWorldSwitchAfter_s = 0.2;
 constexpr double kSourceRecent_s = 1.0;
 // At most this many tracks at once (the ball, shirts, posters); the oldest unconfirmed goes first.
 constexpr std::size_t kMaxTracks = 8;
+// A teammate is judged against the world's ball only while this robot's own sensors supported it this
+// recently: then it is this robot's view, not the teammate's own, that it is judged against.
+constexpr double kJudgeOwnSupportWithin_s = 0.1;
+// A discounted teammate is trusted again once its median falls below this share of the discount's.
+constexpr double kTrustAgainShare = 0.5;
+
+// The name a teammate's observations go by in the world ball's sources: "team:keeper".
+std::string teammateSource(const std::string& name) { return "team:" + name; }
 }  // namespace
 
 void LatencyEstimator::add(double residual_rad, double variance_rad2, double bearing_rate_radps, double applied_s) {
@@ -63,6 +71,7 @@ struct BallFusion::Candidate {
   bool is_static = false;  // an air ball in space occupied for seconds
   fw::ColourVerdict colour = fw::ColourVerdict::kNotChecked;
   const fw::OmniBallObservation* omni = nullptr;  // the omni's ball, in the frame being processed
+  int teammate = 0;                               // the teammate's robot id, for Source::kTeammate
 };
 
 BallFusion::BallFusion(const FusionConfig& config)
@@ -76,7 +85,7 @@ void BallFusion::addPose(const fw::RobotPose& pose) {
 
 const FusionUpdate& BallFusion::addKinectFrame(double stamp_s, const std::vector<fw::BallObservation>& balls_R) {
   if (!onTimeLine(Source::kKinect, stamp_s, stamp_s - config_.kinect.latency_s)) return state_.update;
-  return insert(Frame{Source::kKinect, stamp_s - config_.kinect.latency_s, 0.0, 0.0, balls_R, {}});
+  return insert(Frame{Source::kKinect, stamp_s - config_.kinect.latency_s, 0.0, 0.0, balls_R, {}, {}});
 }
 
 const FusionUpdate& BallFusion::addOmniFrame(double stamp_s, const std::vector<fw::OmniBallObservation>& balls) {
@@ -89,7 +98,32 @@ const FusionUpdate& BallFusion::addOmniFrame(double stamp_s, const std::vector<f
                       learnt.value_or(0.0),
                       timing_sigma_s,
                       {},
-                      balls});
+                      balls,
+                      {}});
+}
+
+const FusionUpdate& BallFusion::addTeamMessage(const fw::TeamMessage& message, double host_minus_reference_s) {
+  if (!config_.team.use || !message.pose) return state_.update;
+  teammates_heard_ = true;
+  // Its balls by their time: one frame each (a message carries the balls of one or two Kinect frames).
+  std::map<double, Frame> frames;
+  const PoseConfig pose_error{0.0, message.pose_sigma_xy_m, message.pose_sigma_theta_rad};
+  for (const fw::BallObservation& ball : message.kinect_balls) {
+    const double t = ball.stamp.source_time_s - host_minus_reference_s;
+    auto [entry, added] = frames.try_emplace(t, Frame{Source::kTeammate, t, 0.0, 0.0, {}, {}, {}});
+    entry->second.team.push_back({message.robot_id, message.robot_name, ball, *message.pose, pose_error});
+  }
+  for (auto& [t, frame] : frames) {
+    // Its clock was moved onto this host's by the team plugin: a time far from the fusion's is a
+    // clock the exchange has not caught up with yet, not a new time line.
+    const double newest_s = recent_.empty() ? t : recent_.back().first.time_s;
+    if (!std::isfinite(t) || std::abs(t - newest_s) > config_.track.lost_after_s) {
+      ++unusable_dropped_;
+      continue;
+    }
+    insert(std::move(frame));
+  }
+  return state_.update;
 }
 
 bool BallFusion::onTimeLine(Source source, double stamp_s, double time_s) {
@@ -135,7 +169,8 @@ bool BallFusion::onTimeLine(Source source, double stamp_s, double time_s) {
 
 const FusionUpdate& BallFusion::insert(Frame frame) {
   const double newest = recent_.empty() ? frame.time_s : recent_.back().first.time_s;
-  if (frame.time_s < newest - config_.max_delay_s) {
+  const double max_delay_s = frame.source == Source::kTeammate ? config_.team.max_delay_s : config_.max_delay_s;
+  if (frame.time_s < newest - max_delay_s) {
     ++late_dropped_;
     return state_.update;
   }
@@ -153,7 +188,10 @@ const FusionUpdate& BallFusion::insert(Frame frame) {
     recent_.emplace_back(std::move(f), state_);
     process(recent_.back().first);
   }
-  while (recent_.front().first.time_s < recent_.back().first.time_s - config_.max_delay_s) recent_.pop_front();
+  // Kept for the latest any frame may come (once teammates speak, theirs over Wi-Fi later than this robot's own).
+  const double keep_s =
+      teammates_heard_ ? std::max(config_.max_delay_s, config_.team.max_delay_s) : config_.max_delay_s;
+  while (recent_.front().first.time_s < recent_.back().first.time_s - keep_s) recent_.pop_front();
   return state_.update;
 }
 
@@ -169,6 +207,23 @@ std::vector<BallFusion::Candidate> BallFusion::candidatesOf(const Frame& frame, 
     c.in_air = ball.state == fw::BallState::kAir;
     c.is_static = ball.is_static && c.in_air;  // a ball lying still for seconds is still the ball
     c.colour = ball.colour;
+    candidates.push_back(std::move(c));
+  }
+  for (const TeammateBall& mate : frame.team) {
+    // In the teammate's robot frame, so that its pose's error is added as for this robot's own balls.
+    const Eigen::Isometry3d T_F_R = mate.pose.T_F_R();
+    const Eigen::Matrix3d turn = T_F_R.linear();
+    Candidate c{Source::kTeammate,
+                std::make_unique<PositionMeasurement>(T_F_R.inverse() * mate.ball_F.position_m,
+                                                      turn.transpose() * mate.ball_F.covariance_m2 * turn, mate.pose,
+                                                      mate.pose_error),
+                Eigen::Vector3d::Zero(), Eigen::Matrix3d::Identity()};
+    c.p_F = c.measurement->value();
+    c.covariance_F = c.measurement->noise(c.p_F);
+    c.in_air = mate.ball_F.state == fw::BallState::kAir;
+    c.is_static = mate.ball_F.is_static && c.in_air;
+    c.colour = mate.ball_F.colour;
+    c.teammate = mate.robot_id;
     candidates.push_back(std::move(c));
   }
   for (const fw::OmniBallObservation& ball : frame.omni) {
@@ -200,6 +255,20 @@ void BallFusion::process(const Frame& frame) {
   // Gate every candidate against every track's branches at t, then pair them most likely first.
   std::vector<std::vector<Hypothesis>> branches;
   for (const Track& track : state.tracks) branches.push_back(track.filter.branchesAt(t));
+  // A teammate's balls are judged against this robot's own view first; a discounted teammate's are not used.
+  for (const TeammateBall& mate : frame.team) state.teammates[mate.robot_id].name = mate.name;
+  std::vector<bool> discounted(candidates.size(), false);
+  for (std::size_t c = 0; c < candidates.size(); ++c) {
+    if (candidates[c].source != Source::kTeammate) continue;
+    for (std::size_t k = 0; k < state.tracks.size(); ++k) {
+      const Track& track = state.tracks[k];
+      if (track.id == state.world_id &&
+          t - std::max(track.last_kinect_s, track.last_omni_s) <= kJudgeOwnSupportWithin_s) {
+        judgeTeammate(candidates[c], branches[k]);
+      }
+    }
+    discounted[c] = state.teammates[candidates[c].teammate].discounted;
+  }
   struct Pair {
     double log_likelihood;
     std::size_t candidate, track;
@@ -209,7 +278,7 @@ void BallFusion::process(const Frame& frame) {
     for (std::size_t k = 0; k < state.tracks.size(); ++k) {
       const Track& track = state.tracks[k];
       // A ball the colour image rejected is not followed; a static floater only continues a confirmed flight.
-      if (candidates[c].colour == fw::ColourVerdict::kRejected) continue;
+      if (candidates[c].colour == fw::ColourVerdict::kRejected || discounted[c]) continue;
       if (candidates[c].is_static && !(track.confirmed && track.flying())) continue;
       const MeasurementFit fit = BallFilter::fit(branches[k], *candidates[c].measurement);
       if (fit.mahalanobis <= config_.track.gate_sigma) pairs.push_back({fit.log_likelihood, c, k});
@@ -229,8 +298,7 @@ void BallFusion::process(const Frame& frame) {
     }
     track.filter.update(branches[pair.track], t, *c.measurement);
     ++track.updates;
-    track.last_support_s = t;
-    (c.source == Source::kKinect ? track.last_kinect_s : track.last_omni_s) = t;
+    track.supportedBy(c.source, c.teammate, t);
     if (track.filter.best().mode == fw::BallState::kGround) track.seen_on_ground = true;
   }
   // The omni camera looked all round and did not see these balls: where it should have, the
@@ -246,11 +314,15 @@ void BallFusion::process(const Frame& frame) {
   for (std::size_t c = 0; c < candidates.size(); ++c) {
     if (candidate_used[c]) continue;
     if (candidates[c].colour == fw::ColourVerdict::kRejected) {
-      state.update.rejected.push_back({nameOf(candidates[c].source), candidates[c].p_F, "colour"});
+      state.update.rejected.push_back({nameOf(candidates[c]), candidates[c].p_F, "colour"});
       continue;
     }
     if (candidates[c].is_static) {
-      state.update.rejected.push_back({nameOf(candidates[c].source), candidates[c].p_F, "static"});
+      state.update.rejected.push_back({nameOf(candidates[c]), candidates[c].p_F, "static"});
+      continue;
+    }
+    if (discounted[c]) {
+      state.update.rejected.push_back({nameOf(candidates[c]), candidates[c].p_F, "teammate"});
       continue;
     }
     startTrack(candidates[c], t);
@@ -261,6 +333,51 @@ void BallFusion::process(const Frame& frame) {
 
 const std::string& BallFusion::nameOf(Source source) const {
   return source == Source::kKinect ? config_.kinect.source : config_.omni.source;
+}
+
+std::string BallFusion::nameOf(const Candidate& candidate) const {
+  if (candidate.source != Source::kTeammate) return nameOf(candidate.source);
+  return teammateSource(state_.teammates.at(candidate.teammate).name);
+}
+
+void BallFusion::Track::supportedBy(Source source, int teammate, double t_s) {
+  last_support_s = t_s;
+  switch (source) {
+    case Source::kKinect:
+      last_kinect_s = t_s;
+      break;
+    case Source::kOmni:
+      last_omni_s = t_s;
+      break;
+    case Source::kTeammate:
+      last_teammate_s[teammate] = t_s;
+      break;
+  }
+}
+
+void BallFusion::judgeTeammate(const Candidate& candidate, const std::vector<Hypothesis>& world_branches) {
+  const MeasurementFit fit = BallFilter::fit(world_branches, *candidate.measurement);
+  double weight = 0.0;
+  Eigen::Vector3d world_F = Eigen::Vector3d::Zero();
+  for (const Hypothesis& h : world_branches) {
+    world_F += h.weight * h.x.head<3>();
+    weight += h.weight;
+  }
+  std::deque<std::pair<double, double>>& judged = state_.judged[candidate.teammate];
+  judged.emplace_back(fit.mahalanobis, (candidate.p_F - world_F / weight).norm());
+  if (judged.size() > static_cast<std::size_t>(config_.team.judge_examples)) judged.pop_front();
+  std::vector<double> distances, gaps_m;
+  for (const auto& [distance, gap_m] : judged) {
+    distances.push_back(distance);
+    gaps_m.push_back(gap_m);
+  }
+  TeammateStanding& standing = state_.teammates[candidate.teammate];
+  standing.examples = static_cast<int>(judged.size());
+  standing.median_mahalanobis = fw::quantile(distances, 0.5);
+  standing.median_gap_m = fw::quantile(gaps_m, 0.5);
+  if (standing.examples < config_.team.judge_examples) return;
+  if (standing.median_mahalanobis > config_.team.discount_sigma) standing.discounted = true;
+  if (standing.median_mahalanobis < kTrustAgainShare * config_.team.discount_sigma) standing.discounted = false;
 }
 
 void BallFusion::learnLatency(const Track& track, const Candidate& candidate, double t, double applied_s,
@@ -309,8 +426,8 @@ void BallFusion::startTrack(const Candidate& candidate, double t_s) {
   }
   Track track{state_.next_id++, BallFilter(config_.motion, t_s, hypotheses)};
   track.updates = 1;
-  track.born_s = track.last_support_s = t_s;
-  (candidate.source == Source::kKinect ? track.last_kinect_s : track.last_omni_s) = t_s;
+  track.born_s = t_s;
+  track.supportedBy(candidate.source, candidate.teammate, t_s);
   track.seen_on_ground = !candidate.in_air;
   track.omni_born = candidate.source == Source::kOmni;
   track.colour_confirmed = candidate.colour == fw::ColourVerdict::kConfirmed;
@@ -375,6 +492,9 @@ std::optional<fw::FusedBall> BallFusion::worldBall(double t_s) const {
   ball.air_probability = filter.airProbability();
   if (t_s - world->last_kinect_s <= kSourceRecent_s) ball.sources.push_back(config_.kinect.source);
   if (t_s - world->last_omni_s <= kSourceRecent_s) ball.sources.push_back(config_.omni.source);
+  for (const auto& [robot_id, last_s] : world->last_teammate_s) {
+    if (t_s - last_s <= kSourceRecent_s) ball.sources.push_back(teammateSource(state_.teammates.at(robot_id).name));
+  }
   ball.age_s = t_s - world->last_support_s;
   ball.stamp.source_time_s = t_s;
   return ball;

@@ -69,6 +69,12 @@ FusionConfig readFusionConfig(const fw::ConfigView& block) {
   config.alignment_check.max_yaw_error_rad = fw::degreesToRadians(check.getDouble("max_yaw_error_deg", 0.1, 90.0));
   config.alignment_check.max_offset_error_m = check.getDouble("max_offset_error_m", 0.005, 5.0);
   config.alignment_check.confirmations = check.getInt("confirmations", 1, 1000);
+
+  const fw::ConfigView team = block.child("team");
+  config.team.use = team.getBool("use");
+  config.team.max_delay_s = team.getDouble("max_delay_s", 0.0, 2.0);
+  config.team.judge_examples = team.getInt("judge_examples", 1, 1000);
+  config.team.discount_sigma = team.getDouble("discount_sigma", 1.0, 100.0);
   return config;
 }
 

@@ -1,17 +1,19 @@
-// fusion: the world's one ball (fw::FusedBall) from the Kinect's 3D balls, the omni camera's balls
-// and the robot's pose in the world state, by the same BallFusion that `kinect3d fuse` runs offline.
-// Each step takes what arrived since the last one, in the order it arrived; the fusion itself puts
-// late measurements back in order of time. Beside it runs the check that the Kinect still sits where its
-// pose_in_robot says (fusion.alignment_check): an alarm in the log and the world state when its
+// fusion: the world's one ball (fw::FusedBall) from the Kinect's 3D balls, the omni camera's balls,
+// the robot's pose and the teammates' Kinect balls (plugins/team) in the world state, by the same
+// BallFusion that `kinect3d fuse` runs offline. Each step takes what arrived since the last one, in the order it
+// arrived; the fusion itself puts late measurements back in order of time. Beside it runs the check that the Kinect
+// still sits where its pose_in_robot says (fusion.alignment_check): an alarm in the log and the world state when its
 // ground balls and the omni camera's part.
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <map>
 #include <optional>
 #include <string>
 #include <variant>
 #include <vector>
 
+#include "framework_api/host_clock.h"
 #include "framework_api/log.h"
 #include "framework_api/plugin.h"
 #include "framework_api/sensor_pose.h"
@@ -42,13 +44,23 @@ class FusionPlugin : public fw::Plugin {
         fusion_.addPose(*pose);
       } else if (const auto* frame = std::get_if<fw::BallFrame>(&measurement)) {
         if (frame->source != config_.kinect.source) continue;
+        kinect_clock_.add(frame->stamp);
         if (alignmentCheck()) alignment_->addKinectFrame(frame->stamp.source_time_s, frame->balls);
         publish(fusion_.addKinectFrame(frame->stamp.source_time_s, frame->balls));
         updated = true;
       } else if (const auto* omni = std::get_if<fw::OmniFrame>(&measurement)) {
         if (omni->source != config_.omni.source) continue;
+        omni_clock_.add(omni->stamp);
         if (alignmentCheck()) alignment_->addOmniFrame(omni->stamp.source_time_s, omni->balls);
         publish(fusion_.addOmniFrame(omni->stamp.source_time_s, omni->balls));
+        updated = true;
+      } else if (const auto* message = std::get_if<fw::TeamMessage>(&measurement)) {
+        // Its times are on this host's clock; the fusion's are the Kinect's (the omni camera's on a
+        // robot without one). Before either has spoken there is no world ball to add it to.
+        const fw::HostClockOf& reference = kinect_clock_.known() ? kinect_clock_ : omni_clock_;
+        if (!reference.known()) continue;
+        publish(fusion_.addTeamMessage(*message, reference.hostMinusSource_s()));
+        reportTeammate(message->robot_id);
         updated = true;
       }
     }
@@ -112,6 +124,33 @@ class FusionPlugin : public fw::Plugin {
     world_.publishEvent({name_, "calibration_alarm", message, {t_s, fw::wallClockNow_s()}});
   }
 
+  // Says when a teammate's balls stop agreeing with what this robot sees (its localisation is off)
+  // and when they agree again.
+  void reportTeammate(int robot_id) {
+    const auto found = fusion_.teammates().find(robot_id);
+    if (found == fusion_.teammates().end()) return;
+    const fusion::TeammateStanding& standing = found->second;
+    bool& said_discounted = teammate_discounted_[robot_id];
+    if (standing.discounted == said_discounted) return;
+    said_discounted = standing.discounted;
+    char text[320];
+    std::snprintf(text, sizeof text,
+                  standing.discounted
+                      ? "teammate %s (robot %d) puts the ball %.2f m from where this robot sees it (median of its last "
+                        "%d balls, %.1f sigma): its localisation is off; its observations are not used"
+                      : "teammate %s (robot %d) agrees again with this robot (median %.2f m of its last %d balls, "
+                        "%.1f sigma): its observations are used",
+                  standing.name.c_str(), robot_id, standing.median_gap_m, standing.examples,
+                  standing.median_mahalanobis);
+    if (standing.discounted) {
+      fw::logWarn(name_, text);
+    } else {
+      fw::logInfo(name_, text);
+    }
+    world_.publishEvent(
+        {name_, standing.discounted ? "teammate_discounted" : "teammate_trusted", text, fw::Stamp::now()});
+  }
+
   // Says once when the omni camera's latency has been learnt.
   void reportLatency() {
     if (latency_reported_ || !fusion_.omniLatency_s()) return;
@@ -129,7 +168,9 @@ class FusionPlugin : public fw::Plugin {
   std::optional<fw::SensorPose> kinect_pose_;        // the Kinect's pose_in_robot, when configured
   std::optional<fusion::AlignmentCheck> alignment_;  // once alignmentCheck() made it
   std::uint64_t seen_version_ = 0;
-  std::uint64_t cursor_ = 0;  // what was read of the measurements (fw::WorldState)
+  std::uint64_t cursor_ = 0;                   // what was read of the measurements (fw::WorldState)
+  fw::HostClockOf kinect_clock_, omni_clock_;  // for teammates' messages, which come on this host's clock
+  std::map<int, bool> teammate_discounted_;    // as last said, by robot id
   bool latency_reported_ = false;
 };
 

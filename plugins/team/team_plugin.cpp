@@ -9,7 +9,6 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
-#include <deque>
 #include <map>
 #include <optional>
 #include <set>
@@ -17,6 +16,7 @@
 #include <variant>
 #include <vector>
 
+#include "framework_api/host_clock.h"
 #include "framework_api/log.h"
 #include "framework_api/plugin.h"
 #include "framework_api/pose_history.h"
@@ -26,26 +26,6 @@
 #include "udp_channel.h"
 
 namespace {
-
-// A source's stamps on this host's clock: by the smallest receive-minus-source gap of its recent
-// items, the one that waited least on its way to the host.
-class HostClockOf {
- public:
-  void add(const fw::Stamp& stamp) {
-    const double gap_s = stamp.receive_time_s - stamp.source_time_s;
-    if (!std::isfinite(gap_s)) return;
-    gaps_s_.push_back(gap_s);
-    if (gaps_s_.size() > kKept) gaps_s_.pop_front();
-  }
-  bool known() const { return !gaps_s_.empty(); }
-  double toHost(double source_time_s) const {
-    return source_time_s + *std::min_element(gaps_s_.begin(), gaps_s_.end());
-  }
-
- private:
-  static constexpr std::size_t kKept = 300;  // ten seconds at 30 Hz
-  std::deque<double> gaps_s_;
-};
 
 // Teammates' newest message is echoed for this long (then the exchange has too long a round trip to help).
 constexpr double kEchoFor_s = 2.0;
@@ -338,7 +318,7 @@ class TeamPlugin : public fw::Plugin {
   std::uint64_t cursor_ = 0;  // what was read of the measurements (fw::WorldState)
   fw::PoseHistory poses_;
   std::optional<fw::RobotPose> newest_pose_;
-  HostClockOf pose_clock_, kinect_clock_, omni_clock_;
+  fw::HostClockOf pose_clock_, kinect_clock_, omni_clock_;
   std::vector<fw::BallObservation> kinect_balls_;  // since the last message, field frame, host clock
   std::vector<fw::BallRay> omni_rays_;
 

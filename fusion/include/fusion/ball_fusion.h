@@ -16,12 +16,14 @@
 #pragma once
 
 #include <deque>
+#include <map>
 #include <memory>
 #include <optional>
 #include <string>
 #include <vector>
 
 #include "framework_api/pose_history.h"
+#include "framework_api/team_message.h"
 #include "framework_api/time_line.h"
 #include "framework_api/types.h"
 #include "fusion/ball_filter.h"
@@ -35,6 +37,16 @@ struct RejectedObservation {
   Eigen::Vector3d position_F = Eigen::Vector3d::Zero();
   std::string reason;  // "static": in space occupied for seconds, with no flight leading there; "colour": the colour
                        // image rejected it
+};
+
+// Whether a teammate's Kinect balls agree with what this robot's own sensors see of the ball: a
+// teammate whose localisation is off (a metre, twenty degrees) puts the ball elsewhere.
+struct TeammateStanding {
+  std::string name;
+  bool discounted = false;          // its balls are not used while this holds
+  int examples = 0;                 // its balls judged against this robot's own view (the newest are kept)
+  double median_mahalanobis = 0.0;  // of those
+  double median_gap_m = 0.0;        // and how far they lay from this robot's ball
 };
 
 // The world after one source frame, at that frame's (corrected) time.
@@ -79,6 +91,12 @@ class BallFusion {
   // Each returns the world after that frame (for a late frame, after re-processing those after it).
   const FusionUpdate& addKinectFrame(double stamp_s, const std::vector<fw::BallObservation>& balls_R);
   const FusionUpdate& addOmniFrame(double stamp_s, const std::vector<fw::OmniBallObservation>& balls);
+  // A teammate's Kinect balls (plugins/team; field frame, times on this host's clock), moved onto the
+  // reference clock by host_minus_reference_s; each of its frames in turn. A message without the
+  // teammate's pose is not used (its localisation error cannot be added).
+  const FusionUpdate& addTeamMessage(const fw::TeamMessage& message, double host_minus_reference_s);
+  // Every teammate heard, by robot id.
+  const std::map<int, TeammateStanding>& teammates() const { return state_.teammates; }
 
   const FusionUpdate& latest() const { return state_.update; }
   // The omni camera's latency relative to the Kinect, once learnt; and from how many examples.
@@ -92,6 +110,7 @@ class BallFusion {
   int timeLineRestarts() const { return restarts_; }
 
  private:
+  enum class Source { kKinect, kOmni, kTeammate };
   struct Track {
     int id = 0;
     BallFilter filter;
@@ -100,22 +119,34 @@ class BallFusion {
     double last_support_s = 0.0;
     double last_kinect_s = -1e18;
     double last_omni_s = -1e18;
-    bool seen_on_ground = false;    // a lamp is only ever seen in the air
-    bool omni_born = false;         // started by an omni ball: perhaps the phantom of a ball in the air
-    bool colour_confirmed = false;  // the colour image confirmed one of its Kinect balls
+    std::map<int, double> last_teammate_s = {};  // by robot id
+    bool seen_on_ground = false;                 // a lamp is only ever seen in the air
+    bool omni_born = false;                      // started by an omni ball: perhaps the phantom of a ball in the air
+    bool colour_confirmed = false;               // the colour image confirmed one of its Kinect balls
     bool confirmed = false;
 
     // The air mode explains more of the data than the ground mode.
     bool flying() const { return filter.airProbability() > 0.5; }
+    // A measurement of source (a teammate's: of that robot) supported it at t_s.
+    void supportedBy(Source source, int teammate, double t_s);
   };
   struct State {
     std::vector<Track> tracks;
     int next_id = 1;
     int world_id = 0;  // 0: no world ball
     LatencyEstimator latency;
+    std::map<int, TeammateStanding> teammates;
+    std::map<int, std::deque<std::pair<double, double>>> judged;  // per teammate: (Mahalanobis, gap m), newest last
     FusionUpdate update;
   };
-  enum class Source { kKinect, kOmni };
+  // A teammate's ball with what places it: the teammate's pose and how far its localisation may be off.
+  struct TeammateBall {
+    int robot_id = 0;
+    std::string name;
+    fw::BallObservation ball_F;
+    fw::RobotPose pose;
+    PoseConfig pose_error;
+  };
   struct Frame {
     Source source;
     double time_s;                   // corrected onto the reference clock
@@ -123,6 +154,7 @@ class BallFusion {
     double omni_timing_sigma_s = 0;  // and how uncertain the corrected time still is
     std::vector<fw::BallObservation> kinect;
     std::vector<fw::OmniBallObservation> omni;
+    std::vector<TeammateBall> team;
   };
 
   struct Candidate;
@@ -138,7 +170,11 @@ class BallFusion {
   void process(const Frame& frame);
   std::vector<Candidate> candidatesOf(const Frame& frame, const fw::RobotPose& pose) const;
   void startTrack(const Candidate& candidate, double t_s);
-  const std::string& nameOf(Source source) const;
+  // A teammate's ball beside the world's ball while this robot's own sensors support it: the
+  // teammate's standing after it.
+  void judgeTeammate(const Candidate& candidate, const std::vector<Hypothesis>& world_branches);
+  const std::string& nameOf(Source source) const;        // this robot's own sources
+  std::string nameOf(const Candidate& candidate) const;  // "team:<name>" for a teammate's
   void maintainTracks(double t_s);
   std::optional<fw::FusedBall> worldBall(double t_s) const;
 
@@ -149,6 +185,7 @@ class BallFusion {
   std::deque<std::pair<Frame, State>> recent_;
   fw::TimeLine kinect_time_line_, omni_time_line_;  // each source's own stamps
   bool reported_off_time_line_ = false;             // said once per episode
+  bool teammates_heard_ = false;                    // a teammate's message came: frames are kept longer
   int late_dropped_ = 0;
   int unusable_dropped_ = 0;
   int restarts_ = 0;

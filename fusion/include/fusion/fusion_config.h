@@ -68,6 +68,15 @@ struct AlignmentCheckConfig {
   int confirmations = 2;  // ... in this many fits in a row
 };
 
+// Teammates' Kinect balls (plugins/team): measurements of the world's ball like this robot's own,
+// with the teammate's localisation error added, as long as they agree with what this robot sees.
+struct TeamConfig {
+  bool use = true;
+  double max_delay_s = 0.3;     // they come over Wi-Fi: later than this behind the newest, dropped
+  int judge_examples = 10;      // a teammate is judged on this many of its balls beside this robot's own view ...
+  double discount_sigma = 4.0;  // ... and discounted while their median Mahalanobis distance is beyond this
+};
+
 struct FusionConfig {
   MotionConfig motion;
   KinectConfig kinect;
@@ -75,7 +84,8 @@ struct FusionConfig {
   PoseConfig pose;
   TrackConfig track;
   AlignmentCheckConfig alignment_check;
-  double max_delay_s = 0.15;  // measurements later than this behind the newest are dropped
+  TeamConfig team;
+  double max_delay_s = 0.15;  // this robot's measurements later than this behind the newest are dropped
 };
 
 // Reads the `fusion` block; throws fw::ConfigError naming file, line and key.
