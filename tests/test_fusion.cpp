@@ -630,7 +630,7 @@ FedRun feedWithTeammate(fusion::BallFusion& fusion, const Truth& truth, double d
         ++it;
         continue;
       }
-      run.updates.push_back(fusion.addTeamMessage(it->second, 0.0));
+      run.updates.push_back(fusion.addTeamMessage(it->second));
       run.truth.push_back(truth(run.updates.back().time_s));
       run.from_teammate.push_back(true);
       it = in_flight.erase(it);

@@ -22,6 +22,7 @@
 #include "host_process.h"
 #include "kinect3d/log_source.h"
 #include "kinect3d/match_log.h"
+#include "published_log.h"
 #include "run_command.h"
 #include "scoped_temp_dir.h"
 #include "small_depth_image.h"
@@ -256,74 +257,6 @@ TEST_F(LoggedDemo, HoldsTheWholeRunInItsOwnFolder) {
   for (const char* plugin : {"localisation", "kinect3d", "omni", "fusion", "logger"}) {
     EXPECT_GE(health_rows[plugin], 2) << plugin;
   }
-}
-
-// What a run published, one line per publication of one kind, every number to the last bit, the
-// wall clock left out (when the host received or published something is not what a replay repeats).
-struct Published {
-  std::vector<std::string> detections, trajectories, events, world_balls;
-};
-
-Published publishedIn(const std::string& log_folder) {
-  Published published;
-  const auto line = [](auto... values) {
-    std::ostringstream out;
-    out << std::hexfloat;
-    ((out << values << ' '), ...);
-    return out.str();
-  };
-  const auto vector = [](const Eigen::MatrixXd& m) {
-    std::ostringstream out;
-    out << std::hexfloat;
-    for (Eigen::Index i = 0; i < m.size(); ++i) out << m(i) << ',';
-    return out.str();
-  };
-  for (const fw::JournalEntry& entry : kinect3d::MatchLogReader(log_folder).entries()) {
-    if (const auto* frame = std::get_if<fw::BallFrame>(&entry.item)) {
-      std::string balls;
-      for (const fw::BallObservation& b : frame->balls) {
-        balls += line(b.source, b.stamp.source_time_s, fw::toString(b.frame), fw::toString(b.state),
-                      vector(b.position_m), vector(b.covariance_m2), b.support_points, b.is_static,
-                      fw::toString(b.colour), fw::toString(b.colour_note), b.colour_score);
-      }
-      published.detections.push_back(frame->source + " " + balls);
-    } else if (const auto* fit = std::get_if<fw::BallTrajectory>(&entry.item)) {
-      published.trajectories.push_back(
-          line(fit->source, fit->time_s, vector(fit->position_m), vector(fit->velocity_mps), fw::toString(fit->state),
-               fit->drag_per_m, fit->curve_radps, fit->rolling_decel_mps2, fit->support, fit->rms_m,
-               fit->touchdown ? vector(fit->touchdown->point_m) : "-", fit->touchdown ? fit->touchdown->time_s : 0.0,
-               fit->crossing ? fit->crossing->time_s : 0.0));
-    } else if (const auto* lost = std::get_if<fw::TrajectoryCleared>(&entry.item)) {
-      published.trajectories.push_back("lost " + lost->source);
-    } else if (const auto* event = std::get_if<fw::Event>(&entry.item)) {
-      if (event->source != "logger") {
-        published.events.push_back(line(event->source, event->kind, event->message, event->stamp.source_time_s));
-      }
-    } else if (const auto* ball = std::get_if<fw::FusedBall>(&entry.item)) {
-      std::string sources;
-      for (const std::string& source : ball->sources) sources += source + ",";
-      published.world_balls.push_back(
-          line(ball->stamp.source_time_s, vector(ball->position_F), vector(ball->position_R), vector(ball->velocity_F),
-               vector(ball->covariance_F), fw::toString(ball->state), ball->air_probability, sources, ball->age_s));
-    } else if (std::holds_alternative<fw::FusedBallCleared>(entry.item)) {
-      published.world_balls.push_back("no ball");
-    }
-  }
-  return published;
-}
-
-// The replay of the demo's log under out/name, with extra arguments; its run folder.
-std::string replayInto(const std::string& log, const fs::path& out, const std::string& extra = "") {
-  const auto [status, output] =
-      runCommand(std::string(KINECT3D_EXE) + " replay " + log + " --output " + out.string() + " " + extra + " 2>&1");
-  if (status != 0) throw std::runtime_error("kinect3d replay exited " + std::to_string(status) + ":\n" + output);
-  return onlySubfolder(out);
-}
-
-// Compares two lists line by line, naming the first difference.
-void expectSame(const std::vector<std::string>& live, const std::vector<std::string>& replayed, const char* what) {
-  ASSERT_EQ(live.size(), replayed.size()) << what;
-  for (std::size_t i = 0; i < live.size(); ++i) ASSERT_EQ(live[i], replayed[i]) << what << " " << i;
 }
 
 TEST_F(LoggedDemo, ReplayReproducesEveryDetectionTrajectoryEventAndWorldBallTheRobotPublished) {

@@ -79,6 +79,9 @@ void replayMatch(const std::string& log_folder, const std::string& defaults_dir,
       case MatchLogReader::Input::Kind::kPose:
         steps.push_back({"localisation", input.wall_time_s});
         break;
+      case MatchLogReader::Input::Kind::kTeam:
+        steps.push_back({"team", input.wall_time_s});
+        break;
     }
     sources.insert(steps.back().plugin);
   }
@@ -94,8 +97,12 @@ void replayMatch(const std::string& log_folder, const std::string& defaults_dir,
   const fw::Config configured = fw::Config::load(defaults_dir, robot, overrides);
   std::string plugins;
   for (const std::string& plugin : configured.block("host").getStringList("plugins")) {
-    // team: a replay must not talk to the robot network (the teammates' messages are in the log).
-    if (plugin != "console" && plugin != "logger" && plugin != "team") plugins += plugin + ", ";
+    if (plugin != "console" && plugin != "logger") plugins += plugin + ", ";
+    // The team plugin hands out the teammates' messages the robot received, and never talks to the
+    // robot network, whether the robot received any or not.
+    if (plugin == "team" && sources.insert(plugin).second) {
+      replay_overrides.insert(replay_overrides.end(), {"team.source=log:" + log_folder, "team.realtime=false"});
+    }
   }
   replay_overrides.insert(replay_overrides.end(), {"host.plugins=[" + plugins + "logger]", "logger.folder=" + output,
                                                    "logger.fallback_folder=\"\"", "host.replay_of=" + log_folder});

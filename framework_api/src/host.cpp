@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cstdio>
 #include <map>
+#include <set>
 
 #include "framework_api/log.h"
 
@@ -275,6 +276,10 @@ void Host::replay(const std::vector<ReplayStep>& steps) {
   struct ClockRestorer {
     ~ClockRestorer() { setReplayedWallClock(std::nullopt); }
   } restore_clock;
+  // A plugin that hands out inputs in this replay is stepped only for them, rate or not: a step of
+  // its own would hand out the next input before its moment.
+  std::set<std::string> sources;
+  for (const ReplayStep& step : steps) sources.insert(step.plugin);
   for (std::size_t i = 0; i < steps.size(); ++i) {
     const auto found = by_name.find(steps[i].plugin);
     if (found == by_name.end()) {
@@ -293,7 +298,7 @@ void Host::replay(const std::vector<ReplayStep>& steps) {
                         "' has no input left to hand out; its source is not the log being replayed");
     }
     for (auto& plugin : plugins_) {
-      if (plugin->rate_hz > 0.0) stepOnce(*plugin, start);
+      if (plugin->rate_hz > 0.0 && sources.count(plugin->summary.name) == 0) stepOnce(*plugin, start);
     }
   }
 }

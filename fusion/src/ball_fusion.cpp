@@ -102,19 +102,19 @@ const FusionUpdate& BallFusion::addOmniFrame(double stamp_s, const std::vector<f
                       {}});
 }
 
-const FusionUpdate& BallFusion::addTeamMessage(const fw::TeamMessage& message, double host_minus_reference_s) {
+const FusionUpdate& BallFusion::addTeamMessage(const fw::TeamMessage& message) {
   if (!config_.team.use || !message.pose) return state_.update;
   teammates_heard_ = true;
   // Its balls by their time: one frame each (a message carries the balls of one or two Kinect frames).
   std::map<double, Frame> frames;
   const PoseConfig pose_error{0.0, message.pose_sigma_xy_m, message.pose_sigma_theta_rad};
   for (const fw::BallObservation& ball : message.kinect_balls) {
-    const double t = ball.stamp.source_time_s - host_minus_reference_s;
+    const double t = ball.stamp.source_time_s;
     auto [entry, added] = frames.try_emplace(t, Frame{Source::kTeammate, t, 0.0, 0.0, {}, {}, {}});
     entry->second.team.push_back({message.robot_id, message.robot_name, ball, *message.pose, pose_error});
   }
   for (auto& [t, frame] : frames) {
-    // Its clock was moved onto this host's by the team plugin: a time far from the fusion's is a
+    // Its clock was moved onto the reference by the team plugin: a time far from the fusion's is a
     // clock the exchange has not caught up with yet, not a new time line.
     const double newest_s = recent_.empty() ? t : recent_.back().first.time_s;
     if (!std::isfinite(t) || std::abs(t - newest_s) > config_.track.lost_after_s) {

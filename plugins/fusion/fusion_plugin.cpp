@@ -13,7 +13,6 @@
 #include <variant>
 #include <vector>
 
-#include "framework_api/host_clock.h"
 #include "framework_api/log.h"
 #include "framework_api/plugin.h"
 #include "framework_api/sensor_pose.h"
@@ -44,22 +43,16 @@ class FusionPlugin : public fw::Plugin {
         fusion_.addPose(*pose);
       } else if (const auto* frame = std::get_if<fw::BallFrame>(&measurement)) {
         if (frame->source != config_.kinect.source) continue;
-        kinect_clock_.add(frame->stamp);
         if (alignmentCheck()) alignment_->addKinectFrame(frame->stamp.source_time_s, frame->balls);
         publish(fusion_.addKinectFrame(frame->stamp.source_time_s, frame->balls));
         updated = true;
       } else if (const auto* omni = std::get_if<fw::OmniFrame>(&measurement)) {
         if (omni->source != config_.omni.source) continue;
-        omni_clock_.add(omni->stamp);
         if (alignmentCheck()) alignment_->addOmniFrame(omni->stamp.source_time_s, omni->balls);
         publish(fusion_.addOmniFrame(omni->stamp.source_time_s, omni->balls));
         updated = true;
       } else if (const auto* message = std::get_if<fw::TeamMessage>(&measurement)) {
-        // Its times are on this host's clock; the fusion's are the Kinect's (the omni camera's on a
-        // robot without one). Before either has spoken there is no world ball to add it to.
-        const fw::HostClockOf& reference = kinect_clock_.known() ? kinect_clock_ : omni_clock_;
-        if (!reference.known()) continue;
-        publish(fusion_.addTeamMessage(*message, reference.hostMinusSource_s()));
+        publish(fusion_.addTeamMessage(*message));
         reportTeammate(message->robot_id);
         updated = true;
       }
@@ -168,9 +161,8 @@ class FusionPlugin : public fw::Plugin {
   std::optional<fw::SensorPose> kinect_pose_;        // the Kinect's pose_in_robot, when configured
   std::optional<fusion::AlignmentCheck> alignment_;  // once alignmentCheck() made it
   std::uint64_t seen_version_ = 0;
-  std::uint64_t cursor_ = 0;                   // what was read of the measurements (fw::WorldState)
-  fw::HostClockOf kinect_clock_, omni_clock_;  // for teammates' messages, which come on this host's clock
-  std::map<int, bool> teammate_discounted_;    // as last said, by robot id
+  std::uint64_t cursor_ = 0;                 // what was read of the measurements (fw::WorldState)
+  std::map<int, bool> teammate_discounted_;  // as last said, by robot id
   bool latency_reported_ = false;
 };
 

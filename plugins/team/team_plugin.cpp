@@ -1,10 +1,11 @@
 // team: what this robot sees of the ball, shared with its teammates, and what they share, received
-// (docs/team.md). Each step reads the packets that arrived (refusing, and counting, those from
-// outside the team, replayed or malformed), publishes each teammate's message into the world state
-// with its times moved onto this host's clock, then sends this robot's own message: its pose with
-// the localisation's uncertainty, its Kinect's balls and its omni camera's ball rays since the last
-// message (field frame), its world ball and the touchdown its Kinect predicts, and the clock
-// exchange's echoes.
+// (docs/team.md). On the robot network (team.source: network) each step reads the packets that
+// arrived (refusing, and counting, those from outside the team, replayed or malformed), publishes
+// each teammate's message into the world state with its times moved onto this host's clock, then
+// sends this robot's own message: its pose with the localisation's uncertainty, its Kinect's balls
+// and its omni camera's ball rays since the last message (field frame), its world ball and the
+// touchdown its Kinect predicts, and the clock exchange's echoes. From a match log (log:<folder>,
+// what `kinect3d replay` sets) it hands out the messages the robot received, and sends nothing.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -22,6 +23,8 @@
 #include "framework_api/pose_history.h"
 #include "fusion/fusion_config.h"
 #include "fusion/measurements.h"
+#include "kinect3d/match_log.h"
+#include "replay.h"
 #include "team_packet.h"
 #include "udp_channel.h"
 
@@ -34,9 +37,9 @@ constexpr std::size_t kMaxObservationsPerMessage = 8;
 // Refusals are summed up in the log at most this often.
 constexpr double kRefusalReportEvery_s = 10.0;
 
-class TeamPlugin : public fw::Plugin {
+class TeamNetwork {
  public:
-  explicit TeamPlugin(const fw::PluginContext& context)
+  explicit TeamNetwork(const fw::PluginContext& context)
       : world_(*context.world),
         name_(context.config.path()),
         fusion_(fusion::readFusionConfig(context.config.block("fusion"))),
@@ -50,7 +53,7 @@ class TeamPlugin : public fw::Plugin {
                            ", sharing on port " + std::to_string(context.config.getInt("port", 1, 65535)));
   }
 
-  fw::StepResult step() override {
+  fw::StepResult step() {
     const auto started = std::chrono::steady_clock::now();
     receive();
     readOwnMeasurements();
@@ -129,7 +132,9 @@ class TeamPlugin : public fw::Plugin {
   }
 
   // A teammate's message: its echo of ours completes a clock exchange; once the offset between the
-  // clocks is known, its times are moved onto ours and it is published.
+  // clocks is known, its times are moved onto the clock this robot's fusion works on (its Kinect's,
+  // else its omni camera's) and it is published. Moved here, once, so that a replay of the log hands
+  // the fusion exactly what it had.
   void accept(fw::TeamMessage message, double received_s) {
     Teammate& mate = teammates_[message.robot_id];
     mate.last_sent_s = message.sent_time_s;
@@ -140,7 +145,13 @@ class TeamPlugin : public fw::Plugin {
     }
     const std::optional<double> offset_s = mate.clock.offset_s();
     if (!offset_s) {
-      refuse(team::Refusal::kNoClock, message.robot_name, "");
+      refuse(team::Refusal::kNoClock, message.robot_name, "the clock exchange has not completed");
+      return;
+    }
+    const fw::HostClockOf* fusion_clock =
+        kinect_clock_.known() ? &kinect_clock_ : (omni_clock_.known() ? &omni_clock_ : nullptr);
+    if (fusion_clock == nullptr) {
+      refuse(team::Refusal::kNoClock, message.robot_name, "this robot's own sensors have not spoken yet");
       return;
     }
     if (!mate.announced || std::abs(*offset_s - mate.announced_offset_s) > kOffsetChangeWorthSaying_s) {
@@ -148,8 +159,9 @@ class TeamPlugin : public fw::Plugin {
       mate.announced = true;
       mate.announced_offset_s = *offset_s;
     }
-    message.shiftTimes(-*offset_s);
-    message.clock_offset_s = *offset_s;
+    const double shift_s = *offset_s + fusion_clock->hostMinusSource_s();
+    message.shiftTimes(-shift_s);
+    message.clock_offset_s = shift_s;
     message.clock_offset_sigma_s = mate.clock.sigma_s();
     message.receive_time_s = received_s;
     world_.publishTeamMessage(message);
@@ -173,7 +185,7 @@ class TeamPlugin : public fw::Plugin {
     const std::string message = std::string("refused a packet from ") + from + ": " + team::toString(reason) +
                                 (detail.empty() ? "" : " (" + detail + ")") + "; further ones are counted";
     if (reason == team::Refusal::kNoClock) {
-      fw::logInfo(name_, "waiting for the clock exchange with " + from + " before using its messages");
+      fw::logInfo(name_, "waiting to use " + from + "'s messages: " + detail);
       return;
     }
     fw::logWarn(name_, message);
@@ -327,6 +339,63 @@ class TeamPlugin : public fw::Plugin {
   std::uint64_t dropped_ = 0, reported_dropped_ = 0;
   double last_refusal_report_s_ = fw::wallClockNow_s();
   bool send_failure_said_ = false;
+};
+
+// The teammates' messages a match log recorded, handed out at the pace they came.
+class RecordedTeammates {
+ public:
+  RecordedTeammates(const fw::PluginContext& context, const std::string& folder)
+      : world_(*context.world),
+        player_(context.config.path(), readMessages(context.config, folder), context.config.getBool("realtime"),
+                [](const fw::TeamMessage& message) { return message.receive_time_s; }) {
+    fw::logInfo(context.config.path(), "playing " + std::to_string(player_.size()) + " teammates' messages from " +
+                                           folder + "; sending nothing");
+  }
+
+  fw::StepResult step() {
+    if (player_.finished()) return fw::StepResult::kEndOfStream;
+    const std::optional<fw::TeamMessage> message = player_.next();
+    if (!message) return fw::StepResult::kIdle;
+    world_.publishTeamMessage(*message);
+    return fw::StepResult::kProcessed;
+  }
+
+ private:
+  static std::vector<fw::TeamMessage> readMessages(const fw::ConfigView& config, const std::string& folder) {
+    try {
+      std::vector<fw::TeamMessage> messages;
+      for (const fw::JournalEntry& entry : kinect3d::MatchLogReader(folder).entries()) {
+        if (const auto* message = std::get_if<fw::TeamMessage>(&entry.item)) messages.push_back(*message);
+      }
+      return messages;
+    } catch (const std::runtime_error& e) {
+      throw fw::ConfigError(config.originOf("source") + ": " + config.path() + ".source: " + e.what());
+    }
+  }
+
+  fw::WorldState& world_;
+  replay::Player<fw::TeamMessage> player_;
+};
+
+class TeamPlugin : public fw::Plugin {
+ public:
+  explicit TeamPlugin(const fw::PluginContext& context) {
+    const std::string source = context.config.getString("source");
+    if (source == "network") {
+      network_.emplace(context);
+    } else if (source.rfind("log:", 0) == 0) {
+      recorded_.emplace(context, source.substr(4));
+    } else {
+      throw fw::ConfigError(context.config.originOf("source") + ": " + context.config.path() + ".source = '" + source +
+                            "': expected network or log:<folder>");
+    }
+  }
+
+  fw::StepResult step() override { return network_ ? network_->step() : recorded_->step(); }
+
+ private:
+  std::optional<TeamNetwork> network_;
+  std::optional<RecordedTeammates> recorded_;
 };
 
 }  // namespace

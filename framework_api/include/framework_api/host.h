@@ -51,7 +51,8 @@ class Host {
 
   // The deterministic mode, instead of start(): no threads, no pacing. For each step in order, with
   // the host's wall clock set to that moment (fw::wallClockNow_s), steps the named plugin until it
-  // hands out one input, then every plugin with a rate once (in host.plugins order): every plugin
+  // hands out one input, then every other plugin with a rate once (in host.plugins order; a plugin
+  // with a rate that hands out inputs too, like the team plugin, is stepped only for them): every plugin
   // sees what it saw on the robot, in the order the robot received it, whatever the timing was
   // (kinect3d replay plays a match log's inputs so, with the sources reading that log). Throws
   // PluginError naming a step whose plugin is not loaded or has nothing left to hand out.

@@ -40,7 +40,8 @@ struct TeamMessage {
 
   std::string robot_name;
   // Every time below is on the sender's host clock as sent; the receiving team plugin moves them onto
-  // its own host clock (clock_offset_s) before it publishes the message.
+  // the clock its own fusion works on (its Kinect's, else its omni camera's; clock_offset_s) before it
+  // publishes the message.
   double sent_time_s = 0.0;
   std::optional<RobotPose> pose;  // stamp.source_time_s: when localisation placed the robot
   double pose_sigma_xy_m = 0.0;   // how far the sender's localisation may be off
@@ -53,8 +54,9 @@ struct TeamMessage {
   std::optional<Touchdown> touchdown;  // of the flight its Kinect follows, field frame
   std::vector<ClockEcho> echoes;
 
-  // Set by the receiver: the sender's clock minus this host's, and its 1-sigma (half the best round
-  // trip), by which the times were moved; and when the packet arrived (this host's clock).
+  // Set by the receiver: the sender's clock minus this robot's fusion clock, by which the times were
+  // moved, and the 1-sigma of the two hosts' offset in it (half the best round trip); and when the
+  // packet arrived (this host's clock).
   double clock_offset_s = 0.0;
   double clock_offset_sigma_s = 0.0;
   double receive_time_s = 0.0;

@@ -91,10 +91,10 @@ class BallFusion {
   // Each returns the world after that frame (for a late frame, after re-processing those after it).
   const FusionUpdate& addKinectFrame(double stamp_s, const std::vector<fw::BallObservation>& balls_R);
   const FusionUpdate& addOmniFrame(double stamp_s, const std::vector<fw::OmniBallObservation>& balls);
-  // A teammate's Kinect balls (plugins/team; field frame, times on this host's clock), moved onto the
-  // reference clock by host_minus_reference_s; each of its frames in turn. A message without the
-  // teammate's pose is not used (its localisation error cannot be added).
-  const FusionUpdate& addTeamMessage(const fw::TeamMessage& message, double host_minus_reference_s);
+  // A teammate's Kinect balls (plugins/team; field frame, times already on the reference clock),
+  // each of its frames in turn. A message without the teammate's pose is not used (its localisation
+  // error cannot be added).
+  const FusionUpdate& addTeamMessage(const fw::TeamMessage& message);
   // Every teammate heard, by robot id.
   const std::map<int, TeammateStanding>& teammates() const { return state_.teammates; }
 

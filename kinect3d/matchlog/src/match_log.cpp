@@ -807,9 +807,12 @@ std::optional<double> MatchLogReader::clockOffset_s(const std::string& source) c
 }
 
 std::vector<MatchLogReader::Input> MatchLogReader::inputs() const {
+  const std::string team = schema_ >= 4 ? " UNION ALL SELECT seq, wall_time_s, 3, '' FROM team_message" : "";
   Statement q(db_,
-              "SELECT seq, wall_time_s, 0, source FROM depth_frame UNION ALL SELECT seq, wall_time_s, 1, '' FROM "
-              "omni_frame UNION ALL SELECT seq, wall_time_s, 2, '' FROM robot_pose ORDER BY seq",
+              ("SELECT seq, wall_time_s, 0, source FROM depth_frame UNION ALL SELECT seq, wall_time_s, 1, '' FROM "
+               "omni_frame UNION ALL SELECT seq, wall_time_s, 2, '' FROM robot_pose" +
+               team + " ORDER BY seq")
+                  .c_str(),
               path_);
   std::vector<Input> inputs;
   while (q.row()) inputs.push_back({static_cast<Input::Kind>(q.integer(2)), q.text(3), q.real(1)});

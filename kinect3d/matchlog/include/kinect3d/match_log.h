@@ -134,7 +134,7 @@ class MatchLogReader {
   // What the run took in from outside, in the order it arrived: each depth frame (with the plugin
   // that read it), omni image and robot pose, and when it was logged. What a replay plays.
   struct Input {
-    enum class Kind { kDepth = 0, kOmni = 1, kPose = 2 } kind;
+    enum class Kind { kDepth = 0, kOmni = 1, kPose = 2, kTeam = 3 } kind;
     std::string depth_source;  // kDepth: the plugin that read it
     double wall_time_s;
   };
