@@ -43,6 +43,7 @@ fw::TeamMessage fullMessage() {
   ray.direction_F = Eigen::Vector3d(0.3, 0.9, -0.2).normalized();
   ray.bearing_sigma_rad = 0.026;
   ray.elevation_sigma_rad = 0.01;
+  ray.view_top_m = 0.6;
   ray.time_s = 1700000000.22;
   m.omni_rays = {ray};
   fw::FusedBall world;
@@ -111,6 +112,7 @@ TEST(TeamMessage, EveryFieldSurvivesTheWire) {
   ASSERT_EQ(got.omni_rays.size(), 1u);
   EXPECT_TRUE(got.omni_rays[0].direction_F.isApprox(sent.omni_rays[0].direction_F, 1e-12));
   EXPECT_DOUBLE_EQ(got.omni_rays[0].elevation_sigma_rad, 0.01);
+  EXPECT_DOUBLE_EQ(got.omni_rays[0].view_top_m, 0.6);
   ASSERT_TRUE(got.world_ball);
   EXPECT_TRUE(got.world_ball->velocity_F.isApprox(sent.world_ball->velocity_F));
   EXPECT_TRUE(got.world_ball->covariance_F.isApprox(sent.world_ball->covariance_F));

@@ -88,6 +88,16 @@ TEST(TeamPlugin, ARobotWithoutAKinectHoldsTheLobFromItsTeammatesAndOutsidersAreR
   }
   keeper.stop();
   stranger.stop();
+  // Then the defender, once it has taken in everything that reached it: its world state still for a
+  // few of its fusion's steps (else its log could hold a message its fusion never read, which its
+  // replay would then read).
+  std::uint64_t version = defender.world().version();
+  for (int still = 0; still < 3 && std::chrono::steady_clock::now() < deadline;) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    const std::uint64_t now = defender.world().version();
+    still = now == version ? still + 1 : 0;
+    version = now;
+  }
   defender.stop();
   ASSERT_TRUE(keeper.sourcesFinished() && defender.sourcesFinished());
 

@@ -68,13 +68,14 @@ void packKinectBall(Packer& pk, const BallObservation& b) {
 }
 
 void packRay(Packer& pk, const BallRay& r) {
-  pk.pack_map(5);
+  pk.pack_map(6);
   packKey(pk, "origin");
   packVector(pk, r.origin_F);
   packKey(pk, "dir");
   packVector(pk, r.direction_F);
   packEntry(pk, "sigma_bearing", r.bearing_sigma_rad);
   packEntry(pk, "sigma_elevation", r.elevation_sigma_rad);
+  packEntry(pk, "view_top", r.view_top_m);
   packEntry(pk, "t", r.time_s);
 }
 
@@ -321,6 +322,7 @@ TeamMessage unpackTeamMessage(const std::uint8_t* data, std::size_t size) {
     if (std::abs(ray.direction_F.norm() - 1.0) > 1e-3) e["dir"].fail("a unit vector");
     ray.bearing_sigma_rad = e["sigma_bearing"].number();
     ray.elevation_sigma_rad = e["sigma_elevation"].number();
+    ray.view_top_m = e["view_top"].number();
     ray.time_s = e["t"].number();
     m.omni_rays.push_back(ray);
   }

@@ -32,6 +32,20 @@ constexpr double kJudgeOwnSupportWithin_s = 0.1;
 // A discounted teammate is trusted again once its median falls below this share of the discount's.
 constexpr double kTrustAgainShare = 0.5;
 
+// An omni ball's ground point's covariance: bearing and distance noise turned into the floor's x, y
+// (the Jacobian of the ground point), from a camera at pose.
+Eigen::Matrix3d groundCovariance(const OmniMeasurement& omni, const fw::OmniBallObservation& ball,
+                                 const fw::RobotPose& pose) {
+  const Eigen::MatrixXd R = omni.noise(omni.groundBall_F());
+  const double s = std::sin(ball.bearing_rad), co = std::cos(ball.bearing_rad), d = ball.distance_m;
+  Eigen::Matrix2d J;
+  J << -d * co, -s, -d * s, co;
+  const Eigen::Matrix2d turn = Eigen::Rotation2Dd(pose.theta_rad).toRotationMatrix();
+  Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();
+  covariance.topLeftCorner<2, 2>() = turn * J * R * J.transpose() * turn.transpose();
+  return covariance;
+}
+
 // The name a teammate's observations go by in the world ball's sources: "team:keeper".
 std::string teammateSource(const std::string& name) { return "team:" + name; }
 }  // namespace
@@ -70,8 +84,9 @@ struct BallFusion::Candidate {
   bool in_air = false;
   bool is_static = false;  // an air ball in space occupied for seconds
   fw::ColourVerdict colour = fw::ColourVerdict::kNotChecked;
-  const fw::OmniBallObservation* omni = nullptr;  // the omni's ball, in the frame being processed
-  int teammate = 0;                               // the teammate's robot id, for Source::kTeammate
+  const fw::OmniBallObservation* omni = nullptr;               // the omni's ball, in the frame being processed
+  int teammate = 0;                                            // the teammate's robot id, for Source::kTeammate
+  std::optional<Eigen::Vector3d> ray_origin_F = std::nullopt;  // a teammate's omni ray: its camera's viewpoint
 };
 
 BallFusion::BallFusion(const FusionConfig& config)
@@ -85,7 +100,7 @@ void BallFusion::addPose(const fw::RobotPose& pose) {
 
 const FusionUpdate& BallFusion::addKinectFrame(double stamp_s, const std::vector<fw::BallObservation>& balls_R) {
   if (!onTimeLine(Source::kKinect, stamp_s, stamp_s - config_.kinect.latency_s)) return state_.update;
-  return insert(Frame{Source::kKinect, stamp_s - config_.kinect.latency_s, 0.0, 0.0, balls_R, {}, {}});
+  return insert(Frame{Source::kKinect, stamp_s - config_.kinect.latency_s, 0.0, 0.0, balls_R, {}, {}, {}});
 }
 
 const FusionUpdate& BallFusion::addOmniFrame(double stamp_s, const std::vector<fw::OmniBallObservation>& balls) {
@@ -99,6 +114,7 @@ const FusionUpdate& BallFusion::addOmniFrame(double stamp_s, const std::vector<f
                       timing_sigma_s,
                       {},
                       balls,
+                      {},
                       {}});
 }
 
@@ -108,10 +124,32 @@ const FusionUpdate& BallFusion::addTeamMessage(const fw::TeamMessage& message) {
   // Its balls by their time: one frame each (a message carries the balls of one or two Kinect frames).
   std::map<double, Frame> frames;
   const PoseConfig pose_error{0.0, message.pose_sigma_xy_m, message.pose_sigma_theta_rad};
+  const auto frameAt = [&](double t) -> Frame& {
+    return frames.try_emplace(t, Frame{Source::kTeammate, t, 0.0, 0.0, {}, {}, {}, {}}).first->second;
+  };
   for (const fw::BallObservation& ball : message.kinect_balls) {
-    const double t = ball.stamp.source_time_s;
-    auto [entry, added] = frames.try_emplace(t, Frame{Source::kTeammate, t, 0.0, 0.0, {}, {}, {}});
-    entry->second.team.push_back({message.robot_id, message.robot_name, ball, *message.pose, pose_error});
+    frameAt(ball.stamp.source_time_s)
+        .team.push_back({message.robot_id, message.robot_name, ball, *message.pose, pose_error});
+  }
+  const double r = config_.motion.radius_m;
+  for (const fw::BallRay& ray : message.omni_rays) {
+    // The ground point the teammate's camera reports: where its ray meets the plane of resting centres.
+    const double drop_m = ray.origin_F.z() - r, horizontal = ray.direction_F.head<2>().norm();
+    if (drop_m <= 0.0 || ray.direction_F.z() >= 0.0 || ray.view_top_m < r) continue;  // no ground point
+    TeammateRay mate;
+    mate.robot_id = message.robot_id;
+    mate.name = message.robot_name;
+    mate.omni = config_.omni;
+    mate.pose_error = pose_error;
+    mate.ball.bearing_rad = std::atan2(-ray.direction_F.x(), ray.direction_F.y());
+    mate.ball.distance_m = drop_m / -ray.direction_F.z() * horizontal;
+    mate.ball.bearing_sigma_rad = ray.bearing_sigma_rad;
+    const double d = mate.ball.distance_m;
+    mate.ball.distance_sigma_m = std::max(ray.elevation_sigma_rad * (d * d + drop_m * drop_m) / drop_m, 1e-6);
+    mate.viewpoint = fw::RobotPose{ray.origin_F.x(), ray.origin_F.y(), 0.0, {ray.time_s, ray.time_s}};
+    mate.omni.viewpoint_height_m = ray.origin_F.z();
+    mate.omni.max_height_m = std::min(ray.view_top_m, ray.origin_F.z());
+    frameAt(ray.time_s).team_rays.push_back(mate);
   }
   for (auto& [t, frame] : frames) {
     // Its clock was moved onto the reference by the team plugin: a time far from the fusion's is a
@@ -226,18 +264,22 @@ std::vector<BallFusion::Candidate> BallFusion::candidatesOf(const Frame& frame, 
     c.teammate = mate.robot_id;
     candidates.push_back(std::move(c));
   }
+  for (const TeammateRay& mate : frame.team_rays) {
+    // Its camera's latency is not known here: its stamps are as uncertain as this robot's omni
+    // camera's before it learnt its own.
+    auto omni = std::make_unique<OmniMeasurement>(mate.ball, mate.viewpoint, mate.viewpoint, mate.omni, mate.pose_error,
+                                                  r, config_.omni.timing_sigma_s);
+    Candidate c{Source::kTeammate, nullptr, omni->groundBall_F(), groundCovariance(*omni, mate.ball, mate.viewpoint)};
+    c.measurement = std::move(omni);
+    c.teammate = mate.robot_id;
+    c.ray_origin_F = Eigen::Vector3d(mate.viewpoint.x_m, mate.viewpoint.y_m, mate.omni.viewpoint_height_m);
+    candidates.push_back(std::move(c));
+  }
   for (const fw::OmniBallObservation& ball : frame.omni) {
     auto omni =
         std::make_unique<OmniMeasurement>(ball, pose, poses_.at(frame.time_s + OmniMeasurement::kPoseRateStep_s),
                                           config_.omni, config_.pose, r, frame.omni_timing_sigma_s);
-    Candidate c{Source::kOmni, nullptr, omni->groundBall_F(), Eigen::Matrix3d::Zero()};
-    // Bearing and distance noise turned into the floor's x, y (the Jacobian of the ground point).
-    const Eigen::MatrixXd R = omni->noise(c.p_F);
-    const double s = std::sin(ball.bearing_rad), co = std::cos(ball.bearing_rad), d = ball.distance_m;
-    Eigen::Matrix2d J;
-    J << -d * co, -s, -d * s, co;
-    const Eigen::Matrix2d turn = Eigen::Rotation2Dd(pose.theta_rad).toRotationMatrix();
-    c.covariance_F.topLeftCorner<2, 2>() = turn * J * R * J.transpose() * turn.transpose();
+    Candidate c{Source::kOmni, nullptr, omni->groundBall_F(), groundCovariance(*omni, ball, pose)};
     c.measurement = std::move(omni);
     c.omni = &ball;
     candidates.push_back(std::move(c));
@@ -257,17 +299,25 @@ void BallFusion::process(const Frame& frame) {
   for (const Track& track : state.tracks) branches.push_back(track.filter.branchesAt(t));
   // A teammate's balls are judged against this robot's own view first; a discounted teammate's are not used.
   for (const TeammateBall& mate : frame.team) state.teammates[mate.robot_id].name = mate.name;
-  std::vector<bool> discounted(candidates.size(), false);
-  for (std::size_t c = 0; c < candidates.size(); ++c) {
-    if (candidates[c].source != Source::kTeammate) continue;
-    for (std::size_t k = 0; k < state.tracks.size(); ++k) {
-      const Track& track = state.tracks[k];
-      if (track.id == state.world_id &&
-          t - std::max(track.last_kinect_s, track.last_omni_s) <= kJudgeOwnSupportWithin_s) {
-        judgeTeammate(candidates[c], branches[k]);
+  for (const TeammateRay& mate : frame.team_rays) state.teammates[mate.robot_id].name = mate.name;
+  // Each teammate by the one of its observations that best matches this robot's ball (its others
+  // may be other objects: orange shirts, a second ball).
+  std::map<int, Judgement> closest;
+  for (std::size_t k = 0; k < state.tracks.size(); ++k) {
+    if (state.tracks[k].id != state.world_id) continue;
+    for (const Candidate& candidate : candidates) {
+      if (candidate.source != Source::kTeammate) continue;
+      const std::optional<Judgement> judged = judge(candidate, state.tracks[k], branches[k], t);
+      const auto found = closest.find(candidate.teammate);
+      if (judged && (found == closest.end() || judged->mahalanobis < found->second.mahalanobis)) {
+        closest[candidate.teammate] = *judged;
       }
     }
-    discounted[c] = state.teammates[candidates[c].teammate].discounted;
+  }
+  for (const auto& [teammate, judgement] : closest) recordJudgement(teammate, judgement);
+  std::vector<bool> discounted(candidates.size(), false);
+  for (std::size_t c = 0; c < candidates.size(); ++c) {
+    if (candidates[c].source == Source::kTeammate) discounted[c] = state.teammates[candidates[c].teammate].discounted;
   }
   struct Pair {
     double log_likelihood;
@@ -355,23 +405,43 @@ void BallFusion::Track::supportedBy(Source source, int teammate, double t_s) {
   }
 }
 
-void BallFusion::judgeTeammate(const Candidate& candidate, const std::vector<Hypothesis>& world_branches) {
-  const MeasurementFit fit = BallFilter::fit(world_branches, *candidate.measurement);
-  double weight = 0.0;
-  Eigen::Vector3d world_F = Eigen::Vector3d::Zero();
-  for (const Hypothesis& h : world_branches) {
-    world_F += h.weight * h.x.head<3>();
-    weight += h.weight;
+std::optional<BallFusion::Judgement> BallFusion::judge(const Candidate& candidate, const Track& world,
+                                                       const std::vector<Hypothesis>& world_branches,
+                                                       double t_s) const {
+  // Only against what this robot's own sensors place well: its Kinect's ball anywhere, its omni
+  // camera's on the floor (a ball in the air is only a bearing to it).
+  const bool own_kinect = t_s - world.last_kinect_s <= kJudgeOwnSupportWithin_s;
+  const bool own_omni_on_floor = t_s - world.last_omni_s <= kJudgeOwnSupportWithin_s && !world.flying();
+  if (!own_kinect && !(own_omni_on_floor && !candidate.in_air)) return std::nullopt;
+  const Hypothesis& best =
+      *std::max_element(world_branches.begin(), world_branches.end(),
+                        [](const Hypothesis& a, const Hypothesis& b) { return a.weight < b.weight; });
+  const Eigen::Vector3d world_F = best.x.head<3>();
+  if (!candidate.ray_origin_F) {
+    return Judgement{BallFilter::fit(world_branches, *candidate.measurement).mahalanobis,
+                     (candidate.p_F - world_F).norm()};
   }
-  std::deque<std::pair<double, double>>& judged = state_.judged[candidate.teammate];
-  judged.emplace_back(fit.mahalanobis, (candidate.p_F - world_F / weight).norm());
+  // An omni ray by its bearing alone: a ball in the air lies on the bearing of its phantom.
+  const Eigen::Vector2d ray = (candidate.p_F - *candidate.ray_origin_F).head<2>();
+  const Eigen::Vector2d to_world = (world_F - *candidate.ray_origin_F).head<2>();
+  const double d = std::max(to_world.norm(), 0.1);
+  const double residual = fw::wrapAngle(std::atan2(ray.y(), ray.x()) - std::atan2(to_world.y(), to_world.x()));
+  const Eigen::Vector2d across(-to_world.y() / d, to_world.x() / d);
+  const double variance =
+      candidate.measurement->noise(candidate.p_F)(0, 0) + across.dot(best.P.topLeftCorner<2, 2>() * across) / (d * d);
+  return Judgement{std::abs(residual) / std::sqrt(variance), d * std::abs(std::sin(residual))};
+}
+
+void BallFusion::recordJudgement(int teammate, const Judgement& judgement) {
+  std::deque<Judgement>& judged = state_.judged[teammate];
+  judged.push_back(judgement);
   if (judged.size() > static_cast<std::size_t>(config_.team.judge_examples)) judged.pop_front();
   std::vector<double> distances, gaps_m;
-  for (const auto& [distance, gap_m] : judged) {
-    distances.push_back(distance);
-    gaps_m.push_back(gap_m);
+  for (const Judgement& j : judged) {
+    distances.push_back(j.mahalanobis);
+    gaps_m.push_back(j.gap_m);
   }
-  TeammateStanding& standing = state_.teammates[candidate.teammate];
+  TeammateStanding& standing = state_.teammates[teammate];
   standing.examples = static_cast<int>(judged.size());
   standing.median_mahalanobis = fw::quantile(distances, 0.5);
   standing.median_gap_m = fw::quantile(gaps_m, 0.5);
@@ -429,7 +499,7 @@ void BallFusion::startTrack(const Candidate& candidate, double t_s) {
   track.born_s = t_s;
   track.supportedBy(candidate.source, candidate.teammate, t_s);
   track.seen_on_ground = !candidate.in_air;
-  track.omni_born = candidate.source == Source::kOmni;
+  track.omni_born = candidate.source == Source::kOmni || candidate.ray_origin_F.has_value();
   track.colour_confirmed = candidate.colour == fw::ColourVerdict::kConfirmed;
   state_.tracks.push_back(std::move(track));
 }

@@ -52,8 +52,9 @@ class FusionPlugin : public fw::Plugin {
         publish(fusion_.addOmniFrame(omni->stamp.source_time_s, omni->balls));
         updated = true;
       } else if (const auto* message = std::get_if<fw::TeamMessage>(&measurement)) {
-        publish(fusion_.addTeamMessage(*message));
-        reportTeammate(message->robot_id);
+        const fusion::FusionUpdate& update = fusion_.addTeamMessage(*message);
+        publish(update);
+        reportTeammate(message->robot_id, update.time_s);
         updated = true;
       }
     }
@@ -118,8 +119,8 @@ class FusionPlugin : public fw::Plugin {
   }
 
   // Says when a teammate's balls stop agreeing with what this robot sees (its localisation is off)
-  // and when they agree again.
-  void reportTeammate(int robot_id) {
+  // and when they agree again, stamped with the fusion's time (a replay says it at the same time).
+  void reportTeammate(int robot_id, double t_s) {
     const auto found = fusion_.teammates().find(robot_id);
     if (found == fusion_.teammates().end()) return;
     const fusion::TeammateStanding& standing = found->second;
@@ -141,7 +142,7 @@ class FusionPlugin : public fw::Plugin {
       fw::logInfo(name_, text);
     }
     world_.publishEvent(
-        {name_, standing.discounted ? "teammate_discounted" : "teammate_trusted", text, fw::Stamp::now()});
+        {name_, standing.discounted ? "teammate_discounted" : "teammate_trusted", text, {t_s, fw::wallClockNow_s()}});
   }
 
   // Says once when the omni camera's latency has been learnt.

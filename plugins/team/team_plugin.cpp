@@ -259,6 +259,7 @@ class TeamNetwork {
     // A distance error along the floor turns the ray up or down by this much.
     const double d = ball.distance_m, drop = h - r;
     ray.elevation_sigma_rad = fusion::omniDistanceSigma_m(ball, fusion_.omni, d) * drop / (d * d + drop * drop);
+    ray.view_top_m = fusion_.omni.max_height_m;
     ray.time_s = omni_clock_.toHost(stamp.source_time_s);
     return ray;
   }

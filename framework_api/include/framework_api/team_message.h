@@ -21,6 +21,7 @@ struct BallRay {
   Eigen::Vector3d direction_F = Eigen::Vector3d::UnitY();  // unit, towards the ball
   double bearing_sigma_rad = 0.0;                          // 1-sigma about the vertical ...
   double elevation_sigma_rad = 0.0;                        // ... and up or down
+  double view_top_m = 0.0;  // the highest ball centre the camera sees (its mirror's view ends there)
   double time_s = 0.0;
 };
 

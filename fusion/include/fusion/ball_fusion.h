@@ -91,9 +91,9 @@ class BallFusion {
   // Each returns the world after that frame (for a late frame, after re-processing those after it).
   const FusionUpdate& addKinectFrame(double stamp_s, const std::vector<fw::BallObservation>& balls_R);
   const FusionUpdate& addOmniFrame(double stamp_s, const std::vector<fw::OmniBallObservation>& balls);
-  // A teammate's Kinect balls (plugins/team; field frame, times already on the reference clock),
-  // each of its frames in turn. A message without the teammate's pose is not used (its localisation
-  // error cannot be added).
+  // A teammate's Kinect balls and omni rays (plugins/team; field frame, times already on the
+  // reference clock), each of its frames in turn. A message without the teammate's pose is not used
+  // (its localisation error cannot be added).
   const FusionUpdate& addTeamMessage(const fw::TeamMessage& message);
   // Every teammate heard, by robot id.
   const std::map<int, TeammateStanding>& teammates() const { return state_.teammates; }
@@ -111,6 +111,11 @@ class BallFusion {
 
  private:
   enum class Source { kKinect, kOmni, kTeammate };
+  // A teammate's observation beside this robot's ball.
+  struct Judgement {
+    double mahalanobis = 0.0;
+    double gap_m = 0.0;
+  };
   struct Track {
     int id = 0;
     BallFilter filter;
@@ -136,7 +141,7 @@ class BallFusion {
     int world_id = 0;  // 0: no world ball
     LatencyEstimator latency;
     std::map<int, TeammateStanding> teammates;
-    std::map<int, std::deque<std::pair<double, double>>> judged;  // per teammate: (Mahalanobis, gap m), newest last
+    std::map<int, std::deque<Judgement>> judged;  // per teammate, newest last
     FusionUpdate update;
   };
   // A teammate's ball with what places it: the teammate's pose and how far its localisation may be off.
@@ -147,6 +152,15 @@ class BallFusion {
     fw::RobotPose pose;
     PoseConfig pose_error;
   };
+  // A teammate's omni ray, as an omni ball seen from the ray's origin, bearing in the field frame.
+  struct TeammateRay {
+    int robot_id = 0;
+    std::string name;
+    fw::OmniBallObservation ball;  // bearing from the field's +y, distance where the ray meets the resting plane
+    fw::RobotPose viewpoint;       // at the ray's origin, facing the field's +y
+    OmniConfig omni;               // its viewpoint's height and its view's top
+    PoseConfig pose_error;
+  };
   struct Frame {
     Source source;
     double time_s;                   // corrected onto the reference clock
@@ -155,6 +169,7 @@ class BallFusion {
     std::vector<fw::BallObservation> kinect;
     std::vector<fw::OmniBallObservation> omni;
     std::vector<TeammateBall> team;
+    std::vector<TeammateRay> team_rays;
   };
 
   struct Candidate;
@@ -170,9 +185,12 @@ class BallFusion {
   void process(const Frame& frame);
   std::vector<Candidate> candidatesOf(const Frame& frame, const fw::RobotPose& pose) const;
   void startTrack(const Candidate& candidate, double t_s);
-  // A teammate's ball beside the world's ball while this robot's own sensors support it: the
-  // teammate's standing after it.
-  void judgeTeammate(const Candidate& candidate, const std::vector<Hypothesis>& world_branches);
+  // How far a teammate's ball or ray lies from the world's ball (its branches at t_s), when this
+  // robot's own sensors support that ball well enough to judge by; and the teammate's standing after
+  // one more such judgement.
+  std::optional<Judgement> judge(const Candidate& candidate, const Track& world,
+                                 const std::vector<Hypothesis>& world_branches, double t_s) const;
+  void recordJudgement(int teammate, const Judgement& judgement);
   const std::string& nameOf(Source source) const;        // this robot's own sources
   std::string nameOf(const Candidate& candidate) const;  // "team:<name>" for a teammate's
   void maintainTracks(double t_s);

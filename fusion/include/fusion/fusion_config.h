@@ -68,12 +68,13 @@ struct AlignmentCheckConfig {
   int confirmations = 2;  // ... in this many fits in a row
 };
 
-// Teammates' Kinect balls (plugins/team): measurements of the world's ball like this robot's own,
-// with the teammate's localisation error added, as long as they agree with what this robot sees.
+// Teammates' Kinect balls and omni rays (plugins/team): measurements of the world's ball like this
+// robot's own, with the teammate's localisation error added, as long as they agree with what this
+// robot sees.
 struct TeamConfig {
   bool use = true;
   double max_delay_s = 0.3;     // they come over Wi-Fi: later than this behind the newest, dropped
-  int judge_examples = 10;      // a teammate is judged on this many of its balls beside this robot's own view ...
+  int judge_examples = 10;      // a teammate is judged on this many observations beside this robot's own view ...
   double discount_sigma = 4.0;  // ... and discounted while their median Mahalanobis distance is beyond this
 };
 
