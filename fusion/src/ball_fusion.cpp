@@ -300,18 +300,30 @@ void BallFusion::process(const Frame& frame) {
   // A teammate's balls are judged against this robot's own view first; a discounted teammate's are not used.
   for (const TeammateBall& mate : frame.team) state.teammates[mate.robot_id].name = mate.name;
   for (const TeammateRay& mate : frame.team_rays) state.teammates[mate.robot_id].name = mate.name;
-  // Each teammate by the one of its observations that best matches this robot's ball (its others
-  // may be other objects: orange shirts, a second ball).
-  std::map<int, Judgement> closest;
+  // Each teammate by the one of its observations that best matches this robot's own ball: the
+  // confirmed track its own sensors support now (the world's ball when they do; it may rest on the
+  // teammate itself), and of the teammate's observations the closest (its others may be other
+  // objects: orange shirts, a second ball).
+  const auto ownSupport_s = [](const Track& track) { return std::max(track.last_kinect_s, track.last_omni_s); };
+  const Track* own = nullptr;
+  const std::vector<Hypothesis>* own_branches = nullptr;
   for (std::size_t k = 0; k < state.tracks.size(); ++k) {
-    if (state.tracks[k].id != state.world_id) continue;
-    for (const Candidate& candidate : candidates) {
-      if (candidate.source != Source::kTeammate) continue;
-      const std::optional<Judgement> judged = judge(candidate, state.tracks[k], branches[k], t);
-      const auto found = closest.find(candidate.teammate);
-      if (judged && (found == closest.end() || judged->mahalanobis < found->second.mahalanobis)) {
-        closest[candidate.teammate] = *judged;
-      }
+    const Track& track = state.tracks[k];
+    if (!track.confirmed || t - ownSupport_s(track) > kJudgeOwnSupportWithin_s) continue;
+    const bool better =
+        !own || track.id == state.world_id || (own->id != state.world_id && ownSupport_s(track) > ownSupport_s(*own));
+    if (better) {
+      own = &track;
+      own_branches = &branches[k];
+    }
+  }
+  std::map<int, Judgement> closest;
+  for (const Candidate& candidate : candidates) {
+    if (own == nullptr || candidate.source != Source::kTeammate) continue;
+    const std::optional<Judgement> judged = judge(candidate, *own, *own_branches, t);
+    const auto found = closest.find(candidate.teammate);
+    if (judged && (found == closest.end() || judged->mahalanobis < found->second.mahalanobis)) {
+      closest[candidate.teammate] = *judged;
     }
   }
   for (const auto& [teammate, judgement] : closest) recordJudgement(teammate, judgement);

@@ -16,6 +16,8 @@ std::vector<fw::RobotPose> simulate(const fw::ConfigView& sim, const std::string
   model.rate_hz = sim.getDouble("rate_hz", 1.0, 1000.0);
   model.sigma_xy_m = sim.getDouble("sigma_xy_m", 0.0, 5.0);
   model.sigma_theta_rad = fw::degreesToRadians(sim.getDouble("sigma_theta_deg", 0.0, 90.0));
+  model.bias_xy_m = {sim.getDouble("bias_x_m", -20.0, 20.0), sim.getDouble("bias_y_m", -20.0, 20.0)};
+  model.bias_theta_rad = fw::degreesToRadians(sim.getDouble("bias_theta_deg", -180.0, 180.0));
   model.seed = static_cast<std::uint64_t>(sim.getInt("seed", 0, 2147483647));
   const kinect3d::sim::LocalisationSimulator localisation(kinect3d::sim::loadScene(scene), model);
   std::vector<fw::RobotPose> poses;

@@ -119,9 +119,9 @@ fw::RobotPose LocalisationSimulator::pose(int index) const {
   const double t = index / model_.rate_hz;
   fw::RobotPose pose = scene_.robot.poseAt(t);
   const Eigen::Vector3d& e = errors_[static_cast<std::size_t>(index)];
-  pose.x_m += e.x();
-  pose.y_m += e.y();
-  pose.theta_rad += e.z();
+  pose.x_m += e.x() + model_.bias_xy_m.x();
+  pose.y_m += e.y() + model_.bias_xy_m.y();
+  pose.theta_rad += e.z() + model_.bias_theta_rad;
   pose.stamp.source_time_s = pose.stamp.receive_time_s = scene_.start_time_s + t;
   return pose;
 }

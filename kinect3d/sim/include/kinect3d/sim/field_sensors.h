@@ -57,6 +57,10 @@ struct LocalisationModel {
   double sigma_xy_m = 0.03;  // error of x and y (1 sigma), ...
   double sigma_theta_rad = 0.017;
   double correlation_s = 1.0;  // ... wandering over about this time
+  // A mislocalised robot: where its localisation believes it stands, beyond the noise, shifted by
+  // this and turned by this about itself.
+  Eigen::Vector2d bias_xy_m = Eigen::Vector2d::Zero();
+  double bias_theta_rad = 0.0;
   std::uint64_t seed = 2;
 };
 
