@@ -164,6 +164,16 @@ TEST(TeamMessage, ABadBodyIsRefusedNamingTheField) {
   const msgpack::object list_of_numbers(std::vector<int>{1}, zone);
   EXPECT_NE(errorOf(withKey("kinect_balls", &list_of_numbers)).find("'kinect_balls[0]': expected a map"),
             std::string::npos);
+  fw::TeamMessage negative = fullMessage();
+  negative.kinect_balls[1].covariance_m2(0, 0) = -0.01;
+  EXPECT_NE(errorOf(fw::packTeamMessage(negative)).find("'kinect_balls[1].cov': expected a covariance"),
+            std::string::npos);
+  fw::TeamMessage far = fullMessage();
+  far.world_ball->position_F.x() = 1e9;
+  EXPECT_NE(errorOf(fw::packTeamMessage(far)).find("'world_ball.p': expected a vector"), std::string::npos);
+  fw::TeamMessage careless = fullMessage();
+  careless.pose_sigma_xy_m = -0.03;
+  EXPECT_NE(errorOf(fw::packTeamMessage(careless)).find("'pose.sigma_xy': expected a number in"), std::string::npos);
   const std::string body = fw::packTeamMessage(fullMessage());
   EXPECT_NE(errorOf(body + "x").find("bytes after its end"), std::string::npos);
   // A list that claims four billion entries in five bytes: refused before anything is allocated.

@@ -5,6 +5,8 @@
 #include <functional>
 #include <map>
 
+#include <Eigen/Eigenvalues>
+
 #define MSGPACK_NO_BOOST
 #include <msgpack.hpp>
 
@@ -167,16 +169,33 @@ class Reader {
     for (const Reader& item : list) out.push_back(item.number());
     return out;
   }
+  // A number in [min, max]: positions and speeds on a field, sigmas that are not negative.
+  double number(double min, double max) const {
+    const double value = number();
+    if (value < min || value > max) fail("a number in [" + std::to_string(min) + ", " + std::to_string(max) + "]");
+    return value;
+  }
+  // A position or a velocity: each coordinate within kMaxCoordinate, far beyond any field.
   Eigen::Vector3d vector3() const {
     const std::vector<double> v = numbers(3);
+    for (const double x : v) {
+      if (std::abs(x) > kMaxCoordinate) fail("a vector whose coordinates are within " + std::to_string(kMaxCoordinate));
+    }
     return {v[0], v[1], v[2]};
   }
+  // A covariance: symmetric positive semi-definite, no variance beyond kMaxVariance.
   Eigen::Matrix3d covariance() const {
     const std::vector<double> u = numbers(6);
     Eigen::Matrix3d c;
     c << u[0], u[1], u[2], u[1], u[3], u[4], u[2], u[4], u[5];
+    const Eigen::Vector3d eigenvalues = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(c).eigenvalues();
+    if (!(eigenvalues.minCoeff() >= -1e-12) || eigenvalues.maxCoeff() > kMaxVariance) {
+      fail("a covariance (positive semi-definite, variances up to " + std::to_string(kMaxVariance) + ")");
+    }
     return c;
   }
+  static constexpr double kMaxCoordinate = 1e4;  // metres, metres per second
+  static constexpr double kMaxVariance = 1e4;    // m^2
   [[noreturn]] void fail(const std::string& expected) const {
     throw TeamMessageError("team message field '" + path_ + "': expected " + expected);
   }
@@ -305,13 +324,13 @@ TeamMessage unpackTeamMessage(const std::uint8_t* data, std::size_t size) {
   root.ifPresent("pose", [&](const Reader& r) {
     const auto p = r.entries();
     RobotPose pose;
-    pose.x_m = p["x"].number();
-    pose.y_m = p["y"].number();
-    pose.theta_rad = p["theta"].number();
+    pose.x_m = p["x"].number(-Reader::kMaxCoordinate, Reader::kMaxCoordinate);
+    pose.y_m = p["y"].number(-Reader::kMaxCoordinate, Reader::kMaxCoordinate);
+    pose.theta_rad = p["theta"].number(-1e3, 1e3);
     pose.stamp.source_time_s = p["t"].number();
     m.pose = pose;
-    m.pose_sigma_xy_m = p["sigma_xy"].number();
-    m.pose_sigma_theta_rad = p["sigma_theta"].number();
+    m.pose_sigma_xy_m = p["sigma_xy"].number(0.0, 1e3);
+    m.pose_sigma_theta_rad = p["sigma_theta"].number(0.0, 1e3);
   });
   for (const Reader& r : root["kinect_balls"].items()) m.kinect_balls.push_back(readKinectBall(r));
   for (const Reader& r : root["omni_rays"].items()) {
@@ -320,9 +339,9 @@ TeamMessage unpackTeamMessage(const std::uint8_t* data, std::size_t size) {
     ray.origin_F = e["origin"].vector3();
     ray.direction_F = e["dir"].vector3();
     if (std::abs(ray.direction_F.norm() - 1.0) > 1e-3) e["dir"].fail("a unit vector");
-    ray.bearing_sigma_rad = e["sigma_bearing"].number();
-    ray.elevation_sigma_rad = e["sigma_elevation"].number();
-    ray.view_top_m = e["view_top"].number();
+    ray.bearing_sigma_rad = e["sigma_bearing"].number(0.0, 1e3);
+    ray.elevation_sigma_rad = e["sigma_elevation"].number(0.0, 1e3);
+    ray.view_top_m = e["view_top"].number(-1e3, 1e3);
     ray.time_s = e["t"].number();
     m.omni_rays.push_back(ray);
   }
@@ -334,15 +353,15 @@ TeamMessage unpackTeamMessage(const std::uint8_t* data, std::size_t size) {
     b.covariance_F = e["cov"].covariance();
     b.stamp.source_time_s = e["t"].number();
     b.state = e["air"].boolean() ? BallState::kAir : BallState::kGround;
-    b.air_probability = e["air_probability"].number();
-    b.age_s = e["age"].number();
+    b.air_probability = e["air_probability"].number(0.0, 1.0);
+    b.age_s = e["age"].number(0.0, 1e9);
     for (const Reader& s : e["sources"].items()) b.sources.push_back(s.text());
     m.world_ball = b;
   });
   root.ifPresent("touchdown", [&](const Reader& r) {
     const auto e = r.entries();
     const std::vector<double> p = e["p"].numbers(2);
-    m.touchdown = Touchdown{{p[0], p[1]}, e["t"].number(), e["sigma"].number()};
+    m.touchdown = Touchdown{{p[0], p[1]}, e["t"].number(), e["sigma"].number(0.0, 1e3)};
   });
   for (const Reader& r : root["echoes"].items()) {
     const auto e = r.entries();
