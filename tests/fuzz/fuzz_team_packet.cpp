@@ -23,7 +23,8 @@ const team::TeamKey& key() {
 
 // The team packet's header, for team 7, robot 2, with the compressed flag as given.
 std::vector<std::uint8_t> header(bool compressed) {
-  std::vector<std::uint8_t> bytes{'K', '3', 'T', team::kWireVersion, 7, 2, compressed ? std::uint8_t{1} : std::uint8_t{0}};
+  std::vector<std::uint8_t> bytes{
+      'K', '3', 'T', team::kWireVersion, 7, 2, compressed ? std::uint8_t{1} : std::uint8_t{0}};
   for (int i = 0; i < 8; ++i) bytes.push_back(static_cast<std::uint8_t>(i + 1));
   return bytes;
 }
