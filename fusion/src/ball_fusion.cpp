@@ -129,7 +129,8 @@ const FusionUpdate& BallFusion::addTeamMessage(const fw::TeamMessage& message) {
   };
   for (const fw::BallObservation& ball : message.kinect_balls) {
     frameAt(ball.stamp.source_time_s)
-        .team.push_back({message.robot_id, message.robot_name, ball, *message.pose, pose_error});
+        .team.push_back(
+            {message.robot_id, message.robot_name, ball, *message.pose, pose_error, message.clock_offset_sigma_s});
   }
   const double r = config_.motion.radius_m;
   for (const fw::BallRay& ray : message.omni_rays) {
@@ -141,6 +142,9 @@ const FusionUpdate& BallFusion::addTeamMessage(const fw::TeamMessage& message) {
     mate.name = message.robot_name;
     mate.omni = config_.omni;
     mate.pose_error = pose_error;
+    // Its camera's latency is not known here: its stamps are as uncertain as this robot's omni
+    // camera's before it learnt its own, and the two robots' clocks as their exchange's bound.
+    mate.timing_sigma_s = std::hypot(config_.omni.timing_sigma_s, message.clock_offset_sigma_s);
     mate.ball.bearing_rad = std::atan2(-ray.direction_F.x(), ray.direction_F.y());
     mate.ball.distance_m = drop_m / -ray.direction_F.z() * horizontal;
     mate.ball.bearing_sigma_rad = ray.bearing_sigma_rad;
@@ -254,7 +258,7 @@ std::vector<BallFusion::Candidate> BallFusion::candidatesOf(const Frame& frame, 
     Candidate c{Source::kTeammate,
                 std::make_unique<PositionMeasurement>(T_F_R.inverse() * mate.ball_F.position_m,
                                                       turn.transpose() * mate.ball_F.covariance_m2 * turn, mate.pose,
-                                                      mate.pose_error),
+                                                      mate.pose_error, mate.timing_sigma_s),
                 Eigen::Vector3d::Zero(), Eigen::Matrix3d::Identity()};
     c.p_F = c.measurement->value();
     c.covariance_F = c.measurement->noise(c.p_F);
@@ -265,10 +269,8 @@ std::vector<BallFusion::Candidate> BallFusion::candidatesOf(const Frame& frame, 
     candidates.push_back(std::move(c));
   }
   for (const TeammateRay& mate : frame.team_rays) {
-    // Its camera's latency is not known here: its stamps are as uncertain as this robot's omni
-    // camera's before it learnt its own.
     auto omni = std::make_unique<OmniMeasurement>(mate.ball, mate.viewpoint, mate.viewpoint, mate.omni, mate.pose_error,
-                                                  r, config_.omni.timing_sigma_s);
+                                                  r, mate.timing_sigma_s);
     Candidate c{Source::kTeammate, nullptr, omni->groundBall_F(), groundCovariance(*omni, mate.ball, mate.viewpoint)};
     c.measurement = std::move(omni);
     c.teammate = mate.robot_id;

@@ -16,7 +16,9 @@ constexpr double kPhantomDistanceFraction = 0.2;
 }  // namespace
 
 PositionMeasurement::PositionMeasurement(const Eigen::Vector3d& p_R, const Eigen::Matrix3d& covariance_R,
-                                         const fw::RobotPose& pose, const PoseConfig& pose_config) {
+                                         const fw::RobotPose& pose, const PoseConfig& pose_config,
+                                         double timing_sigma_s)
+    : MeasurementModel(timing_sigma_s) {
   const Eigen::Isometry3d T_F_R = pose.T_F_R();
   const Eigen::Matrix3d R_F_R = T_F_R.linear();
   const Eigen::Vector3d p_F = T_F_R * p_R;

@@ -151,6 +151,7 @@ class BallFusion {
     fw::BallObservation ball_F;
     fw::RobotPose pose;
     PoseConfig pose_error;
+    double timing_sigma_s = 0.0;  // the bound of the two robots' clock offset
   };
   // A teammate's omni ray, as an omni ball seen from the ray's origin, bearing in the field frame.
   struct TeammateRay {
@@ -160,6 +161,7 @@ class BallFusion {
     fw::RobotPose viewpoint;       // at the ray's origin, facing the field's +y
     OmniConfig omni;               // its viewpoint's height and its view's top
     PoseConfig pose_error;
+    double timing_sigma_s = 0.0;
   };
   struct Frame {
     Source source;

@@ -11,8 +11,9 @@ namespace fusion {
 // into the field frame, plus what the pose's own error does to a point that far from the robot.
 class PositionMeasurement : public MeasurementModel {
  public:
+  // timing_sigma_s: how far the measurement's time may be off (a teammate's clock offset's bound).
   PositionMeasurement(const Eigen::Vector3d& p_R, const Eigen::Matrix3d& covariance_R, const fw::RobotPose& pose,
-                      const PoseConfig& pose_config);
+                      const PoseConfig& pose_config, double timing_sigma_s = 0.0);
 
   Eigen::VectorXd predict(const Eigen::Vector3d& p_F) const override { return p_F; }
   const Eigen::VectorXd& value() const override { return z_; }
