@@ -288,6 +288,42 @@ TEST(ViewedLog, TheFusedBallIsHeldUntilTheFusionClearsIt) {
   EXPECT_EQ(files, std::vector<std::string>{"match.sqlite"});
 }
 
+TEST(ViewedLog, TeammatesAreDrawnInThisRobotsFrameWhereTheirMessagesPutThem) {
+  // From frame 5 this robot stands at (1, 2) in the field facing the field's -x; the keeper at (1, 4)
+  // facing +y sees a ball at (0, 4, 0.5) with its Kinect and one with its omni camera at (2, 4).
+  ScopedTempDir dir;
+  const std::string folder = smallLog(dir.path(), [](kinect3d::MatchLogWriter& writer, const fw::DepthImage& image) {
+    if (image.index < 5) return;
+    writer.write({image.stamp.receive_time_s, fw::RobotPose{1.0, 2.0, M_PI / 2, image.stamp}});
+    fw::TeamMessage message;
+    message.robot_id = 4;
+    message.robot_name = "keeper";
+    message.sent_time_s = image.stamp.source_time_s;
+    message.pose = fw::RobotPose{1.0, 4.0, 0.0, image.stamp};
+    fw::BallObservation ball;
+    ball.position_m = {0.0, 4.0, 0.5};
+    message.kinect_balls = {ball};
+    fw::BallRay ray;
+    ray.origin_F = {1.0, 4.0, 0.75};
+    ray.direction_F = (Eigen::Vector3d(2.0, 4.0, 0.11) - ray.origin_F).normalized();
+    message.omni_rays = {ray};
+    writer.write({image.stamp.receive_time_s, message});
+  });
+  ServedView view({folder});
+  EXPECT_TRUE(servedFrame(view, 3)["teammates"].empty()) << "before its first message";
+  const nlohmann::json teammates = servedFrame(view, 10)["teammates"];
+  ASSERT_EQ(teammates.size(), 1u) << teammates.dump();
+  const nlohmann::json& keeper = teammates[0];
+  EXPECT_EQ(keeper["name"], "keeper");
+  EXPECT_EQ(keeper["p_m"], nlohmann::json({2.0, 0.0, 0.0})) << "2 m to this robot's right";
+  EXPECT_NEAR(keeper["heading_rad"].get<double>(), -M_PI / 2, 1e-3);
+  EXPECT_EQ(keeper["kinect"], nlohmann::json({{2.0, 1.0, 0.5}}));
+  ASSERT_EQ(keeper["rays"].size(), 1u);
+  EXPECT_EQ(keeper["rays"][0][0], nlohmann::json({2.0, 0.0, 0.75}));
+  EXPECT_EQ(keeper["rays"][0][1], nlohmann::json({2.0, -1.0, 0.11}));
+  EXPECT_EQ(view.stop(), 0);
+}
+
 TEST(ViewedLog, EightSlowClientsDoNotStopANinthFromGettingThePage) {
   ScopedTempDir dir;
   ServedView view({smallLog(dir.path())});

@@ -23,6 +23,8 @@ using nlohmann::json;
 constexpr int kPointStride = 4;
 // A source's ball counts for a moment when it is at most this old (a frame at 30 Hz, and some).
 constexpr double kRecent_s = 0.05;
+// A teammate's message counts as now for this long: it sends 20 a second over Wi-Fi, which loses some.
+constexpr double kTeammateRecent_s = 0.3;
 // A flight is drawn this far past the fit at most.
 constexpr double kMaxAhead_s = 1.5;
 constexpr int kPathSamples = 40;
@@ -49,6 +51,7 @@ struct MatchView::Published {
   std::vector<std::pair<double, std::optional<fw::FusedBall>>> fused;
   std::vector<std::pair<double, std::optional<fw::BallTrajectory>>> trajectory;
   std::vector<std::pair<double, fw::RobotPose>> pose;
+  std::map<int, std::vector<std::pair<double, fw::TeamMessage>>> team;  // by teammate
 };
 
 // The run's timelines as the page draws them, grown with the log.
@@ -155,6 +158,9 @@ void MatchView::index() {
         if (lost->source == depth_source_) p.trajectory.emplace_back(wall_t, std::nullopt);
       } else if (const auto* pose = std::get_if<fw::RobotPose>(&entry.item)) {
         p.pose.emplace_back(pose->stamp.source_time_s, *pose);
+      } else if (const auto* message = std::get_if<fw::TeamMessage>(&entry.item)) {
+        // Its times are on this robot's fusion clock, the depth sensor's (plugins/team).
+        p.team[message->robot_id].emplace_back(message->sent_time_s, *message);
       } else if (const auto* health = std::get_if<fw::PluginHealth>(&entry.item)) {
         json& series = l.processing[health->plugin];
         if (series.is_null()) series = {{"t_s", json::array()}, {"p50_ms", json::array()}, {"p99_ms", json::array()}};
@@ -181,6 +187,7 @@ void MatchView::index() {
   std::stable_sort(p.fused.begin(), p.fused.end(), byTime);
   std::stable_sort(p.trajectory.begin(), p.trajectory.end(), byTime);
   std::stable_sort(p.pose.begin(), p.pose.end(), byTime);
+  for (auto& [robot_id, messages] : p.team) std::stable_sort(messages.begin(), messages.end(), byTime);
 
   json processing_series = json::array(), dropped_series = json::array();
   for (const auto& [plugin, series] : l.processing)
@@ -303,9 +310,33 @@ std::optional<json> MatchView::frame(std::size_t frame) {
                       {"published_ago_s", rounded(t - (*fused)->stamp.source_time_s)}};
   }
   scene["pose"] = nullptr;
-  if (const fw::RobotPose* pose = latestAt(p.pose, t, 0.5)) {
-    scene["pose"] = {{"x_m", pose->x_m}, {"y_m", pose->y_m}, {"theta_rad", pose->theta_rad}};
+  const fw::RobotPose* pose = latestAt(p.pose, t, 0.5);
+  if (pose != nullptr) scene["pose"] = {{"x_m", pose->x_m}, {"y_m", pose->y_m}, {"theta_rad", pose->theta_rad}};
+
+  // Each teammate as its newest message put it (field frame), drawn in this robot's frame: where it
+  // stands, its Kinect's balls and its omni camera's rays to where they meet the resting plane.
+  json teammates = json::array();
+  for (const auto& [robot_id, messages] : p.team) {
+    const fw::TeamMessage* message = latestAt(messages, t, kTeammateRecent_s);
+    if (pose == nullptr || message == nullptr || !message->pose) continue;
+    const Eigen::Isometry3d T_R_F = pose->T_F_R().inverse();
+    json balls = json::array(), rays = json::array();
+    for (const fw::BallObservation& ball : message->kinect_balls) balls.push_back(xyz(T_R_F * ball.position_m));
+    const double r = detector_config_.ball.radius_m;
+    for (const fw::BallRay& ray : message->omni_rays) {
+      if (ray.direction_F.z() >= 0.0 || ray.origin_F.z() <= r) continue;  // never meets the resting plane
+      const Eigen::Vector3d ground_F = ray.origin_F + (ray.origin_F.z() - r) / -ray.direction_F.z() * ray.direction_F;
+      rays.push_back({xyz(T_R_F * ray.origin_F), xyz(T_R_F * ground_F)});
+    }
+    const Eigen::Vector3d at_R = T_R_F * Eigen::Vector3d(message->pose->x_m, message->pose->y_m, 0.0);
+    teammates.push_back({{"robot_id", robot_id},
+                         {"name", message->robot_name},
+                         {"p_m", xyz(at_R)},
+                         {"heading_rad", rounded(fw::wrapAngle(message->pose->theta_rad - pose->theta_rad))},
+                         {"kinect", balls},
+                         {"rays", rays}});
   }
+  scene["teammates"] = teammates;
 
   // The flight as the robot predicted it then: from the fit on to the touchdown.
   scene["trajectory"] = nullptr;

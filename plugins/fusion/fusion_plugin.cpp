@@ -128,14 +128,14 @@ class FusionPlugin : public fw::Plugin {
     if (standing.discounted == said_discounted) return;
     said_discounted = standing.discounted;
     char text[320];
-    std::snprintf(text, sizeof text,
-                  standing.discounted
-                      ? "teammate %s (robot %d) puts the ball %.2f m from where this robot sees it (median of its last "
-                        "%d balls, %.1f sigma): its localisation is off; its observations are not used"
-                      : "teammate %s (robot %d) agrees again with this robot (median %.2f m of its last %d balls, "
-                        "%.1f sigma): its observations are used",
-                  standing.name.c_str(), robot_id, standing.median_gap_m, standing.examples,
-                  standing.median_mahalanobis);
+    std::snprintf(
+        text, sizeof text,
+        standing.discounted
+            ? "teammate %s (robot %d) puts the ball %.2f m from where this robot sees it (median of its last "
+              "%d observations, %.1f sigma): its localisation is off; its observations are not used"
+            : "teammate %s (robot %d) agrees again with this robot (median %.2f m of its last %d observations, "
+              "%.1f sigma): its observations are used",
+        standing.name.c_str(), robot_id, standing.median_gap_m, standing.examples, standing.median_mahalanobis);
     if (standing.discounted) {
       fw::logWarn(name_, text);
     } else {

@@ -148,8 +148,7 @@ class TeamNetwork {
       refuse(team::Refusal::kNoClock, message.robot_name, "the clock exchange has not completed");
       return;
     }
-    const fw::HostClockOf* fusion_clock =
-        kinect_clock_.known() ? &kinect_clock_ : (omni_clock_.known() ? &omni_clock_ : nullptr);
+    const fw::HostClockOf* fusion_clock = fusionClock();
     if (fusion_clock == nullptr) {
       refuse(team::Refusal::kNoClock, message.robot_name, "this robot's own sensors have not spoken yet");
       return;
@@ -173,7 +172,18 @@ class TeamNetwork {
     std::snprintf(text, sizeof text, "%s robot %d (%s): its clock is %+.3f s from ours (+-%.3f s), corrected",
                   again ? "the clock of" : "hearing", message.robot_id, message.robot_name.c_str(), offset_s, sigma_s);
     fw::logInfo(name_, text);
-    world_.publishEvent({name_, "teammate_clock", text, fw::Stamp::now()});
+    world_.publishEvent({name_, "teammate_clock", text, stampNow()});
+  }
+
+  // The clock this robot's fusion works on: its Kinect's, else its omni camera's; none before either spoke.
+  const fw::HostClockOf* fusionClock() const {
+    return kinect_clock_.known() ? &kinect_clock_ : (omni_clock_.known() ? &omni_clock_ : nullptr);
+  }
+  // Now, on the fusion's clock where there is one (so the log shows an event beside the balls).
+  fw::Stamp stampNow() const {
+    const double now_s = fw::wallClockNow_s();
+    const fw::HostClockOf* clock = fusionClock();
+    return {clock != nullptr ? clock->toSource(now_s) : now_s, now_s};
   }
 
   // Counted per reason; said once per reason and sender, and summed up every kRefusalReportEvery_s.
@@ -189,7 +199,7 @@ class TeamNetwork {
       return;
     }
     fw::logWarn(name_, message);
-    world_.publishEvent({name_, "team_refused", message, fw::Stamp::now()});
+    world_.publishEvent({name_, "team_refused", message, stampNow()});
   }
 
   void reportRefusals() {
