@@ -8,6 +8,7 @@
 #include <chrono>
 #include <fstream>
 #include <limits>
+#include <map>
 #include <string>
 #include <thread>
 #include <vector>
@@ -171,6 +172,13 @@ TEST(TeamPlugin, ARobotWithoutAKinectHoldsTheLobFromItsTeammatesAndOutsidersAreR
   EXPECT_TRUE(said(received, "teammate_clock", {"keeper", "s from ours (+-0.00"}));
   EXPECT_GT(defender.world().droppedFrames("team"), 0u) << "the stranger's packets, counted";
   EXPECT_FALSE(said(received, "teammate_discounted", {}));
+  // And the other way: the keeper heard the defender, which shares its world ball though it has no
+  // Kinect (on its omni camera's clock).
+  const std::map<int, fw::TeamMessage> heard = keeper.world().teamMessages();
+  ASSERT_EQ(heard.count(2), 1u);
+  EXPECT_EQ(heard.at(2).robot_name, "defender");
+  EXPECT_TRUE(heard.at(2).world_ball.has_value());
+  EXPECT_TRUE(heard.at(2).pose.has_value());
 
   // The defender's log replays to the same world balls: the teammates' messages are inputs of the
   // log, and the replay's team plugin hands them out in the order they came (and sends nothing).

@@ -290,12 +290,13 @@ class TeamNetwork {
     }
     message.kinect_balls.swap(kinect_balls_);
     message.omni_rays.swap(omni_rays_);
-    // The world ball and the touchdown are on the Kinect's clock (the fusion's reference).
+    // The world ball is on the fusion's clock (the Kinect's, else the omni camera's), the touchdown
+    // on the Kinect's.
+    if (std::optional<fw::FusedBall> ball = world_.fusedBall(); ball && fusionClock() != nullptr) {
+      ball->stamp.source_time_s = fusionClock()->toHost(ball->stamp.source_time_s);
+      message.world_ball = ball;
+    }
     if (kinect_clock_.known()) {
-      if (std::optional<fw::FusedBall> ball = world_.fusedBall()) {
-        ball->stamp.source_time_s = kinect_clock_.toHost(ball->stamp.source_time_s);
-        message.world_ball = ball;
-      }
       if (const std::optional<fw::BallTrajectory> flight = world_.trajectory(fusion_.kinect.source);
           flight && flight->touchdown) {
         const fw::RobotPose pose = poses_.at(flight->time_s);
