@@ -26,8 +26,8 @@ constexpr double kWorldSwitchAfter_s = 0.2;
 constexpr double kSourceRecent_s = 1.0;
 // At most this many tracks at once (the ball, shirts, posters); the oldest unconfirmed goes first.
 constexpr std::size_t kMaxTracks = 8;
-// A teammate is judged against the world's ball only while this robot's own sensors supported it this
-// recently: then it is this robot's view, not the teammate's own, that it is judged against.
+// A teammate is judged against a ball only while this robot's own sensors supported it this recently:
+// then it is this robot's view, not the teammate's own, that it is judged against.
 constexpr double kJudgeOwnSupportWithin_s = 0.1;
 // A discounted teammate is trusted again once its median falls below this share of the discount's.
 constexpr double kTrustAgainShare = 0.5;
@@ -299,36 +299,8 @@ void BallFusion::process(const Frame& frame) {
   // Gate every candidate against every track's branches at t, then pair them most likely first.
   std::vector<std::vector<Hypothesis>> branches;
   for (const Track& track : state.tracks) branches.push_back(track.filter.branchesAt(t));
-  // A teammate's balls are judged against this robot's own view first; a discounted teammate's are not used.
-  for (const TeammateBall& mate : frame.team) state.teammates[mate.robot_id].name = mate.name;
-  for (const TeammateRay& mate : frame.team_rays) state.teammates[mate.robot_id].name = mate.name;
-  // Each teammate by the one of its observations that best matches this robot's own ball: the
-  // confirmed track its own sensors support now (the world's ball when they do; it may rest on the
-  // teammate itself), and of the teammate's observations the closest (its others may be other
-  // objects: orange shirts, a second ball).
-  const auto ownSupport_s = [](const Track& track) { return std::max(track.last_kinect_s, track.last_omni_s); };
-  const Track* own = nullptr;
-  const std::vector<Hypothesis>* own_branches = nullptr;
-  for (std::size_t k = 0; k < state.tracks.size(); ++k) {
-    const Track& track = state.tracks[k];
-    if (!track.confirmed || t - ownSupport_s(track) > kJudgeOwnSupportWithin_s) continue;
-    const bool better =
-        !own || track.id == state.world_id || (own->id != state.world_id && ownSupport_s(track) > ownSupport_s(*own));
-    if (better) {
-      own = &track;
-      own_branches = &branches[k];
-    }
-  }
-  std::map<int, Judgement> closest;
-  for (const Candidate& candidate : candidates) {
-    if (own == nullptr || candidate.source != Source::kTeammate) continue;
-    const std::optional<Judgement> judged = judge(candidate, *own, *own_branches, t);
-    const auto found = closest.find(candidate.teammate);
-    if (judged && (found == closest.end() || judged->mahalanobis < found->second.mahalanobis)) {
-      closest[candidate.teammate] = *judged;
-    }
-  }
-  for (const auto& [teammate, judgement] : closest) recordJudgement(teammate, judgement);
+  // Teammates are judged against this robot's own view first; a discounted teammate's observations are not used.
+  judgeTeammates(frame, candidates, branches, t);
   std::vector<bool> discounted(candidates.size(), false);
   for (std::size_t c = 0; c < candidates.size(); ++c) {
     if (candidates[c].source == Source::kTeammate) discounted[c] = state.teammates[candidates[c].teammate].discounted;
@@ -417,6 +389,41 @@ void BallFusion::Track::supportedBy(Source source, int teammate, double t_s) {
       last_teammate_s[teammate] = t_s;
       break;
   }
+}
+
+void BallFusion::judgeTeammates(const Frame& frame, const std::vector<Candidate>& candidates,
+                                const std::vector<std::vector<Hypothesis>>& branches, double t_s) {
+  State& state = state_;
+  for (const TeammateBall& mate : frame.team) state.teammates[mate.robot_id].name = mate.name;
+  for (const TeammateRay& mate : frame.team_rays) state.teammates[mate.robot_id].name = mate.name;
+  // Each teammate by the one of its observations that best matches this robot's own ball: the
+  // confirmed track its own sensors support now (the world's ball when they do; it may rest on the
+  // teammate itself), and of the teammate's observations the closest (its others may be other
+  // objects: orange shirts, a second ball).
+  const auto ownSupport_s = [](const Track& track) { return std::max(track.last_kinect_s, track.last_omni_s); };
+  const Track* own = nullptr;
+  const std::vector<Hypothesis>* own_branches = nullptr;
+  for (std::size_t k = 0; k < state.tracks.size(); ++k) {
+    const Track& track = state.tracks[k];
+    if (!track.confirmed || t_s - ownSupport_s(track) > kJudgeOwnSupportWithin_s) continue;
+    const bool better =
+        !own || track.id == state.world_id || (own->id != state.world_id && ownSupport_s(track) > ownSupport_s(*own));
+    if (better) {
+      own = &track;
+      own_branches = &branches[k];
+    }
+  }
+  if (own == nullptr) return;
+  std::map<int, Judgement> closest;
+  for (const Candidate& candidate : candidates) {
+    if (candidate.source != Source::kTeammate) continue;
+    const std::optional<Judgement> judged = judge(candidate, *own, *own_branches, t_s);
+    const auto found = closest.find(candidate.teammate);
+    if (judged && (found == closest.end() || judged->mahalanobis < found->second.mahalanobis)) {
+      closest[candidate.teammate] = *judged;
+    }
+  }
+  for (const auto& [teammate, judgement] : closest) recordJudgement(teammate, judgement);
 }
 
 std::optional<BallFusion::Judgement> BallFusion::judge(const Candidate& candidate, const Track& world,
