@@ -1,7 +1,8 @@
 // The team plugin between hosts over loopback (one 127.0.0.N address per robot, never a multicast
 // group): a robot without a Kinect holds a lob from its teammate's messages, through a network that
 // loses, delays and duplicates them too; packets from outside the team are refused and said; a
-// mislocalised teammate is discounted; a robot file without its id or key is refused.
+// mislocalised teammate is discounted; three robots simulating one world hold a lob only one of them
+// sees; a robot file without its id or key is refused.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -9,6 +10,7 @@
 #include <fstream>
 #include <limits>
 #include <map>
+#include <memory>
 #include <string>
 #include <thread>
 #include <vector>
@@ -257,6 +259,71 @@ TEST(TeamPlugin, AKeeperAMetreOffIsDiscountedByTheDefenderAndNotUsed) {
   }
   EXPECT_GT(after, 20);
   EXPECT_EQ(with_keeper_after, 0);
+}
+
+TEST(TeamPlugin, ThreeRobotsInOneWorldHoldTheLobOnlyTheKeepersKinectSees) {
+  // Three hosts simulate one world (tests/data/scenes/team/: the demo's lob kicked over the defender;
+  // the keeper 6 m behind it facing the kick, with a Kinect; the striker 3 m to its right), its time
+  // 0 three seconds from now on every host. Neither the defender nor the striker has a Kinect. Each
+  // robot sends to the other two through a link that loses a fifth of the packets and delays each
+  // by up to 200 ms.
+  const ScopedTempDir dir;
+  const std::string team_key = writeKey(dir, "team.key", team::TeamKey::random());
+  constexpr int kPort = 50434;
+  const UdpImpairment network(
+      {{"127.0.0.71", "127.0.0.61"}, {"127.0.0.72", "127.0.0.62"}, {"127.0.0.73", "127.0.0.63"}}, kPort,
+      {0.2, 0.2, 0.0});
+  const std::string world = std::string(TEST_DATA_DIR) + "/scenes/team/";
+  const double world_start_s = fw::wallClockNow_s() + 3.0;
+  const auto robot = [&](const std::string& name, int id, const std::vector<int>& peers, const std::string& plugins,
+                         std::vector<std::string> more) {
+    const std::string scene = "sim:" + world + name + ".yaml";
+    more.insert(more.end(), {"kinect3d.source=" + scene, "omni.source=" + scene, "localisation.source=" + scene,
+                             "host.sim_world_start_wall_s=" + std::to_string(world_start_s),
+                             "logger.folder=" + (dir.path() / name).string()});
+    return std::make_unique<fw::Host>(robotConfig(name, id, 60 + id, peers, kPort, team_key, plugins, more),
+                                      PRODUCT_PLUGIN_DIR);
+  };
+  const auto keeper = robot("keeper", 1, {72, 73}, "[localisation, kinect3d, omni, fusion, team, logger]", {});
+  const auto defender = robot("defender", 2, {71, 73}, "[localisation, omni, fusion, team, logger]", {});
+  const auto striker = robot("striker", 3, {71, 72}, "[localisation, omni, fusion, team, logger]", {});
+  playTogether(*defender, {keeper.get(), striker.get()});
+  ASSERT_TRUE(keeper->sourcesFinished() && defender->sourcesFinished() && striker->sourcesFinished());
+
+  // The world's truth, the same in every robot's scene, on the shared clock.
+  const kinect3d::sim::Scene scene = kinect3d::sim::loadScene(world + "defender.yaml");
+  const kinect3d::sim::BallMotion truth(*scene.ball, scene.physics, scene.duration_s, scene.objects);
+  for (const char* other : {"keeper.yaml", "striker.yaml"}) {
+    const kinect3d::sim::Scene seen = kinect3d::sim::loadScene(world + other);
+    const kinect3d::sim::BallMotion same(*seen.ball, seen.physics, seen.duration_s, seen.objects);
+    for (double t = 0.0; t < scene.duration_s; t += 0.1) {
+      ASSERT_LT((same.positionAt(t) - truth.positionAt(t)).norm(), 0.01) << other << " at " << t << " s";
+    }
+  }
+  for (const char* name : {"keeper", "defender", "striker"}) {
+    std::vector<double> air_errors_m;
+    int in_air = 0;
+    for (const fw::JournalEntry& entry : kinect3d::MatchLogReader(onlySubfolder(dir.path() / name)).entries()) {
+      const auto* ball = std::get_if<fw::FusedBall>(&entry.item);
+      if (ball == nullptr) continue;
+      const Eigen::Vector3d true_F = truth.positionAt(ball->stamp.source_time_s - world_start_s);
+      if (true_F.z() < 0.5) continue;
+      ++in_air;
+      if (ball->state == fw::BallState::kAir &&
+          (std::string(name) == "keeper" ||
+           std::count(ball->sources.begin(), ball->sources.end(), "team:keeper") > 0)) {
+        air_errors_m.push_back((ball->position_F - true_F).norm());
+      }
+    }
+    ASSERT_GE(air_errors_m.size(), 15u) << name << ": " << in_air << " world balls while the lob was 0.5 m up";
+    // The target is 0.15 m. Here the keeper's own Kinect, 4-11 m from the flight, is 0.07-0.12 m
+    // median and its teammates 0.11-0.25 m over runs (docs/team.md): a guard against losing the lob,
+    // not the target.
+    EXPECT_LE(fw::quantile(air_errors_m, 0.5), 0.35) << name;
+    std::printf("%s: the lob in the air %s, %.3f m median, %.3f m p90 (%zu of %d world balls while it was 0.5 m up)\n",
+                name, std::string(name) == "keeper" ? "from its own Kinect" : "from the keeper's messages",
+                fw::quantile(air_errors_m, 0.5), fw::quantile(air_errors_m, 0.9), air_errors_m.size(), in_air);
+  }
 }
 
 TEST(TeamPlugin, ARobotFileWithoutItsIdOrKeyIsRefusedNamingTheKey) {

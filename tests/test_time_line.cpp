@@ -44,6 +44,17 @@ TEST(ReplayClock, ATimeThatJumpsEitherWayIsDueAtOnceAndThePaceGoesOnFromIt) {
   EXPECT_EQ(clock.waitFor(-1e6 + 0.9, 0.01), fw::ReplayClock::Pace::kNotYet);
 }
 
+TEST(ReplayClock, APinnedClockKeepsToTheWallClockWhateverComesFirst) {
+  // Scene time 0 is 5 s from now: waited for (not re-based on, as a free clock would), a slice at a
+  // time; what is past is due at once, and a far jump is not a new pace either.
+  const double start_s = fw::wallClockNow_s() + 5.0;
+  fw::ReplayClock clock(/*realtime=*/true, start_s);
+  EXPECT_EQ(clock.waitFor(0.0, 0.01), fw::ReplayClock::Pace::kNotYet);
+  EXPECT_EQ(clock.waitFor(-10.0), fw::ReplayClock::Pace::kDue);
+  EXPECT_EQ(clock.waitFor(-1e6), fw::ReplayClock::Pace::kDue);
+  EXPECT_EQ(clock.waitFor(0.0, 0.01), fw::ReplayClock::Pace::kNotYet) << "still pinned to the wall clock";
+}
+
 TEST(BallTrajectory, PropagatesAcrossAnyTimeWithoutAStepPerFrame) {
   fw::BallTrajectory flight;
   flight.state = fw::BallState::kAir;

@@ -15,7 +15,7 @@ ReplayClock::Pace ReplayClock::waitFor(double source_time_s, double max_wait_s) 
   const double now_s = wallClockNow_s();
   if (!offset_s_) offset_s_ = now_s - source_time_s;
   const double wait_s = source_time_s + *offset_s_ - now_s;
-  if (std::abs(wait_s) > kMaxStampJump_s) {
+  if (!pinned_ && std::abs(wait_s) > kMaxStampJump_s) {
     offset_s_ = now_s - source_time_s;
     return Pace::kRebased;
   }

@@ -29,6 +29,10 @@ constexpr std::size_t kMaxTracks = 8;
 // A teammate is judged against a ball only while this robot's own sensors supported it this recently:
 // then it is this robot's view, not the teammate's own, that it is judged against.
 constexpr double kJudgeOwnSupportWithin_s = 0.1;
+// A teammate's best observation this far from this robot's ball sees another object (or this robot
+// does: an orange shirt), not the same ball from a wrong place: a mislocalised robot (a metre, twenty
+// degrees at eight metres) is nearer. It is not judged by it.
+constexpr double kMaxMislocalisation_m = 3.0;
 // A discounted teammate is trusted again once its median falls below this share of the discount's.
 constexpr double kTrustAgainShare = 0.5;
 
@@ -439,8 +443,12 @@ std::optional<BallFusion::Judgement> BallFusion::judge(const Candidate& candidat
                         [](const Hypothesis& a, const Hypothesis& b) { return a.weight < b.weight; });
   const Eigen::Vector3d world_F = best.x.head<3>();
   if (!candidate.ray_origin_F) {
-    return Judgement{BallFilter::fit(world_branches, *candidate.measurement).mahalanobis,
-                     (candidate.p_F - world_F).norm()};
+    // A Kinect ball on the floor plane only: a robot's localisation errs there, while a Kinect far
+    // away puts a ball on the floor a little high.
+    const Eigen::Vector2d gap = (candidate.p_F - world_F).head<2>();
+    if (gap.norm() > kMaxMislocalisation_m) return std::nullopt;
+    const Eigen::Matrix2d S = best.P.topLeftCorner<2, 2>() + candidate.covariance_F.topLeftCorner<2, 2>();
+    return Judgement{std::sqrt(gap.dot(S.ldlt().solve(gap))), gap.norm()};
   }
   // An omni ray by its bearing alone: a ball in the air lies on the bearing of its phantom.
   const Eigen::Vector2d ray = (candidate.p_F - *candidate.ray_origin_F).head<2>();
@@ -450,7 +458,9 @@ std::optional<BallFusion::Judgement> BallFusion::judge(const Candidate& candidat
   const Eigen::Vector2d across(-to_world.y() / d, to_world.x() / d);
   const double variance =
       candidate.measurement->noise(candidate.p_F)(0, 0) + across.dot(best.P.topLeftCorner<2, 2>() * across) / (d * d);
-  return Judgement{std::abs(residual) / std::sqrt(variance), d * std::abs(std::sin(residual))};
+  const double gap_m = d * std::abs(std::sin(residual));
+  if (gap_m > kMaxMislocalisation_m) return std::nullopt;
+  return Judgement{std::abs(residual) / std::sqrt(variance), gap_m};
 }
 
 void BallFusion::recordJudgement(int teammate, const Judgement& judgement) {

@@ -1,5 +1,6 @@
-// What the omni and localisation plugins share: a source that is "sim:<scene>", "file:<path>" or
-// "log:<folder>" (a match log), and a list of stamped items played at their own pace.
+// What the source plugins share: a source that is "sim:<scene>", "file:<path>" or "log:<folder>" (a
+// match log), a list of stamped items played at their own pace, and the simulated world several
+// hosts may share.
 #pragma once
 
 #include <cmath>
@@ -11,6 +12,7 @@
 
 #include "framework_api/config.h"
 #include "framework_api/log.h"
+#include "framework_api/plugin.h"
 #include "framework_api/replay_clock.h"
 #include "kinect3d/match_log.h"
 
@@ -40,6 +42,20 @@ std::vector<Item> load(const fw::ConfigView& block,
   }
 }
 
+// host.sim_world_start_wall_s: when several hosts simulate one world, its time 0 (0: they do not).
+inline double simWorldStart(const fw::PluginContext& context) {
+  return context.robot_config->block("host").getDouble("sim_world_start_wall_s", 0.0, 1e10);
+}
+
+// The pace of `<block>.source` (its realtime key): a simulated scene in a world shared by several
+// hosts (host.sim_world_start_wall_s, its items stamped on the wall clock) keeps to the wall clock,
+// anything else to its first item.
+inline fw::ReplayClock clockFor(const fw::ConfigView& block, double sim_world_start_wall_s) {
+  const bool realtime = block.getBool("realtime");
+  const bool shared_world = sim_world_start_wall_s > 0.0 && block.getString("source").rfind("sim:", 0) == 0;
+  return shared_world ? fw::ReplayClock(realtime, 0.0) : fw::ReplayClock(realtime);
+}
+
 // Hands out items in order, each once its source time is due on the replay clock (the one pacing
 // rule: a jump in the recorded time re-bases the pace, with a warning naming the item). An item
 // whose time is not finite is skipped with a warning; one whose time goes back or jumps is handed
@@ -47,8 +63,8 @@ std::vector<Item> load(const fw::ConfigView& block,
 template <typename Item>
 class Player {
  public:
-  Player(std::string name, std::vector<Item> items, bool realtime, std::function<double(const Item&)> time_of)
-      : name_(std::move(name)), items_(std::move(items)), clock_(realtime), time_of_(std::move(time_of)) {}
+  Player(std::string name, std::vector<Item> items, fw::ReplayClock clock, std::function<double(const Item&)> time_of)
+      : name_(std::move(name)), items_(std::move(items)), clock_(clock), time_of_(std::move(time_of)) {}
 
   bool finished() const { return next_ >= items_.size(); }
   std::size_t size() const { return items_.size(); }

@@ -20,6 +20,7 @@
 #include "kinect3d/sensor_calibration.h"
 #include "kinect3d/sim/sim_sources.h"
 #include "kinect3d/trajectory.h"
+#include "replay.h"
 
 namespace {
 
@@ -34,6 +35,7 @@ class Kinect3dPlugin : public fw::Plugin {
     options.realtime = context.config.getBool("realtime");
     options.wait_for_device = true;  // a Kinect still enumerating at boot is waited for, not fatal
     options.colour = context.config.getBool("colour");
+    options.sim_world_start_wall_s = replay::simWorldStart(context);
     const std::string uri = context.config.getString("source");
     try {
       kinect3d::DepthSourceTable sources = kinect3d::sim::sourcesWithSimulator();

@@ -11,7 +11,7 @@
 
 namespace {
 
-std::vector<fw::RobotPose> simulate(const fw::ConfigView& sim, const std::string& scene) {
+std::vector<fw::RobotPose> simulate(const fw::ConfigView& sim, const std::string& scene, double world_start_wall_s) {
   kinect3d::sim::LocalisationModel model;
   model.rate_hz = sim.getDouble("rate_hz", 1.0, 1000.0);
   model.sigma_xy_m = sim.getDouble("sigma_xy_m", 0.0, 5.0);
@@ -19,7 +19,8 @@ std::vector<fw::RobotPose> simulate(const fw::ConfigView& sim, const std::string
   model.bias_xy_m = {sim.getDouble("bias_x_m", -20.0, 20.0), sim.getDouble("bias_y_m", -20.0, 20.0)};
   model.bias_theta_rad = fw::degreesToRadians(sim.getDouble("bias_theta_deg", -180.0, 180.0));
   model.seed = static_cast<std::uint64_t>(sim.getInt("seed", 0, 2147483647));
-  const kinect3d::sim::LocalisationSimulator localisation(kinect3d::sim::loadScene(scene), model);
+  const kinect3d::sim::LocalisationSimulator localisation(
+      kinect3d::sim::inSharedWorld(kinect3d::sim::loadScene(scene), world_start_wall_s), model);
   std::vector<fw::RobotPose> poses;
   for (int i = 0; i < localisation.frameCount(); ++i) poses.push_back(localisation.pose(i));
   return poses;
@@ -30,12 +31,15 @@ class LocalisationPlugin : public fw::Plugin {
   explicit LocalisationPlugin(const fw::PluginContext& context)
       : world_(*context.world),
         name_(context.config.path()),
-        player_(
-            name_,
-            replay::load<fw::RobotPose>(
-                context.config, [&](const std::string& scene) { return simulate(context.config.child("sim"), scene); },
-                fusion::readPoseFile),
-            context.config.getBool("realtime"), [](const fw::RobotPose& pose) { return pose.stamp.source_time_s; }) {
+        player_(name_,
+                replay::load<fw::RobotPose>(
+                    context.config,
+                    [&](const std::string& scene) {
+                      return simulate(context.config.child("sim"), scene, replay::simWorldStart(context));
+                    },
+                    fusion::readPoseFile),
+                replay::clockFor(context.config, replay::simWorldStart(context)),
+                [](const fw::RobotPose& pose) { return pose.stamp.source_time_s; }) {
     fw::logInfo(context.config.path(),
                 "playing " + std::to_string(player_.size()) + " poses from " + context.config.getString("source"));
   }

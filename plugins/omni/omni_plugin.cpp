@@ -12,7 +12,7 @@
 
 namespace {
 
-std::vector<fw::OmniFrame> simulate(const fw::ConfigView& sim, const std::string& scene) {
+std::vector<fw::OmniFrame> simulate(const fw::ConfigView& sim, const std::string& scene, double world_start_wall_s) {
   kinect3d::sim::OmniCameraModel model;
   model.stamp_late_s = sim.getDouble("stamp_late_s", 0.0, 1.0);
   model.viewpoint_height_m = sim.getDouble("viewpoint_height_m", 0.2, 3.0);
@@ -20,7 +20,8 @@ std::vector<fw::OmniFrame> simulate(const fw::ConfigView& sim, const std::string
   model.miss_probability = sim.getDouble("miss_probability", 0.0, 1.0);
   model.false_rate_hz = sim.getDouble("false_rate_hz", 0.0, 100.0);
   model.seed = static_cast<std::uint64_t>(sim.getInt("seed", 0, 2147483647));
-  const kinect3d::sim::OmniCameraSimulator camera(kinect3d::sim::loadScene(scene), model);
+  const kinect3d::sim::OmniCameraSimulator camera(
+      kinect3d::sim::inSharedWorld(kinect3d::sim::loadScene(scene), world_start_wall_s), model);
   std::vector<fw::OmniFrame> frames;
   for (int i = 0; i < camera.frameCount(); ++i) frames.push_back(camera.frame(i));
   return frames;
@@ -31,12 +32,15 @@ class OmniPlugin : public fw::Plugin {
   explicit OmniPlugin(const fw::PluginContext& context)
       : world_(*context.world),
         name_(context.config.path()),
-        player_(
-            name_,
-            replay::load<fw::OmniFrame>(
-                context.config, [&](const std::string& scene) { return simulate(context.config.child("sim"), scene); },
-                [&](const std::string& path) { return fusion::readOmniFile(path, name_); }),
-            context.config.getBool("realtime"), [](const fw::OmniFrame& frame) { return frame.stamp.source_time_s; }) {
+        player_(name_,
+                replay::load<fw::OmniFrame>(
+                    context.config,
+                    [&](const std::string& scene) {
+                      return simulate(context.config.child("sim"), scene, replay::simWorldStart(context));
+                    },
+                    [&](const std::string& path) { return fusion::readOmniFile(path, name_); }),
+                replay::clockFor(context.config, replay::simWorldStart(context)),
+                [](const fw::OmniFrame& frame) { return frame.stamp.source_time_s; }) {
     fw::logInfo(
         name_, "playing " + std::to_string(player_.size()) + " omni images from " + context.config.getString("source"));
   }

@@ -19,6 +19,12 @@ class ReplayClock {
   };
 
   explicit ReplayClock(bool realtime) : realtime_(realtime) {}
+  // A clock pinned to the wall clock: a source time is due when the wall clock reaches it plus
+  // wall_minus_source_s, however late the first one is read, and the pace never re-bases (several
+  // hosts simulating one world each read it on the same wall-clock schedule; what comes too late is
+  // due at once).
+  ReplayClock(bool realtime, double wall_minus_source_s)
+      : realtime_(realtime), offset_s_(wall_minus_source_s), pinned_(true) {}
 
   // Waits at most max_wait_s for source_time_s to come due. A time that is not finite is due at
   // once and leaves the pace as it was (the caller reports and skips such an item).
@@ -27,6 +33,7 @@ class ReplayClock {
  private:
   bool realtime_;
   std::optional<double> offset_s_;  // wall time minus source time at the anchor
+  bool pinned_ = false;
 };
 
 }  // namespace fw

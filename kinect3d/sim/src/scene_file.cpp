@@ -365,6 +365,11 @@ Scene loadScene(const std::string& name_or_path) {
   }
 }
 
+Scene inSharedWorld(Scene scene, double world_start_wall_s) {
+  if (world_start_wall_s > 0.0) scene.start_time_s = world_start_wall_s;
+  return scene;
+}
+
 std::vector<std::string> builtinSceneNames() {
   std::vector<std::string> names;
   for (const auto& entry : builtinScenes()) names.push_back(entry.first);

@@ -9,8 +9,10 @@ namespace {
 // sim:<scene>: frame by frame, as the simulator renders them.
 class Simulation : public DepthSource {
  public:
-  Simulation(Scene scene, const SourceOptions& options) : DepthSource(options), simulator_(std::move(scene)) {
+  Simulation(Scene scene, const SourceOptions& options)
+      : DepthSource(options), simulator_(inSharedWorld(std::move(scene), options.sim_world_start_wall_s)) {
     simulator_.setColour(options.colour);
+    if (options.sim_world_start_wall_s > 0.0) pinPacing(0.0);  // its frames are stamped on the wall clock
   }
 
   std::uint64_t frameCount() const override { return simulator_.frameCount(); }

@@ -51,6 +51,10 @@ struct SourceOptions {
   // Deliver each depth frame's colour image where the source has one (a live device then opens its
   // colour stream too).
   bool colour = false;
+  // The simulator: robots simulated side by side on one machine share one world, its time 0 at this
+  // wall-clock time (seconds since the epoch; host.sim_world_start_wall_s); 0: each source starts
+  // its scene when it first reads it.
+  double sim_world_start_wall_s = 0.0;
 };
 
 struct SourceCounters {
@@ -88,6 +92,9 @@ class DepthSource {
   void reportSkipped(const std::string& what);
   // A live source that reopened its device: its frame counter starts again.
   void reportReconnected();
+  // Real-time pacing pinned to the wall clock (fw::ReplayClock): a frame is due when the wall clock
+  // reaches its source time plus wall_minus_source_s.
+  void pinPacing(double wall_minus_source_s) { pacing_ = fw::ReplayClock(options_.realtime, wall_minus_source_s); }
 
  private:
   virtual ReadResult readFrame(DepthFrame& frame) = 0;

@@ -153,6 +153,9 @@ struct Scene {
 // Loads a built-in scene by name, or a scene file by path (anything ending in .yaml).
 // Throws std::runtime_error naming the file, line and key on any problem.
 Scene loadScene(const std::string& name_or_path);
+// The scene in a world that several hosts simulate side by side (host.sim_world_start_wall_s): its
+// time 0 at that wall-clock time, so every robot's sensors stamp it on the same clock; 0: as it is.
+Scene inSharedWorld(Scene scene, double world_start_wall_s);
 std::vector<std::string> builtinSceneNames();
 
 }  // namespace kinect3d::sim
