@@ -219,6 +219,25 @@ TEST(FusionFilter, ABallAboveTheOmniViewNeitherExplainsNorIsMovedByAnOmniBall) {
   EXPECT_EQ(filter.airProbability(), 0.0) << "the omni ball is credited to the ball it can see";
 }
 
+TEST(FusionFilter, ABranchWithoutWeightThatExplainsAMeasurementBestLeavesTheBallANumber) {
+  // Found by fuzz_stamps: the only branch with weight lies far from the measurement, one without any
+  // lies on it. Its likelihood relative to the weighted branch is e^1000: a weight of 0 times that is
+  // not a number, and every state merged with it neither.
+  const fw::RobotPose pose = poseAt(0.0, 0.0, 0.0, kT0);
+  const fusion::FusionConfig config = testConfig();
+  const fusion::Hypothesis far = hypothesis(fw::BallState::kGround, state(8.0, 3.0, kRadius), 1e-4, 1.0);
+  const fusion::Hypothesis near = hypothesis(fw::BallState::kGround, state(0.0, 3.0, kRadius), 1e-4, 0.0);
+  const fusion::PositionMeasurement seen(Eigen::Vector3d(0.0, 3.0, kRadius), 1e-4 * Eigen::Matrix3d::Identity(), pose,
+                                         config.pose);
+  fusion::BallFilter filter(config.motion, kT0, {far, near});
+  filter.update({far, near}, kT0, seen);
+  for (const fusion::Hypothesis& h : filter.hypotheses()) {
+    EXPECT_TRUE(std::isfinite(h.weight));
+    EXPECT_TRUE(h.x.allFinite());
+  }
+  EXPECT_TRUE(filter.best().x.allFinite());
+}
+
 TEST(FusionFilter, AnOmniPhantomMovesAFlyingBallAlongItsRayNotPastTheMirrorsView) {
   const fw::RobotPose pose = poseAt(0.0, 0.0, 0.0, kT0);
   const fusion::FusionConfig config = testConfig();

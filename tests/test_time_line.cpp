@@ -31,6 +31,8 @@ TEST(TimeLine, ClassifiesEveryKindOfStamp) {
   EXPECT_EQ(line.next(1e9 + 100.033), Step::kOnward) << "the new time line goes on from the jump";
   EXPECT_EQ(line.next(5.0), Step::kJump) << "backwards by more than the limit";
   EXPECT_EQ(line.next(5.5), Step::kOnward);
+  EXPECT_EQ(line.next(5.5 + 1e-9), Step::kLate) << "the same moment: no sensor sends frames a nanosecond apart";
+  EXPECT_EQ(line.next(5.5 + 2 * fw::kMinStampStep_s), Step::kOnward);
 }
 
 TEST(ReplayClock, ATimeThatJumpsEitherWayIsDueAtOnceAndThePaceGoesOnFromIt) {

@@ -281,7 +281,14 @@ void BallFilter::update(std::vector<Hypothesis> branches, double t_s, const Meas
     log_likelihood[i] = -0.5 * (in.y.dot(S.solve(in.y)) + log_det + in.y.size() * std::log(2.0 * M_PI));
     if (h.weight > 0.0) best_log = std::max(best_log, log_likelihood[i]);
   }
-  for (std::size_t i = 0; i < branches.size(); ++i) branches[i].weight *= std::exp(log_likelihood[i] - best_log);
+  // Relative to the likeliest branch that has weight (a branch without any keeps none: its likelihood
+  // may be far above, and 0 times a huge factor is not a number). No branch could have made it (the
+  // sensor sees none of them): the measurement says nothing of which is right, and the weights stay.
+  if (std::isfinite(best_log)) {
+    for (std::size_t i = 0; i < branches.size(); ++i) {
+      if (branches[i].weight > 0.0) branches[i].weight *= std::exp(log_likelihood[i] - best_log);
+    }
+  }
   mergePerMode(branches);
   time_s_ = std::max(time_s_, t_s);
 }

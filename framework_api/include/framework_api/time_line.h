@@ -23,13 +23,17 @@ inline std::string stampText(double t_s) {
 // A jump in a recording's or a sensor's clock of more than this is a new time line for a source,
 // and for its pacing: a second is 30 frames, far more than a stall or a late frame.
 constexpr double kMaxStampJump_s = 1.0;
+// Stamps closer than this are the same moment (no sensor sends ten thousand frames a second): one
+// that advances by less than this repeats the newest. A fit over frames 1e-31 s apart divides by
+// nearly nothing.
+constexpr double kMinStampStep_s = 1e-4;
 
 class TimeLine {
  public:
   enum class Step {
     kFirst,      // the first stamp (or the first after restart())
     kOnward,     // later than the newest, by at most max_jump_s
-    kLate,       // the newest again, or earlier by at most max_jump_s
+    kLate,       // the newest again (within kMinStampStep_s), or earlier by at most max_jump_s
     kJump,       // more than max_jump_s from the newest, either way: a new time line from here
     kNotFinite,  // NaN or infinite: never used
   };
@@ -49,7 +53,7 @@ class TimeLine {
       newest_s_ = t_s;
       return Step::kJump;
     }
-    if (step_s <= 0.0) return Step::kLate;
+    if (step_s < kMinStampStep_s) return Step::kLate;
     newest_s_ = t_s;
     return Step::kOnward;
   }
