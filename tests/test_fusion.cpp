@@ -101,33 +101,46 @@ fusion::FusionConfig testConfig() {
 struct FedRun {
   std::vector<fusion::FusionUpdate> updates;
   std::vector<Eigen::Vector3d> truth;  // at each update's time
-  std::vector<bool> from_teammate;     // feedWithTeammate: which updates a teammate's message made
+  std::vector<bool> from_teammate;     // which updates a teammate's message made (feedWithTeammate)
 };
+
+// Whether a sensor sees the ball at p at time t.
+using Sees = std::function<bool(double, const Eigen::Vector3d&)>;
+
+// One 30 Hz step at t of this robot's own sensors watching `truth` from `pose(t)`: a Kinect frame (the
+// ball while kinect_sees) and, with_omni, an omni image half a frame later (the ball while it is in
+// the camera's view and omni_sees), stamped omni_stamp_late_s late.
+void feedOwnStep(fusion::BallFusion& fusion, const Truth& truth, double t,
+                 const std::function<fw::RobotPose(double)>& pose, const Sees& kinect_sees, const Sees& omni_sees,
+                 bool with_omni, double omni_stamp_late_s, std::mt19937& random, FedRun& run) {
+  fusion.addPose(pose(t));
+  const Eigen::Vector3d p = truth(t);
+  std::vector<fw::BallObservation> kinect;
+  if (kinect_sees(t, p)) kinect.push_back(kinectView(p, pose(t), random));
+  run.updates.push_back(fusion.addKinectFrame(t, kinect));
+  run.truth.push_back(p);
+  run.from_teammate.push_back(false);
+  if (!with_omni) return;
+  const double t_omni = t + 0.5 / 30.0;
+  const Eigen::Vector3d q = truth(t_omni);
+  std::vector<fw::OmniBallObservation> omni;
+  if (q.z() < 0.6 && omni_sees(t_omni, q)) omni.push_back(omniView(q, pose(t_omni), 0.75));
+  fusion.addPose(pose(t_omni));
+  run.updates.push_back(fusion.addOmniFrame(t_omni + omni_stamp_late_s, omni));
+  run.truth.push_back(q);
+  run.from_teammate.push_back(false);
+}
 
 // Feeds a Kinect at 30 Hz and an omni camera at 30 Hz (half a frame later) watching `truth` from
 // a robot at `pose(t)`, in time order. The Kinect only sees the ball while kinect_sees(t, p).
 FedRun feed(fusion::BallFusion& fusion, const Truth& truth, double duration_s,
-            const std::function<fw::RobotPose(double)>& pose,
-            const std::function<bool(double, const Eigen::Vector3d&)>& kinect_sees, bool with_omni = true,
+            const std::function<fw::RobotPose(double)>& pose, const Sees& kinect_sees, bool with_omni = true,
             double omni_stamp_late_s = 0.0) {
   std::mt19937 random(7);
   FedRun run;
+  const Sees omni_sees = [](double, const Eigen::Vector3d&) { return true; };
   for (int i = 0; i * (1.0 / 30) < duration_s; ++i) {
-    const double t = kT0 + i / 30.0;
-    fusion.addPose(pose(t));
-    const Eigen::Vector3d p = truth(t);
-    std::vector<fw::BallObservation> kinect;
-    if (kinect_sees(t, p)) kinect.push_back(kinectView(p, pose(t), random));
-    run.updates.push_back(fusion.addKinectFrame(t, kinect));
-    run.truth.push_back(p);
-    if (!with_omni) continue;
-    const double t_omni = t + 0.5 / 30.0;
-    const Eigen::Vector3d q = truth(t_omni);
-    std::vector<fw::OmniBallObservation> omni;
-    if (q.z() < 0.6) omni.push_back(omniView(q, pose(t_omni), 0.75));
-    fusion.addPose(pose(t_omni));
-    run.updates.push_back(fusion.addOmniFrame(t_omni + omni_stamp_late_s, omni));
-    run.truth.push_back(q);
+    feedOwnStep(fusion, truth, kT0 + i / 30.0, pose, kinect_sees, omni_sees, with_omni, omni_stamp_late_s, random, run);
   }
   return run;
 }
@@ -633,10 +646,9 @@ fw::TeamMessage teammateMessage(const fw::RobotPose& true_pose, const fw::RobotP
 // while omni_sees (and the ball is in its view); a teammate's Kinect sees it all the time from true_pose and sends what
 // it saw every 50 ms, each message 80-130 ms late and a fifth of them lost (none sent without a believed_pose).
 // Everything reaches the fusion in arrival order.
-FedRun feedWithTeammate(fusion::BallFusion& fusion, const Truth& truth, double duration_s,
-                        const std::function<bool(double, const Eigen::Vector3d&)>& kinect_sees,
-                        const std::function<bool(double, const Eigen::Vector3d&)>& omni_sees,
-                        const fw::RobotPose& true_pose, const std::optional<fw::RobotPose>& believed_pose) {
+FedRun feedWithTeammate(fusion::BallFusion& fusion, const Truth& truth, double duration_s, const Sees& kinect_sees,
+                        const Sees& omni_sees, const fw::RobotPose& true_pose,
+                        const std::optional<fw::RobotPose>& believed_pose) {
   std::mt19937 random(11);
   std::uniform_real_distribution<double> unit(0.0, 1.0);
   FedRun run;
@@ -664,21 +676,7 @@ FedRun feedWithTeammate(fusion::BallFusion& fusion, const Truth& truth, double d
       }
       unsent.clear();
     }
-    fusion.addPose(standingAtOrigin(t));
-    const Eigen::Vector3d p = truth(t);
-    std::vector<fw::BallObservation> kinect;
-    if (kinect_sees(t, p)) kinect.push_back(kinectView(p, standingAtOrigin(t), random));
-    run.updates.push_back(fusion.addKinectFrame(t, kinect));
-    run.truth.push_back(p);
-    run.from_teammate.push_back(false);
-    const double t_omni = t + 0.5 / 30.0;
-    const Eigen::Vector3d q = truth(t_omni);
-    std::vector<fw::OmniBallObservation> omni;
-    if (q.z() < 0.6 && omni_sees(t_omni, q)) omni.push_back(omniView(q, standingAtOrigin(t_omni), 0.75));
-    fusion.addPose(standingAtOrigin(t_omni));
-    run.updates.push_back(fusion.addOmniFrame(t_omni, omni));
-    run.truth.push_back(q);
-    run.from_teammate.push_back(false);
+    feedOwnStep(fusion, truth, t, standingAtOrigin, kinect_sees, omni_sees, true, 0.0, random, run);
   }
   return run;
 }

@@ -153,9 +153,8 @@ class TeamNetwork {
       refuse(team::Refusal::kNoClock, message.robot_name, "this robot's own sensors have not spoken yet");
       return;
     }
-    if (!mate.announced || std::abs(*offset_s - mate.announced_offset_s) > kOffsetChangeWorthSaying_s) {
-      announce(message, *offset_s, mate.clock.sigma_s(), mate.announced);
-      mate.announced = true;
+    if (!mate.announced_offset_s || std::abs(*offset_s - *mate.announced_offset_s) > kOffsetChangeWorthSaying_s) {
+      announce(message, *offset_s, mate.clock.sigma_s(), mate.announced_offset_s.has_value());
       mate.announced_offset_s = *offset_s;
     }
     const double shift_s = *offset_s + fusion_clock->hostMinusSource_s();
@@ -321,10 +320,9 @@ class TeamNetwork {
 
   struct Teammate {
     team::TeammateClock clock;
-    double last_sent_s = 0.0;        // its newest message's send time (its clock)
-    double last_received_s = -1e18;  // and when it came (ours)
-    bool announced = false;
-    double announced_offset_s = 0.0;
+    double last_sent_s = 0.0;                  // its newest message's send time (its clock)
+    double last_received_s = -1e18;            // and when it came (ours)
+    std::optional<double> announced_offset_s;  // the offset last said in the log
   };
 
   fw::WorldState& world_;
