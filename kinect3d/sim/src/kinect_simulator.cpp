@@ -291,7 +291,7 @@ struct KinectSimulator::Renderer {
       double eighths = 8.0 * d;
       if (noise.axial_noise) {
         const double z = fb / d;
-        double sigma = DepthNoiseModel::axialSigma_m(z) * 8.0 * fb / (z * z);
+        double sigma = noise.axial_noise_scale * DepthNoiseModel::axialSigma_m(z) * 8.0 * fb / (z * z);
         // Nguyen's sigma was measured on quantised data; rounding adds 1/12 units^2 of its own.
         if (noise.quantisation) sigma = std::sqrt(std::max(sigma * sigma - 1.0 / 12.0, 0.01));
         eighths += sigma * random.normal();

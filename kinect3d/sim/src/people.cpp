@@ -250,6 +250,8 @@ Scene crowdScene(int seed, CrowdBall ball) {
     }
     scene.objects.push_back(object);
   }
+  // Drawn last, so that everything above stays as it was before units differed.
+  scene.noise.axial_noise_scale = uniform(0.8, 1.5);  // a unit quieter or noisier than the average
   return scene;
 }
 

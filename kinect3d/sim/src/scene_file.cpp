@@ -170,13 +170,14 @@ SceneObject readObject(const fw::ConfigView& object) {
 }
 
 KinectNoise readNoise(const fw::ConfigView& view) {
-  view.requireOnlyKeys({"baseline_m", "quantisation", "axial_noise", "lateral_noise_px", "shadows", "edge_dropout",
-                        "flying_pixels", "exposure_s", "trail_dropout", "random_dropout", "interference", "min_range_m",
-                        "max_range_m", "seed"});
+  view.requireOnlyKeys({"baseline_m", "quantisation", "axial_noise", "axial_noise_scale", "lateral_noise_px", "shadows",
+                        "edge_dropout", "flying_pixels", "exposure_s", "trail_dropout", "random_dropout",
+                        "interference", "min_range_m", "max_range_m", "seed"});
   KinectNoise n;
   readOptional(view, "baseline_m", n.baseline_m, 0.01, 0.5);
   readOptional(view, "quantisation", n.quantisation);
   readOptional(view, "axial_noise", n.axial_noise);
+  readOptional(view, "axial_noise_scale", n.axial_noise_scale, 0.25, 4.0);
   readOptional(view, "lateral_noise_px", n.lateral_noise_px, 0.0, 5.0);
   readOptional(view, "shadows", n.shadows);
   readOptional(view, "edge_dropout", n.edge_dropout, 0.0, 1.0);
