@@ -67,8 +67,8 @@ class BallRefiner {
                                                    const SensorCoverage& coverage,
                                                    const Eigen::Isometry3d& T_R_S) const;
   // Whether the points recede from the centre across the view like a sphere of the ball's radius
-  // (not a flat panel, not a thinner limb).
-  bool curvedLikeABall(const Eigen::Vector3d& center_R, const Eigen::Isometry3d& T_R_S) const;
+  // (not a flat panel, not a thinner limb), as one smooth surface (not an arm before a body).
+  bool surfacedLikeABall(const Eigen::Vector3d& center_R, const Eigen::Isometry3d& T_R_S) const;
   // The centre's covariance, mostly along the viewing ray.
   Eigen::Matrix3d covariance(const Eigen::Vector3d& ray, double range, int points) const;
 
