@@ -124,8 +124,11 @@ void kicks(const fw::Config& config, const ReportOptions& options, std::ostream&
   md << "## Kicks and shots with robots, people, goal and wall in view\n\n"
      << "Each scene run with " << options.seeds << " noise seeds. A frame counts when the ball is "
      << format("%.1f", criteria.min_range_m) << "-" << format("%.0f m", criteria.max_range_m)
-     << " from the sensor, shows at least " << format("%.0f %%", criteria.min_visible_fraction * 100)
-     << " of a whole ball's pixels and is at least " << format("%.1f m", criteria.min_clearance_m)
+     << " from the sensor, its centre at least " << format("%.2f", criteria.min_centre_inside_r)
+     << " radii inside the image (the detector reports a ball cut by the border while more than half of it is "
+        "in view), shows at least "
+     << format("%.0f %%", criteria.min_visible_fraction * 100) << " of a whole ball's pixels and is at least "
+     << format("%.1f m", criteria.min_clearance_m)
      << " from every other structure; it is found when a reported ball lies within "
      << format("%.1f m", criteria.match_m)
      << " of the truth. Targets: found in >= 95 % of counted "
@@ -156,8 +159,8 @@ void people(const fw::Config& config, const ReportOptions& options, std::ostream
   md << "## People\n\n"
      << "Random scenes of 5-8 articulated people round the robot (`sim::crowdScene`, kinect3d/sim/people.h): "
         "close (0.8-2 m) and cut by the view's edges, walking, reaching, arms raised or held out, a hand at the "
-        "head, a referee's flag, dark clothes and hair that return little depth; the sensor's height, tilt and "
-        "range (5.5-9.5 m) random. "
+        "head, a referee's flag, dark clothes and hair that return little depth; the sensor's height, tilt, "
+        "range (5.5-9.5 m) and noise (0.8-1.5 times the average unit's) random. "
      << options.people_seeds << " seeds per kind; frames counted as for the kicks (the ball at least "
      << format("%.1f m", criteria.min_clearance_m)
      << " from every body, so a ball in the hands or grazing a head is counted once free of it). Targets: "

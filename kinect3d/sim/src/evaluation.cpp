@@ -70,9 +70,16 @@ BallColourFit learnBallColourInSession(const CalibrationSession& session, const 
 
 bool shouldBeFound(const GroundTruth& truth, const Scene& scene, const EvaluationCriteria& criteria) {
   if (!truth.has_ball) return false;
-  const double range = (truth.ball_center_R - scene.sensor_pose.T_R_S().translation()).norm();
-  const double whole_ball_px = M_PI * std::pow(scene.intrinsics.fx * scene.physics.radius_m / range, 2);
-  return range >= criteria.min_range_m && range <= criteria.max_range_m &&
+  const Eigen::Vector3d centre_S = scene.sensorPoseAt(truth.time_s).T_R_S().inverse() * truth.ball_center_R;
+  const double range = centre_S.norm();
+  const double radius_px = scene.intrinsics.fx * scene.physics.radius_m / range;
+  const double whole_ball_px = M_PI * radius_px * radius_px;
+  const Eigen::Vector2d centre_px = scene.intrinsics.project(centre_S);
+  const double inside_px = criteria.min_centre_inside_r * radius_px;
+  const bool centre_inside = centre_S.z() > 0.0 && centre_px.x() >= inside_px &&
+                             centre_px.x() <= scene.intrinsics.width - 1 - inside_px && centre_px.y() >= inside_px &&
+                             centre_px.y() <= scene.intrinsics.height - 1 - inside_px;
+  return range >= criteria.min_range_m && range <= criteria.max_range_m && centre_inside &&
          truth.visible_pixels >= criteria.min_visible_fraction * whole_ball_px &&
          truth.clearance_m >= criteria.min_clearance_m;
 }

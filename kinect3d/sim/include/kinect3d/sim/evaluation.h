@@ -30,11 +30,15 @@ std::vector<EvaluatedFrame> followedOnly(std::vector<EvaluatedFrame> frames);
 // calibration session (with colour) recorded and read back, the detector given the session's pose.
 BallColourFit learnBallColourInSession(const CalibrationSession& session, const DetectorConfig& config);
 
-// Which frames count: the ball should be found when it is in this range of the sensor, shows at
-// least this share of a whole ball's pixels, and is this far from every other structure.
+// Which frames count: the ball should be found when it is in this range of the sensor, its centre
+// this far inside the image border, shows at least this share of a whole ball's pixels, and is this
+// far from every other structure. The detector reports a ball cut by the border only while its
+// centre is in the view (more than half of it: a hand cut by the border fits a ball's outline as
+// well as a ball's half does); the margin covers the centre's fit.
 struct EvaluationCriteria {
   double min_range_m = 0.8;
   double max_range_m = 7.0;
+  double min_centre_inside_r = 0.33;  // radii, in the image
   double min_visible_fraction = 0.3;
   double min_clearance_m = 0.6;
   double match_m = 0.3;  // a reported ball this close to the true one is the ball
