@@ -278,7 +278,8 @@ bool BallRefiner::surfacedLikeABall(const Eigen::Vector3d& center_R, const Eigen
   // before a body, or a hand before a head, is two surfaces a step apart, and the fit between them
   // leaves a share of points far off it. Beyond 4 sigma of the noise model lie at most 3 % of a
   // ball's points (every noise effect, false depth from another Kinect inside the disc included,
-  // and on units up to 1.6 times noisier than the model) and 4-30 % of such pairs'.
+  // and on units up to 1.6 times noisier than the model; a ball smeared at its kick, close by, a
+  // little more) and 4-30 % of such pairs'.
   constexpr double kFarOff_sigma = 4.0;
   constexpr double kMaxFarOffShare = 0.04;
   const Eigen::Isometry3d T_S_R = T_R_S.inverse();
@@ -301,15 +302,20 @@ bool BallRefiner::surfacedLikeABall(const Eigen::Vector3d& center_R, const Eigen
     Jtz += J * p_S.norm();
   }
   const Eigen::Vector4d fit = JtJ.ldlt().solve(Jtz);
-  const double far_off_m =
-      kFarOff_sigma * std::hypot(noise_.axialSigma_m(range), noise_.quantisationStep_m(range) / std::sqrt(12.0));
+  // A point's expected distance from the surface: the depth noise, and where the surface slopes
+  // away towards the limb, the lateral noise times that slope (a sphere's: rho / sqrt(1 - rho^2)).
+  const double axial_m = std::hypot(noise_.axialSigma_m(range), noise_.quantisationStep_m(range) / std::sqrt(12.0));
+  const double lateral_m = noise_.lateralSigma_m(range);
   double squares = 0.0;
   int far_off = 0;
   for (const Eigen::Vector3d& p : points_) {
     const Eigen::Vector3d p_S = T_S_R * p;
-    const double residual = p_S.norm() - regressors(p_S).dot(fit);
+    const Eigen::Vector4d J = regressors(p_S);
+    const double residual = p_S.norm() - J.dot(fit);
     squares += residual * residual;
-    far_off += std::abs(residual) > far_off_m;
+    const double cosine = 1.0 - J[1];  // sqrt(1 - rho^2), at most rho = kMaxRho
+    const double sigma_m = std::hypot(axial_m, lateral_m * std::sqrt(1.0 - cosine * cosine) / cosine);
+    far_off += std::abs(residual) > kFarOff_sigma * sigma_m;
   }
   // The residuals' variance, and neighbouring pixels sharing their correlation window.
   const double n = static_cast<double>(points_.size());
