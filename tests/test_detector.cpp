@@ -351,7 +351,8 @@ TEST(BallDetector, PeopleRoundTheRobotAreNotBallsAndABallAmongThemIsFound) {
   }
   EXPECT_EQ(frames, 450);
   EXPECT_EQ(phantoms, 0);
-  // A ball lobbed 0.3 m over a head: found once it is clear of the people.
+  // A ball lobbed 0.3 m over a head: found once it is clear of the people, and nothing else (a foot
+  // on the floor curved less than a ball, seed 2, was one before the curvature bar rose to 0.8 r).
   sim::DetectionScore lobs;
   for (int seed = 1; seed <= 5; ++seed) {
     const sim::Scene scene = sim::crowdScene(seed, sim::CrowdBall::kOverAHead);
@@ -359,7 +360,7 @@ TEST(BallDetector, PeopleRoundTheRobotAreNotBallsAndABallAmongThemIsFound) {
   }
   EXPECT_GT(lobs.eligible, 30);
   EXPECT_GE(lobs.recall(), 0.9);
-  EXPECT_LE(lobs.off_truth, 1);
+  EXPECT_EQ(lobs.off_truth, 0);
 }
 
 TEST(BallDetector, ABallWithDarkPanelsIsFoundAndAnotherKinectMakesNoBall) {
