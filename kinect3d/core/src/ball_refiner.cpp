@@ -304,6 +304,8 @@ bool BallRefiner::surfacedLikeABall(const Eigen::Vector3d& center_R, const Eigen
   const Eigen::Vector4d fit = JtJ.ldlt().solve(Jtz);
   // A point's expected distance from the surface: the depth noise, and where the surface slopes
   // away towards the limb, the lateral noise times that slope (a sphere's: rho / sqrt(1 - rho^2)).
+  // Nguyen's sigma already holds the rounding to depth steps; adding the step's own spread again is
+  // a margin where, far out, a step is most of the spread.
   const double axial_m = std::hypot(noise_.axialSigma_m(range), noise_.quantisationStep_m(range) / std::sqrt(12.0));
   const double lateral_m = noise_.lateralSigma_m(range);
   double squares = 0.0;
