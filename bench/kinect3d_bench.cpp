@@ -5,6 +5,7 @@
 // and the heap allocations per frame once warm (global operator new is counted in this binary), and
 // the scene map's ray integration on its worker thread.
 // Pinned to one core. See README "Speed" for the command and the figures.
+#include <lz4.h>
 #include <octomap/OcTree.h>
 #include <pcl/filters/voxel_grid.h>
 #include <pcl/point_types.h>
@@ -21,7 +22,9 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <fstream>
+#include <functional>
 #include <new>
 #include <sstream>
 
@@ -30,6 +33,8 @@
 #include "fusion/ball_fusion.h"
 #include "kinect3d/ball_detector.h"
 #include "kinect3d/config_io.h"
+#include "kinect3d/depth_codec.h"
+#include "kinect3d/kinect_disparity.h"
 #include "kinect3d/sim/evaluation.h"
 #include "kinect3d/sim/field_sensors.h"
 #include "kinect3d/sim/kinect_simulator.h"
@@ -360,6 +365,226 @@ std::string colourCodecTable(int repeats) {
   return table.str();
 }
 
+// Wilson's RVL for Kinect depth, as published (2017), for the depth codec table: runs of zeros and
+// of valid pixels, each valid pixel's zigzagged difference to the previous valid one, every number
+// in 4-bit groups (3 bits and a "more" bit) packed into 32-bit words.
+class Rvl {
+ public:
+  static void encode(const std::uint16_t* depth, std::size_t pixels, std::vector<std::uint8_t>& out) {
+    out.clear();
+    Writer writer{out};
+    std::int32_t previous = 0;
+    for (std::size_t i = 0; i < pixels;) {
+      const std::size_t zeros_from = i;
+      while (i < pixels && depth[i] == 0) ++i;
+      writer.put(std::uint32_t(i - zeros_from));
+      const std::size_t valid_from = i;
+      while (i < pixels && depth[i] != 0) ++i;
+      writer.put(std::uint32_t(i - valid_from));
+      for (std::size_t k = valid_from; k < i; ++k) {
+        const std::int32_t difference = std::int32_t(depth[k]) - previous;
+        writer.put(std::uint32_t((difference << 1) ^ (difference >> 31)));
+        previous = depth[k];
+      }
+    }
+    writer.flush();
+  }
+  static void decode(const std::vector<std::uint8_t>& in, std::size_t pixels, std::vector<std::uint16_t>& depth) {
+    depth.assign(pixels, 0);
+    Reader reader{in.data()};
+    std::int32_t previous = 0;
+    for (std::size_t i = 0; i < pixels;) {
+      i += reader.get();
+      for (std::uint32_t valid = reader.get(); valid > 0; --valid) {
+        const std::uint32_t z = reader.get();
+        previous += std::int32_t(z >> 1) ^ -std::int32_t(z & 1);
+        depth[i++] = std::uint16_t(previous);
+      }
+    }
+  }
+
+ private:
+  struct Writer {
+    std::vector<std::uint8_t>& out;
+    std::uint32_t word = 0;
+    int groups = 0;
+    void put(std::uint32_t value) {
+      do {
+        std::uint32_t group = value & 7;
+        value >>= 3;
+        if (value != 0) group |= 8;
+        word = (word << 4) | group;
+        if (++groups == 8) flush();
+      } while (value != 0);
+    }
+    void flush() {
+      if (groups == 0) return;
+      word <<= 4 * (8 - groups);
+      const std::size_t at = out.size();
+      out.resize(at + 4);
+      std::memcpy(&out[at], &word, 4);
+      word = 0;
+      groups = 0;
+    }
+  };
+  struct Reader {
+    const std::uint8_t* next;
+    std::uint32_t word = 0;
+    int groups = 0;
+    std::uint32_t get() {
+      std::uint32_t value = 0;
+      for (int shift = 0;; shift += 3) {
+        if (groups == 0) {
+          std::memcpy(&word, next, 4);
+          next += 4;
+          groups = 8;
+        }
+        const std::uint32_t group = word >> 28;
+        word <<= 4;
+        --groups;
+        value |= (group & 7) << shift;
+        if ((group & 8) == 0) return value;
+      }
+    }
+  };
+};
+
+// The match log's depth codec, chosen by this table: size and encode and decode time per frame of
+// simulated frames (busy scenes) and the real depth frames in $KINECT3D_REAL_DATA when set.
+std::string depthCodecTable(int repeats) {
+  struct Image {
+    std::string label;
+    int width, height;
+    std::vector<std::uint16_t> depth;
+  };
+  std::vector<Image> images;
+  for (const char* name : {"kick_away", "clutter", "people_no_ball_3"}) {
+    kinect3d::sim::KinectSimulator simulator(kinect3d::sim::loadScene(name));
+    DepthFrame frame;
+    kinect3d::sim::GroundTruth truth;
+    simulator.render(simulator.frameCount() / 2, frame, truth);
+    images.push_back(
+        {std::string("simulated: ") + name, frame.intrinsics.width, frame.intrinsics.height, frame.depth_mm});
+  }
+  if (const char* real = std::getenv("KINECT3D_REAL_DATA")) {
+    for (const char* file :
+         {"realdata/pcl_single_frames/five_people_depth_mm.png", "realdata/pcl_single_frames/office1_depth_mm.png",
+          "realdata/pcl_grabber_sequences/frame_20121214T142255.814212_depth.tiff", "real-depth/tum_depth.png"}) {
+      const cv::Mat image = cv::imread(std::string(real) + "/" + file, cv::IMREAD_ANYDEPTH);
+      if (image.type() != CV_16UC1) continue;
+      images.push_back({std::string("real: ") + file,
+                        image.cols,
+                        image.rows,
+                        {image.ptr<std::uint16_t>(), image.ptr<std::uint16_t>() + image.total()}});
+    }
+    // Raw disparity: in millimetres, as a log holds it.
+    const std::string nyu = std::string(real) + "/real-depth/nyu_raw_disparity.pgm";
+    if (std::ifstream(nyu).good()) {
+      const DepthFrame frame = kinect3d::loadRawDisparityPgm(nyu);
+      images.push_back({"real: real-depth/nyu_raw_disparity.pgm, in mm", frame.intrinsics.width,
+                        frame.intrinsics.height, frame.depth_mm});
+    }
+  }
+
+  struct Codec {
+    std::string name;
+    std::function<void(const Image&, std::vector<std::uint8_t>&)> encode;
+    std::function<void(const Image&, const std::vector<std::uint8_t>&, std::vector<std::uint16_t>&)> decode;
+  };
+  kinect3d::DepthEncoder log_encoder, level3_encoder(3);
+  const auto zstdRowDelta = [](kinect3d::DepthEncoder& encoder) {
+    return [&encoder](const Image& image, std::vector<std::uint8_t>& out) {
+      const kinect3d::DepthEncoder::Bytes bytes = encoder.encode(image.depth.data(), image.width, image.height);
+      out.assign(bytes.data, bytes.data + bytes.size);
+    };
+  };
+  const auto zstdDecode = [](const Image& image, const std::vector<std::uint8_t>& in, std::vector<std::uint16_t>& out) {
+    kinect3d::decodeDepth(kinect3d::DepthCodec::kZstdRowDelta, in.data(), in.size(), image.width, image.height, out);
+  };
+  std::vector<std::uint16_t> residuals;
+  const std::vector<Codec> codecs = {
+      {"PNG, zlib level 1 (the log's to schema 4)",
+       [](const Image& image, std::vector<std::uint8_t>& out) {
+         cv::imencode(".png",
+                      cv::Mat(image.height, image.width, CV_16UC1, const_cast<std::uint16_t*>(image.depth.data())), out,
+                      {cv::IMWRITE_PNG_COMPRESSION, 1});
+       },
+       [](const Image& image, const std::vector<std::uint8_t>& in, std::vector<std::uint16_t>& out) {
+         kinect3d::decodeDepth(kinect3d::DepthCodec::kPng, in.data(), in.size(), image.width, image.height, out);
+       }},
+      {"RVL",
+       [](const Image& image, std::vector<std::uint8_t>& out) {
+         Rvl::encode(image.depth.data(), image.depth.size(), out);
+       },
+       [](const Image& image, const std::vector<std::uint8_t>& in, std::vector<std::uint16_t>& out) {
+         Rvl::decode(in, image.depth.size(), out);
+       }},
+      {"lz4 on row deltas",
+       [&residuals](const Image& image, std::vector<std::uint8_t>& out) {
+         residuals.resize(image.depth.size());
+         kinect3d::rowDeltaResiduals(image.depth.data(), image.width, image.height, residuals.data());
+         const int raw = int(residuals.size() * 2);
+         out.resize(LZ4_compressBound(raw));
+         out.resize(LZ4_compress_default(reinterpret_cast<const char*>(residuals.data()),
+                                         reinterpret_cast<char*>(out.data()), raw, int(out.size())));
+       },
+       [&residuals](const Image& image, const std::vector<std::uint8_t>& in, std::vector<std::uint16_t>& out) {
+         residuals.resize(image.depth.size());
+         LZ4_decompress_safe(reinterpret_cast<const char*>(in.data()), reinterpret_cast<char*>(residuals.data()),
+                             int(in.size()), int(residuals.size() * 2));
+         out.resize(residuals.size());
+         for (int v = 0; v < image.height; ++v) {  // undoes rowDeltaResiduals
+           std::uint16_t left = 0;
+           for (int u = 0; u < image.width; ++u) {
+             const std::uint16_t z = residuals[std::size_t(v) * image.width + u];
+             left = std::uint16_t(left + ((z >> 1) ^ -(z & 1)));
+             out[std::size_t(v) * image.width + u] = left;
+           }
+         }
+       }},
+      {"zstd level 3 on row deltas", zstdRowDelta(level3_encoder), zstdDecode},
+      {"**zstd level 1 on row deltas (the log's)**", zstdRowDelta(log_encoder), zstdDecode},
+  };
+
+  std::ostringstream table;
+  table << "| frame | codec | size | of PNG's | encode p50 | decode p50 |\n|---|---|---|---|---|---|\n";
+  double log_worst_encode_ms = 0.0, log_worst_of_png = 0.0;  // the log's codec over every frame
+  for (const Image& image : images) {
+    std::size_t png_size = 0;
+    for (const Codec& codec : codecs) {
+      std::vector<double> encode_s, decode_s;
+      std::vector<std::uint8_t> bytes;
+      std::vector<std::uint16_t> decoded;
+      for (int i = 0; i < repeats; ++i) {
+        Clock::time_point start = Clock::now();
+        codec.encode(image, bytes);
+        encode_s.push_back(since_s(start));
+        start = Clock::now();
+        codec.decode(image, bytes, decoded);
+        decode_s.push_back(since_s(start));
+      }
+      if (decoded != image.depth) {
+        throw std::runtime_error(codec.name + " did not give " + image.label + " back exactly");
+      }
+      if (png_size == 0) png_size = bytes.size();
+      if (&codec == &codecs.back()) {
+        log_worst_encode_ms = std::max(log_worst_encode_ms, percentiles(encode_s).p50_ms);
+        log_worst_of_png = std::max(log_worst_of_png, double(bytes.size()) / png_size);
+      }
+      table << "| " << image.label << " | " << codec.name << " | " << format("%.0f KB", bytes.size() / 1024.0) << " | "
+            << format("%.0f %%", 100.0 * bytes.size() / png_size) << " | "
+            << format("%.2f ms", percentiles(encode_s).p50_ms) << " | "
+            << format("%.2f ms", percentiles(decode_s).p50_ms) << " |\n";
+    }
+  }
+  table << "\nThe log's codec on these " << images.size() << " frames: encode p50 at most "
+        << format("%.2f ms", log_worst_encode_ms)
+        << (log_worst_encode_ms <= 1.5 ? " (target <= 1.5 ms: met)" : " (target <= 1.5 ms: **not met**)")
+        << ", size at most " << format("%.0f %%", 100.0 * log_worst_of_png) << " of PNG's"
+        << (log_worst_of_png <= 1.0 ? " (target: no larger: met)" : " (target: no larger: **not met**)") << ".\n";
+  return table.str();
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -379,9 +604,11 @@ int main(int argc, char** argv) {
       ->check(CLI::PositiveNumber)
       ->capture_default_str();
   app.add_option("--out", out_path, "Also write the tables to this markdown file");
-  std::string codec_out;
+  std::string codec_out, depth_codec_out;
   app.add_option("--colour-codec", codec_out,
                  "Instead: time the match log's colour codec against others and write the table to this file");
+  app.add_option("--depth-codec", depth_codec_out,
+                 "Instead: time the match log's depth codec against others and write the table to this file");
   CLI11_PARSE(app, argc, argv);
 
   // One core, as on the robot's laptop where the other core runs the rest of the software.
@@ -397,6 +624,19 @@ int main(int argc, char** argv) {
            "--colour-codec "
         << codec_out << "` on " << cpuModel() << ", pinned to one core; 50 encodes and decodes per image, OpenCV's "
         << "codecs (Debian's OpenCV encodes JPEG with libjpeg-turbo).\n\n"
+        << table;
+    return 0;
+  }
+  if (!depth_codec_out.empty()) {
+    const std::string table = depthCodecTable(50);
+    std::printf("%s\n%s", cpuModel().c_str(), table.c_str());
+    std::ofstream out(depth_codec_out);
+    out << "# Depth codec of the match log\n\nGenerated by `KINECT3D_REAL_DATA=<folder> build/bin/kinect3d_bench "
+           "--depth-codec "
+        << depth_codec_out << "` on " << cpuModel() << ", pinned to one core; 50 encodes and decodes per frame, "
+        << "each checked to give the frame back exactly. Simulated frames: the middle frame of each scene. Sizes "
+        << "in KB of 1024 bytes; a raw VGA depth frame is 600 KB. Why the log uses the last codec: "
+        << "[match-log.md](match-log.md#the-depth-codec).\n\n"
         << table;
     return 0;
   }

@@ -168,6 +168,78 @@ TEST(MatchLog, AVersion3LogFromBeforeTheTeamStillReads) {
   EXPECT_GT(last_seq, 0);
 }
 
+TEST(MatchLog, AVersion4LogWithItsDepthAsPngStillReads) {
+  ScopedTempDir dir;
+  {
+    kinect3d::MatchLogWriter writer(dir.path().string(), {});
+    for (std::uint64_t i = 0; i < 3; ++i) writer.write({1.0 + i, smallDepthImage(i)});
+  }
+  // Made as version 4 wrote it: the same rows, each depth a 16-bit PNG in a column named png.
+  sqlite3* db = nullptr;
+  ASSERT_EQ(sqlite3_open((dir.path() / kinect3d::kMatchLogFile).c_str(), &db), SQLITE_OK);
+  ASSERT_EQ(sqlite3_exec(db, "ALTER TABLE depth_frame RENAME COLUMN depth_zstd TO png; PRAGMA user_version=4", nullptr,
+                         nullptr, nullptr),
+            SQLITE_OK);
+  sqlite3_stmt* update = nullptr;
+  ASSERT_EQ(sqlite3_prepare_v2(db, "UPDATE depth_frame SET png = ? WHERE frame_index = ?", -1, &update, nullptr),
+            SQLITE_OK);
+  for (std::uint64_t i = 0; i < 3; ++i) {
+    fw::DepthImage image = smallDepthImage(i);
+    std::vector<unsigned char> png;
+    cv::imencode(".png", cv::Mat(image.height, image.width, CV_16UC1, image.depth_mm.data()), png);
+    sqlite3_bind_blob(update, 1, png.data(), static_cast<int>(png.size()), SQLITE_TRANSIENT);
+    sqlite3_bind_int64(update, 2, static_cast<sqlite3_int64>(i));
+    ASSERT_EQ(sqlite3_step(update), SQLITE_DONE);
+    sqlite3_reset(update);
+  }
+  sqlite3_finalize(update);
+  sqlite3_close(db);
+
+  const kinect3d::MatchLogReader log(dir.path().string());
+  kinect3d::MatchLogReader::DepthFrames frames(log, "kinect3d");
+  fw::DepthImage image;
+  double wall_s = 0.0;
+  for (std::uint64_t i = 0; i < 3; ++i) {
+    ASSERT_TRUE(frames.next(image, wall_s));
+    EXPECT_EQ(image.depth_mm, smallDepthImage(i).depth_mm) << i;
+  }
+  EXPECT_FALSE(frames.next(image, wall_s));
+  EXPECT_EQ(log.depthFrame(log.depthFrameStamps("kinect3d").at(1).seq).depth_mm, smallDepthImage(1).depth_mm);
+}
+
+TEST(MatchLog, ColourIsKeptAtTheJpegQualityItIsGiven) {
+  fw::DepthImage image = smallDepthImage(0);
+  fw::ColourImage colour;
+  colour.width = 64;
+  colour.height = 48;
+  colour.rgb.resize(64 * 48 * 3);
+  for (std::size_t i = 0; i < colour.rgb.size(); ++i) colour.rgb[i] = static_cast<std::uint8_t>((i * 37) % 251);
+  image.colour = colour;
+  ScopedTempDir dir;
+  const auto logged = [&](int quality) {
+    const std::string folder = (dir.path() / std::to_string(quality)).string();
+    { kinect3d::MatchLogWriter(folder, {}, quality).write({1.0, image}); }
+    sqlite3* db = nullptr;
+    EXPECT_EQ(sqlite3_open((folder + "/match.sqlite").c_str(), &db), SQLITE_OK);
+    sqlite3_stmt* size = nullptr;
+    sqlite3_prepare_v2(db, "SELECT length(jpeg) FROM colour_frame", -1, &size, nullptr);
+    EXPECT_EQ(sqlite3_step(size), SQLITE_ROW);
+    const int bytes = sqlite3_column_int(size, 0);
+    sqlite3_finalize(size);
+    sqlite3_close(db);
+    const fw::DepthImage read = kinect3d::MatchLogReader(folder).depthFrame(1);
+    EXPECT_TRUE(read.colour.has_value()) << quality;
+    return bytes;
+  };
+  EXPECT_LT(logged(30), logged(95));
+  try {
+    kinect3d::MatchLogWriter((dir.path() / "zero").string(), {}, 0);
+    ADD_FAILURE() << "a quality of 0 was taken";
+  } catch (const kinect3d::MatchLogError& e) {
+    EXPECT_NE(std::string(e.what()).find("zero: a colour JPEG quality of 0 (1 to 100)"), std::string::npos) << e.what();
+  }
+}
+
 TEST(MatchLog, NeverWritesOverAnotherLog) {
   ScopedTempDir dir;
   { kinect3d::MatchLogWriter first(dir.path().string(), {}); }
@@ -204,7 +276,7 @@ TEST(MatchLog, ABadLogIsNamedWithItsFileAndWhatIsWrong) {
   sqlite3_exec(db, "PRAGMA user_version=99", nullptr, nullptr, nullptr);
   sqlite3_close(db);
   EXPECT_NE(
-      errorOf(dir.path().string()).find(file.string() + ": schema version 99, this program reads versions 2 to 4"),
+      errorOf(dir.path().string()).find(file.string() + ": schema version 99, this program reads versions 2 to 5"),
       std::string::npos)
       << errorOf(dir.path().string());
 }
@@ -414,7 +486,7 @@ TEST(MatchLog, ADepthFrameOfNoSensorsSizeIsRefusedBeforeItIsDecoded) {
     log.depthFrame(frame2);
     ADD_FAILURE() << "a frame whose image is not its row's size was read";
   } catch (const kinect3d::MatchLogError& e) {
-    EXPECT_NE(std::string(e.what()).find("depth frame 2 (seq 3): the image is not a 32x48 16-bit PNG"),
+    EXPECT_NE(std::string(e.what()).find("depth frame 2 (seq 3): its depth is not a 32x48 image (6144 bytes)"),
               std::string::npos)
         << e.what();
   }

@@ -359,15 +359,15 @@ TEST(ViewedLog, ADamagedFrameAnswers500WithItsReason) {
   const std::string log = smallLog(dir.path());
   sqlite3* db = nullptr;
   ASSERT_EQ(sqlite3_open((log + "/match.sqlite").c_str(), &db), SQLITE_OK);
-  ASSERT_EQ(
-      sqlite3_exec(db, "UPDATE depth_frame SET png = x'0badc0de' WHERE frame_index = 4", nullptr, nullptr, nullptr),
-      SQLITE_OK);
+  ASSERT_EQ(sqlite3_exec(db, "UPDATE depth_frame SET depth_zstd = x'0badc0de' WHERE frame_index = 4", nullptr, nullptr,
+                         nullptr),
+            SQLITE_OK);
   sqlite3_close(db);
   ServedView view({log});
   const std::string response = rawGet(view.port(), "/api/depth/4.png");
   EXPECT_EQ(response.rfind("HTTP/1.1 500", 0), 0u) << response.substr(0, 300);
   EXPECT_NE(response.find("depth frame 4 (seq"), std::string::npos) << response;
-  EXPECT_NE(response.find("is not a 64x48 16-bit PNG"), std::string::npos) << response;
+  EXPECT_NE(response.find("its depth is not zstd-compressed"), std::string::npos) << response;
   EXPECT_EQ(rawGet(view.port(), "/api/depth/5.png").rfind("HTTP/1.1 200", 0), 0u) << "the others are served";
 }
 

@@ -17,18 +17,20 @@ PACKAGES=(
   nlohmann-json3-dev
   libgtest-dev
   libsqlite3-dev                # the match log
+  sqlite3                       # reading a match log by hand (docs/match-log.md), tools/soak.sh
+  liblz4-dev                    # a candidate the benchmark measures against the match log's depth codec
   libjs-chart.js                # the match report's and the viewer's charts
   libjs-three                   # the viewer's 3D view (three.js and its orbit controls)
   libcpp-httplib-dev            # the viewer's web server
   libmsgpack-cxx-dev            # the team message (plugins/team, the match log)
-  libzstd-dev                   # the team packets' compression
+  libzstd-dev                   # the match log's depth and the team packets' compression
   libsodium-dev                 # the team packets' authentication with the team key
 )
 if [ "${1:-}" = "--tests" ]; then
   PACKAGES+=(
     clang-format                # the style test
     clang libclang-rt-14-dev    # the sanitizer build and its fuzzers (tools/sanitize.sh, tools/fuzz.sh)
-    sqlite3 curl                # bench/viewer_live_load.sh reads the logs' health and polls the viewer as a page does
+    curl                        # bench/viewer_live_load.sh polls the viewer as a page does
     chromium                    # the page tests open the pages as a person would
   )
 fi

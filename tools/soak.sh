@@ -36,3 +36,9 @@ grep -c "fell behind" "$work/host.err" | xargs echo "logger 'fell behind' warnin
 build/bin/kinect3d info "log:$log" | grep "^frames:" | xargs echo "depth frames in the log:"
 bytes=$(du -sb "$log" | cut -f1)
 echo "log: $((bytes / 1024 / 1024)) MB for $seconds s = $((bytes * 60 / seconds / 1024 / 1024)) MB per minute"
+# Each plugin's own time from the log's health rows (once a second: steps and their median time), as
+# a share of one core: the median step time times the steps, summed over the run.
+echo "CPU per plugin (share of one core; median step time):"
+sqlite3 -separator ' ' "$db" "SELECT printf('  %-13s %5.1f %%  %6.2f ms a step, %4.1f steps a second', plugin,
+  100.0 * sum(processing_p50_s * frames) / count(*), 1000.0 * avg(processing_p50_s), avg(rate_hz))
+  FROM health WHERE frames > 0 GROUP BY plugin ORDER BY plugin"

@@ -46,6 +46,7 @@ class LoggerPlugin : public fw::Plugin {
         folder_(context.config.getString("folder")),
         fallback_folder_(context.config.getString("fallback_folder")),
         with_depth_(context.config.getBool("depth")),
+        colour_jpeg_quality_(context.config.getInt("colour_jpeg_quality", 1, 100)),
         budget_bytes_(context.config.getDouble("budget_mb", 1.0, 1e8) * kMegabyte),
         min_free_bytes_(context.config.getDouble("min_free_mb", 0.0, 1e8) * kMegabyte),
         retry_s_(context.config.getDouble("retry_s", 0.5, 3600.0)) {
@@ -212,7 +213,7 @@ class LoggerPlugin : public fw::Plugin {
     }
     try {
       writer_ = std::make_unique<kinect3d::MatchLogWriter>(
-          kinect3d::claimRunFolder(base, run_.robot, fw::wallClockNow_s()), run_);
+          kinect3d::claimRunFolder(base, run_.robot, fw::wallClockNow_s()), run_, colour_jpeg_quality_);
       if (gap_ || !why_not_folder.empty()) writeResumed(why_not_folder);
     } catch (const kinect3d::MatchLogError& e) {
       writer_.reset();
@@ -260,6 +261,7 @@ class LoggerPlugin : public fw::Plugin {
   const std::string folder_;
   const std::string fallback_folder_;  // empty: none
   const bool with_depth_;
+  const int colour_jpeg_quality_;
   const double budget_bytes_;
   const double min_free_bytes_;
   const double retry_s_;

@@ -55,7 +55,7 @@ CREATE TABLE health (seq INTEGER PRIMARY KEY, wall_time_s REAL NOT NULL, plugin 
   errors INTEGER, stuck INTEGER, second_end_wall_time_s REAL);
 CREATE TABLE depth_frame (seq INTEGER PRIMARY KEY, wall_time_s REAL NOT NULL, source TEXT NOT NULL,
   frame_index INTEGER NOT NULL, source_time_s REAL NOT NULL, receive_time_s REAL NOT NULL,
-  width INTEGER NOT NULL, height INTEGER NOT NULL, fx REAL, fy REAL, cx REAL, cy REAL, png BLOB NOT NULL,
+  width INTEGER NOT NULL, height INTEGER NOT NULL, fx REAL, fy REAL, cx REAL, cy REAL, depth_zstd BLOB NOT NULL,
   gravity_x_S_mps2 REAL, gravity_y_S_mps2 REAL, gravity_z_S_mps2 REAL);
 CREATE INDEX depth_frame_by_source ON depth_frame (source, seq);
 CREATE TABLE colour_frame (seq INTEGER PRIMARY KEY, source_time_s REAL NOT NULL, width INTEGER NOT NULL,
@@ -120,6 +120,9 @@ struct Statement {
   void bindOne(int index, const char* value) { sqlite3_bind_text(stmt, index, value, -1, SQLITE_TRANSIENT); }
   void bindOne(int index, const std::vector<unsigned char>& blob) {
     sqlite3_bind_blob(stmt, index, blob.data(), static_cast<int>(blob.size()), SQLITE_TRANSIENT);
+  }
+  void bindOne(int index, const DepthEncoder::Bytes& blob) {
+    sqlite3_bind_blob(stmt, index, blob.data, static_cast<int>(blob.size), SQLITE_STATIC);  // valid until run() ends
   }
   void bindOne(int index, const std::optional<double>& value) {
     if (value) {
@@ -217,8 +220,11 @@ std::string claimRunFolder(const std::string& base, const std::string& robot, do
 
 // ---------------------------------------------------------------------------------------------
 
-MatchLogWriter::MatchLogWriter(const std::string& folder, const RunInfo& run)
-    : folder_(folder), path_((fs::path(folder) / kMatchLogFile).string()) {
+MatchLogWriter::MatchLogWriter(const std::string& folder, const RunInfo& run, int colour_jpeg_quality)
+    : folder_(folder), path_((fs::path(folder) / kMatchLogFile).string()), colour_jpeg_quality_(colour_jpeg_quality) {
+  if (colour_jpeg_quality < 1 || colour_jpeg_quality > 100) {
+    throw MatchLogError(folder + ": a colour JPEG quality of " + std::to_string(colour_jpeg_quality) + " (1 to 100)");
+  }
   std::error_code error;
   fs::create_directories(folder, error);
   if (error) throw MatchLogError(folder + ": cannot create the log folder: " + error.message());
@@ -371,16 +377,13 @@ void MatchLogWriter::write(const fw::JournalEntry& entry) {
                 .run(seq, wall, p.stamp.source_time_s, p.stamp.receive_time_s, p.x_m, p.y_m, p.theta_rad);
           },
           [&](const fw::DepthImage& image) {
-            const cv::Mat depth(image.height, image.width, CV_16UC1, const_cast<std::uint16_t*>(image.depth_mm.data()));
-            std::vector<unsigned char> png;
-            // Level 1: a third of the raw size on Kinect depth at a fraction of the default's time.
-            cv::imencode(".png", depth, png, {cv::IMWRITE_PNG_COMPRESSION, 1});
+            const DepthEncoder::Bytes depth = depth_encoder_.encode(image.depth_mm.data(), image.width, image.height);
             const auto gravity = [&](int axis) {
               return image.gravity_S_mps2 ? std::optional<double>((*image.gravity_S_mps2)[axis]) : std::nullopt;
             };
             statement("INSERT INTO depth_frame VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)")
                 .run(seq, wall, image.source, image.index, image.stamp.source_time_s, image.stamp.receive_time_s,
-                     image.width, image.height, image.fx, image.fy, image.cx, image.cy, png, gravity(0), gravity(1),
+                     image.width, image.height, image.fx, image.fy, image.cx, image.cy, depth, gravity(0), gravity(1),
                      gravity(2));
             if (image.colour) {
               const fw::ColourImage& colour = *image.colour;
@@ -388,7 +391,7 @@ void MatchLogWriter::write(const fw::JournalEntry& entry) {
               cv::cvtColor(cv::Mat(colour.height, colour.width, CV_8UC3, const_cast<std::uint8_t*>(colour.rgb.data())),
                            bgr, cv::COLOR_RGB2BGR);
               std::vector<unsigned char> jpeg;
-              cv::imencode(".jpg", bgr, jpeg, {cv::IMWRITE_JPEG_QUALITY, kColourJpegQuality});
+              cv::imencode(".jpg", bgr, jpeg, {cv::IMWRITE_JPEG_QUALITY, colour_jpeg_quality_});
               statement("INSERT INTO colour_frame VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)")
                   .run(seq, colour.source_time_s, colour.width, colour.height, colour.fx, colour.fy, colour.cx,
                        colour.cy, colour.offset_S_m.x(), colour.offset_S_m.y(), colour.offset_S_m.z(), jpeg);
@@ -749,21 +752,27 @@ std::vector<std::pair<std::string, std::uint64_t>> MatchLogReader::depthSources(
 }
 
 namespace {
-// A depth frame's row with its colour image's, when it has one.
-constexpr const char* kDepthColumns =
-    "d.seq, d.wall_time_s, d.frame_index, d.source_time_s, d.receive_time_s, d.width, d.height, d.fx, d.fy, d.cx, "
-    "d.cy, d.png, d.gravity_x_S_mps2, d.gravity_y_S_mps2, d.gravity_z_S_mps2, c.source_time_s, c.width, c.height, "
-    "c.fx, c.fy, c.cx, c.cy, c.offset_x_S_m, c.offset_y_S_m, c.offset_z_S_m, c.jpeg";
 constexpr const char* kDepthTables = " FROM depth_frame d LEFT JOIN colour_frame c ON c.seq = d.seq ";
-constexpr int kDepthSourceColumn = 26;  // d.source, after kDepthColumns
+constexpr int kDepthSourceColumn = 26;  // d.source, after depthColumns()
 }  // namespace
+
+// A depth frame's row with its colour image's, when it has one.
+std::string MatchLogReader::depthColumns() const {
+  return std::string(
+             "d.seq, d.wall_time_s, d.frame_index, d.source_time_s, d.receive_time_s, d.width, d.height, d.fx, "
+             "d.fy, d.cx, d.cy, ") +
+         (depthCodec() == DepthCodec::kPng ? "d.png" : "d.depth_zstd") +
+         ", d.gravity_x_S_mps2, d.gravity_y_S_mps2, d.gravity_z_S_mps2, c.source_time_s, c.width, c.height, c.fx, "
+         "c.fy, c.cx, c.cy, c.offset_x_S_m, c.offset_y_S_m, c.offset_z_S_m, c.jpeg";
+}
+
+DepthCodec MatchLogReader::depthCodec() const { return schema_ >= 5 ? DepthCodec::kZstdRowDelta : DepthCodec::kPng; }
 
 MatchLogReader::DepthFrames::DepthFrames(const MatchLogReader& log, const std::string& source)
     : log_(log),
       source_(source),
       query_(std::make_unique<Statement>(
-          log.db_,
-          (std::string("SELECT ") + kDepthColumns + kDepthTables + "WHERE d.source = ? ORDER BY d.seq").c_str(),
+          log.db_, ("SELECT " + log.depthColumns() + kDepthTables + "WHERE d.source = ? ORDER BY d.seq").c_str(),
           log.path_)) {
   sqlite3_bind_text(query_->stmt, 1, source.c_str(), -1, SQLITE_TRANSIENT);
 }
@@ -820,8 +829,7 @@ std::vector<MatchLogReader::Input> MatchLogReader::inputs() const {
 }
 
 fw::DepthImage MatchLogReader::depthFrame(std::int64_t seq) const {
-  Statement q(db_, (std::string("SELECT ") + kDepthColumns + ", d.source" + kDepthTables + "WHERE d.seq = ?").c_str(),
-              path_);
+  Statement q(db_, ("SELECT " + depthColumns() + ", d.source" + kDepthTables + "WHERE d.seq = ?").c_str(), path_);
   sqlite3_bind_int64(q.stmt, 1, seq);
   if (!q.row()) fail("no depth frame at seq " + std::to_string(seq));
   fw::DepthImage image;
@@ -841,7 +849,7 @@ void MatchLogReader::decodeDepthRow(Statement& q, fw::DepthImage& image, double&
   image.fy = q.real(8);
   image.cx = q.real(9);
   image.cy = q.real(10);
-  const auto* bytes = static_cast<const unsigned char*>(sqlite3_column_blob(q.stmt, 11));
+  const auto* bytes = static_cast<const std::uint8_t*>(sqlite3_column_blob(q.stmt, 11));
   const int size = sqlite3_column_bytes(q.stmt, 11);
   const std::string frame =
       "depth frame " + std::to_string(image.index) + " (seq " + std::to_string(q.integer(0)) + ")";
@@ -851,24 +859,11 @@ void MatchLogReader::decodeDepthRow(Statement& q, fw::DepthImage& image, double&
          " is no depth sensor's size (each side " + std::to_string(Intrinsics::kMinSide_px) + " to " +
          std::to_string(Intrinsics::kMaxSide_px) + " pixels)");
   }
-  // What the PNG itself claims (its IHDR), checked before the decoder allocates it.
-  const auto bigEndian = [&](int at) {
-    return size >= at + 4 ? (std::uint32_t(bytes[at]) << 24 | std::uint32_t(bytes[at + 1]) << 16 |
-                             std::uint32_t(bytes[at + 2]) << 8 | bytes[at + 3])
-                          : 0u;
-  };
-  const std::string not_png = frame + ": the image is not a " + std::to_string(image.width) + "x" +
-                              std::to_string(image.height) + " 16-bit PNG";
-  if (bigEndian(16) != static_cast<std::uint32_t>(image.width) ||
-      bigEndian(20) != static_cast<std::uint32_t>(image.height)) {
-    fail(not_png);
+  try {
+    decodeDepth(depthCodec(), bytes, static_cast<std::size_t>(size), image.width, image.height, image.depth_mm);
+  } catch (const DepthCodecError& e) {
+    fail(frame + ": its depth is " + e.what());
   }
-  const cv::Mat png(1, size, CV_8UC1, const_cast<unsigned char*>(bytes));
-  const cv::Mat depth = size > 0 ? cv::imdecode(png, cv::IMREAD_ANYDEPTH) : cv::Mat();
-  if (depth.empty() || depth.type() != CV_16UC1 || depth.cols != image.width || depth.rows != image.height) {
-    fail(not_png);
-  }
-  image.depth_mm.assign(depth.ptr<std::uint16_t>(), depth.ptr<std::uint16_t>() + depth.total());
   image.gravity_S_mps2.reset();
   if (!q.isNull(12)) image.gravity_S_mps2 = Eigen::Vector3d(q.real(12), q.real(13), q.real(14));
   image.colour.reset();

@@ -1,8 +1,8 @@
 // The match log: one folder per run holding match.sqlite, an SQLite database of everything the
 // plugins published (balls per source with both stamps and covariance, omni images, trajectories,
 // fused balls, robot poses, events, per-plugin health once a second) and the raw depth of the
-// depth plugins, each frame a lossless 16-bit PNG. The schema is in docs/match-log.md; its version
-// is the database's user_version.
+// depth plugins, each frame compressed losslessly (kinect3d/depth_codec.h), with its colour image as
+// JPEG. The schema is in docs/match-log.md; its version is the database's user_version.
 //
 // Written in batches (one transaction per commit(), the logger commits every 200 ms) in WAL mode,
 // so a process killed at any moment leaves a database that opens with every committed batch.
@@ -18,18 +18,17 @@
 #include <vector>
 
 #include "framework_api/world_state.h"
+#include "kinect3d/depth_codec.h"
 
 struct sqlite3;
 struct sqlite3_stmt;
 
 namespace kinect3d {
 
-constexpr int kMatchLogSchemaVersion = 4;
+constexpr int kMatchLogSchemaVersion = 5;
 // Logs back to this version are read (version 2 has no colour verdicts: its balls read as not checked;
-// versions 2 and 3 have no teammates' messages).
+// versions 2 and 3 have no teammates' messages; versions 2 to 4 hold their depth as PNG).
 constexpr int kOldestReadableSchemaVersion = 2;
-// Colour images are kept as JPEG at this quality (docs/match-log.md: size and time per frame).
-constexpr int kColourJpegQuality = 90;
 constexpr const char* kMatchLogFile = "match.sqlite";
 
 // A log that cannot be written or read: names the file and the reason.
@@ -70,8 +69,9 @@ struct Statement;
 
 class MatchLogWriter {
  public:
-  // Creates folder (and its parents) and folder/match.sqlite, which must not exist yet.
-  MatchLogWriter(const std::string& folder, const RunInfo& run);
+  // Creates folder (and its parents) and folder/match.sqlite, which must not exist yet. Colour
+  // images are kept as JPEG at colour_jpeg_quality (1-100; the logger's logger.colour_jpeg_quality).
+  MatchLogWriter(const std::string& folder, const RunInfo& run, int colour_jpeg_quality = 90);
   ~MatchLogWriter();  // commits what is pending
   MatchLogWriter(const MatchLogWriter&) = delete;
   MatchLogWriter& operator=(const MatchLogWriter&) = delete;
@@ -100,6 +100,8 @@ class MatchLogWriter {
   std::map<std::string, std::unique_ptr<Statement>> statements_;  // prepared once, by their SQL
   bool in_batch_ = false;
   std::int64_t next_seq_ = 1;
+  int colour_jpeg_quality_;
+  DepthEncoder depth_encoder_;
 };
 
 class MatchLogReader {
@@ -167,7 +169,10 @@ class MatchLogReader {
  private:
   void open();
   [[noreturn]] void fail(const std::string& reason) const;
-  // A depth_frame row's columns (seq, wall_time_s, frame_index, ... png) into image.
+  // How this log's depth is encoded, and the columns of a depth frame with its colour image.
+  DepthCodec depthCodec() const;
+  std::string depthColumns() const;
+  // A depth_frame row's columns (depthColumns()) into image.
   void decodeDepthRow(Statement& row, fw::DepthImage& image, double& wall_time_s) const;
   // The colour columns of the same row; frame names the depth frame in errors.
   fw::ColourImage decodeColour(Statement& row, const std::string& frame) const;
