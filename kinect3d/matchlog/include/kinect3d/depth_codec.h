@@ -20,8 +20,8 @@ class DepthCodecError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
-// zstd's fastest level that still entropy-codes well; level 3 saves a few per cent of the size for
-// a quarter more time (docs/depth-codec.md).
+// zstd's fastest level that still entropy-codes well; level 3 saves 0-6 % of the size for up to a
+// fifth more time (docs/depth-codec.md).
 constexpr int kDepthZstdLevel = 1;
 
 enum class DepthCodec {
