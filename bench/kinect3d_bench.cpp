@@ -91,47 +91,60 @@ pcl::PointCloud<pcl::PointXYZ>::Ptr fullCloud(const DepthFrame& frame, const Eig
 }
 
 // The floor under any voxel detector: one pass that back-projects every valid pixel into the robot
-// frame and counts it in its voxel (a dense array around the sensor), and does nothing else.
+// frame and counts it in its voxel (a dense array around the sensor), and does nothing else. Made
+// as fast as it can be: the back-projection is two lookup tables per frame (each column's and each
+// row's share of the ray, in voxel units), so a pixel costs three multiply-adds, and the only branch
+// left is the loop's; a pixel without depth or outside the region is counted in a spare cell.
 class FloorPass {
  public:
   FloorPass(double voxel_m, double max_range_m)
       : inverse_voxel_(float(1.0 / voxel_m)),
         across_(int(std::ceil(2.0 * max_range_m / voxel_m)) + 2),
         high_(int(std::ceil(kinect3d::OccupancyGrid::kMaxHeight_m / voxel_m)) + 2),
-        counts_(std::size_t(across_) * across_ * high_) {}
+        counts_(std::size_t(across_) * across_ * high_ + 1) {}
 
   // Returns the number of voxels hit, so the work cannot be optimised away.
   int run(const DepthFrame& frame, const Eigen::Isometry3f& T_R_S) {
     std::fill(counts_.begin(), counts_.end(), 0);
     const kinect3d::Intrinsics& in = frame.intrinsics;
-    column_x_.resize(in.width);
-    for (int u = 0; u < in.width; ++u) column_x_[u] = float((u - in.cx) / in.fx);
-    // In voxel units, with the region's corner at 0: t + z R (x, y, 1), per row R (0, y, 1).
-    const Eigen::Matrix3f R = T_R_S.linear() * inverse_voxel_;
+    // In voxel units, with the region's corner at 0: origin + z (column[u] + row[v]) for z in mm.
+    const Eigen::Matrix3f R = T_R_S.linear() * (inverse_voxel_ * 0.001f);
     const Eigen::Vector3f origin(0.5f * float(across_), 0.5f * float(across_),
                                  T_R_S.translation().z() * inverse_voxel_);
-    int hit = 0;
+    column_.resize(in.width);
+    for (int u = 0; u < in.width; ++u) column_[u] = R.col(0) * float((u - in.cx) / in.fx);
+    const std::uint32_t spare = std::uint32_t(counts_.size() - 1);
+    const float across = float(across_), high = float(high_);
     for (int v = 0; v < in.height; ++v) {
       const Eigen::Vector3f row = R.col(1) * float((v - in.cy) / in.fy) + R.col(2);
       const std::uint16_t* depth = &frame.depth_mm[std::size_t(v) * in.width];
       for (int u = 0; u < in.width; ++u) {
-        if (depth[u] == 0) continue;
-        const Eigen::Vector3f p = origin + (depth[u] * 0.001f) * (row + R.col(0) * column_x_[u]);
-        if ((p.array() < 0.0f).any()) continue;
-        const int x = int(p.x()), y = int(p.y()), z = int(p.z());
-        if (x >= across_ || y >= across_ || z >= high_) continue;
-        hit += counts_[(std::size_t(z) * across_ + y) * across_ + x]++ == 0;
+        const float z_mm = float(depth[u]);
+        const Eigen::Vector3f p = origin + z_mm * (row + column_[u]);
+        const bool inside = (z_mm > 0.0f) & (p.x() >= 0.0f) & (p.y() >= 0.0f) & (p.z() >= 0.0f) & (p.x() < across) &
+                            (p.y() < across) & (p.z() < high);
+        const std::uint32_t cell =
+            (std::uint32_t(p.z()) * across_ + std::uint32_t(p.y())) * across_ + std::uint32_t(p.x());
+        counts_[inside ? cell : spare]++;
       }
     }
-    return hit;
+    counts_.back() = 0;
+    return int(std::count_if(counts_.begin(), counts_.end(), [](std::uint32_t n) { return n > 0; }));
   }
 
  private:
   float inverse_voxel_;
   int across_, high_;
-  std::vector<std::uint16_t> counts_;
-  std::vector<float> column_x_;  // (u - cx) / fx
+  std::vector<std::uint32_t> counts_;    // per voxel, and the spare cell last
+  std::vector<Eigen::Vector3f> column_;  // each column's share of the ray, voxel units per mm
 };
+
+// What no pass over a depth frame can beat: reading every pixel once (summed, so it is not optimised away).
+std::uint64_t readEveryPixel(const DepthFrame& frame) {
+  std::uint64_t sum = 0;
+  for (const std::uint16_t z : frame.depth_mm) sum += z;
+  return sum;
+}
 
 // Baseline 1: a fresh OcTree per frame filled by insertPointCloud (ray casting from the sensor),
 // then the 3-voxel core / 5-voxel mask tested around every occupied leaf by searching the tree.
@@ -670,6 +683,16 @@ int main(int argc, char** argv) {
     const Percentiles floor_p = percentiles(floor_s);
     row(table, "floor: back-project and voxel-hash every valid pixel, nothing else (0.27 m)", floor_p,
         format("%.0f voxels hit per frame", double(hit) / iterations));
+    std::vector<double> read_s;
+    std::uint64_t sum = 0;
+    for (int i = 0; i < iterations; ++i) {
+      const Clock::time_point start = Clock::now();
+      sum += readEveryPixel(frames[i % frames.size()]);
+      read_s.push_back(since_s(start));
+    }
+    const Percentiles read_p = percentiles(read_s);
+    row(table, "memory: read every pixel of the frame once, nothing else", read_p,
+        format("(%.0f m of depth summed)", double(sum) / iterations * 1e-3));
 
     std::vector<double> octomap_s;
     for (int i = 0; i < baseline_frames; ++i) {
@@ -701,7 +724,10 @@ int main(int argc, char** argv) {
           << (ours_p50 <= 1.0 ? " (target <= 1 ms: met)" : " (target <= 1 ms: **not met**)") << ", "
           << format("%.0fx", octomap.p50_ms / ours_p50) << " faster than the OctoMap baseline"
           << (octomap.p50_ms / ours_p50 >= 50.0 ? " (target >= 50x: met)" : " (target >= 50x: **not met**)") << ", "
-          << format("%.2f", ours_p50 / floor_p.p50_ms) << " times the floor pass.\n\n";
+          << format("%.2f", ours_p50 / floor_p.p50_ms) << " times the floor pass"
+          << (ours_p50 <= 2.0 * floor_p.p50_ms ? " (target <= 2x: met)" : " (target <= 2x: **not met**)")
+          << "; the floor pass is " << format("%.1f", floor_p.p50_ms / read_p.p50_ms)
+          << " times reading the frame.\n\n";
     tables << table.str();
   }
 
