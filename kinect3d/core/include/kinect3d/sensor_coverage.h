@@ -25,9 +25,10 @@ class SensorCoverage {
   // quarter of a small image.
   static constexpr int kMaxBandColumns_px = 40;
   static constexpr int kMaxBandRows_px = 16;
-  static constexpr int kSampleStride_px = 2;   // the range is learnt from every other pixel and row
-  static constexpr int kMinFarSamples = 16;    // a depth is returned when this many samples (~64 pixels) reach it
-  static constexpr double kRangeBin_m = 0.02;  // resolution of the learnt range
+  static constexpr int kSampleStride_px = 2;  // the range is learnt from every other pixel and row
+  static constexpr int kMinFarSamples = 16;   // a depth is returned when this many samples (~64 pixels) reach it
+  static constexpr int kRangeBin_mm = 20;     // resolution of the learnt range
+  static constexpr double kRangeBin_m = kRangeBin_mm * 1e-3;
   static constexpr double kMaxRange_m = 20.0;  // no depth sensor of this class returns farther
 
   // Learns from a frame; a frame of another size starts afresh.
