@@ -52,6 +52,21 @@ TEST(Host, PluginsExchangeDataThroughWorldState) {
   EXPECT_EQ(faulty.last_error, "frame checksum mismatch");
 }
 
+TEST(Host, APluginThatWakesOnMeasurementsStepsOnEachArrivalNotOnlyOnItsTicks) {
+  // Ticks 10 s apart: in the minute this test may wait, ticks alone step the consumer at most 7 times.
+  fw::Host host(exchangeConfig({"host.plugins=[tp_producer, tp_consumer]", "tp_producer.frames=200",
+                                "tp_consumer.rate_hz=0.1", "tp_consumer.wake_on_measurement=true"}),
+                TEST_PLUGIN_DIR);
+  host.start();
+  const auto consumer_steps = [&] { return summaryOf(host.summaries(), "tp_consumer").frames; };
+  const auto deadline = Clock::now() + std::chrono::seconds(60);
+  while (consumer_steps() < 20 && Clock::now() < deadline) std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  host.stop();
+  // The producer published 200 balls 5 ms apart; however the threads fell, most woke the consumer.
+  EXPECT_GE(consumer_steps(), 20u);
+  EXPECT_TRUE(host.world().fusedBall().has_value());
+}
+
 TEST(Host, ReportsEndOfStream) {
   fw::Host host(exchangeConfig({"host.plugins=[tp_producer]", "tp_producer.frames=3"}), TEST_PLUGIN_DIR);
   host.start();

@@ -67,6 +67,9 @@ TEST(MatchLog, RoundTripsEveryKindOfPublication) {
   health.plugin = "kinect3d";
   health.frames = 30;
   health.processing_p99_s = 0.004;
+  health.processing_total_s = 0.09;
+  health.latency_p50_s = 0.0021;
+  health.latency_p99_s = 0.0048;
   health.dropped_frames = 2;
   fw::TeamMessage teammate;
   teammate.team_id = 5;
@@ -127,6 +130,9 @@ TEST(MatchLog, RoundTripsEveryKindOfPublication) {
   EXPECT_EQ(std::get<fw::Event>(read[8].item).kind, "floor_found");
   EXPECT_EQ(std::get<fw::PluginHealth>(read[9].item).dropped_frames, 2u);
   EXPECT_DOUBLE_EQ(std::get<fw::PluginHealth>(read[9].item).processing_p99_s, 0.004);
+  EXPECT_DOUBLE_EQ(std::get<fw::PluginHealth>(read[9].item).processing_total_s, 0.09);
+  EXPECT_DOUBLE_EQ(std::get<fw::PluginHealth>(read[9].item).latency_p50_s, 0.0021);
+  EXPECT_DOUBLE_EQ(std::get<fw::PluginHealth>(read[9].item).latency_p99_s, 0.0048);
   const auto& message = std::get<fw::TeamMessage>(read[10].item);
   EXPECT_EQ(message.robot_id, 3);
   EXPECT_EQ(message.sequence, teammate.sequence);
@@ -319,9 +325,27 @@ TEST_F(LoggedDemo, HoldsTheWholeRunInItsOwnFolder) {
   // Health once a second for every plugin: the depth plugin's own processing time, not its wait.
   std::map<std::string, int> health_rows;
   std::vector<double> kinect_p50_s;
+  std::vector<fw::PluginHealth> fusion_seconds;
   for (const fw::PluginHealth& health : itemsOf<fw::PluginHealth>(entries)) {
     ++health_rows[health.plugin];
-    if (health.plugin == "kinect3d" && health.frames > 0) kinect_p50_s.push_back(health.processing_p50_s);
+    if (health.plugin == "kinect3d" && health.frames > 0) {
+      kinect_p50_s.push_back(health.processing_p50_s);
+      // The second's total: at least its median frame, at most the second.
+      EXPECT_GE(health.processing_total_s, health.processing_p50_s);
+      EXPECT_LT(health.processing_total_s, 1.0);
+    }
+    if (health.plugin == "fusion") {
+      // A second with a depth frame in it (one with only omni images has none to measure).
+      if (!std::isnan(health.latency_p50_s)) fusion_seconds.push_back(health);
+    } else {
+      EXPECT_TRUE(std::isnan(health.latency_p50_s)) << health.plugin << " reports no latency";
+    }
+  }
+  // The fusion reports the robot's latency, from a depth frame's arrival to its world ball.
+  ASSERT_FALSE(fusion_seconds.empty());
+  for (const fw::PluginHealth& second : fusion_seconds) {
+    EXPECT_GT(second.latency_p50_s, 0.0);
+    EXPECT_GE(second.latency_p99_s, second.latency_p50_s);
   }
   ASSERT_GE(kinect_p50_s.size(), 2u);
   // A frame comes every 33 ms; the detector's median on the demo is a few ms even under sanitizers.

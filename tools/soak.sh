@@ -1,19 +1,26 @@
 #!/usr/bin/env bash
-# The match-length soak (docs/match-log.md): the host runs ten minutes of a busy simulated field
-# (bench/scenes/match_soak.yaml, 18,000 frames, in real time) with the logger on, and this script
-# reports the host's resident memory over the run, the frames each plugin processed, what the
-# logger could not keep up with, the depth frames in the log, and the log's size per minute.
+# The match-length run of the whole robot stack (docs/benchmark.md, docs/match-log.md): the host
+# runs ten minutes of a busy simulated field (bench/scenes/match_soak.yaml, 18,000 frames, in real
+# time) through every plugin a field player runs: depth with colour, detector and trajectory,
+# omni, localisation, fusion, team (sending to a teammate address on loopback) and the logger with
+# depth and colour. This script reports the host's resident memory over the run, the frames each
+# plugin processed and dropped, what the logger could not keep up with, the depth frames in the
+# log and its size per minute, each plugin's share of one core, and the latency from a depth
+# frame's arrival to its world ball.
 # Usage: tools/soak.sh [SECONDS]   (default 600; shorter runs for a quick look)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 seconds=${1:-600}
-tools/build.sh vision_host kinect3d_plugin omni localisation fusion_plugin logger kinect3d_cli > /dev/null
+tools/build.sh vision_host kinect3d_plugin omni localisation fusion_plugin team logger kinect3d_cli > /dev/null
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 scene="sim:$(pwd)/bench/scenes/match_soak.yaml"
+build/bin/kinect3d team-key --out "$work/team.key" > /dev/null
 build/bin/vision_host --robot config/robots/demo.yaml \
-  --set "host.plugins=[localisation, kinect3d, omni, fusion, logger]" "host.duration_s=$seconds" \
+  --set "host.plugins=[localisation, kinect3d, omni, fusion, team, logger]" "host.duration_s=$seconds" \
         "kinect3d.source=$scene" "omni.source=$scene" "localisation.source=$scene" "logger.folder=$work" \
+        kinect3d.colour=true team.team_id=1 team.robot_id=1 "team.key_file=$work/team.key" \
+        team.bind_address=127.0.0.1 "team.peers=[127.0.0.1:50421]" \
   > "$work/host.out" 2> "$work/host.err" &
 host=$!
 echo "second,rss_mb" > "$work/rss.csv"
@@ -36,9 +43,19 @@ grep -c "fell behind" "$work/host.err" | xargs echo "logger 'fell behind' warnin
 build/bin/kinect3d info "log:$log" | grep "^frames:" | xargs echo "depth frames in the log:"
 bytes=$(du -sb "$log" | cut -f1)
 echo "log: $((bytes / 1024 / 1024)) MB for $seconds s = $((bytes * 60 / seconds / 1024 / 1024)) MB per minute"
-# Each plugin's own time from the log's health rows (once a second: steps and their median time), as
-# a share of one core: the median step time times the steps, summed over the run.
-echo "CPU per plugin (share of one core; median step time):"
-sqlite3 -separator ' ' "$db" "SELECT printf('  %-13s %5.1f %%  %6.2f ms a step, %4.1f steps a second', plugin,
-  100.0 * sum(processing_p50_s * frames) / count(*), 1000.0 * avg(processing_p50_s), avg(rate_hz))
-  FROM health WHERE frames > 0 GROUP BY plugin ORDER BY plugin"
+# From the log's health rows (once a second per plugin): each plugin's own time summed, as a share
+# of one core; the frames it dropped (gaps in its source's counter); and the fusion's latency from a
+# depth frame's arrival on the host to its world ball.
+echo "CPU per plugin (share of one core over the run; median step time; dropped frames):"
+sqlite3 -separator ' ' "$db" "SELECT printf('  %-13s %5.1f %%  %6.2f ms a step, %5.1f steps a second, %d dropped', plugin,
+  100.0 * sum(processing_total_s) / count(*), 1000.0 * avg(processing_p50_s), avg(rate_hz), max(dropped_frames))
+  FROM health GROUP BY plugin ORDER BY plugin"
+sqlite3 "$db" "SELECT printf('  the stack    %5.1f %% of one core', 100.0 * sum(processing_total_s) /
+  (SELECT count(*) FROM health WHERE plugin = 'fusion')) FROM health"
+# Each second's p50 and p99; over the run: their medians, and the worst second's p99.
+sqlite3 "$db" "WITH s AS (SELECT latency_p50_s AS p50, latency_p99_s AS p99 FROM health
+    WHERE plugin = 'fusion' AND latency_p50_s IS NOT NULL),
+  m50 AS (SELECT p50 FROM s ORDER BY p50 LIMIT 1 OFFSET (SELECT count(*) / 2 FROM s)),
+  m99 AS (SELECT p99 FROM s ORDER BY p99 LIMIT 1 OFFSET (SELECT count(*) / 2 FROM s))
+  SELECT printf('latency, depth frame arrival to world ball: p50 %.2f ms, p99 %.2f ms (medians over %d seconds; worst second p99 %.2f ms)',
+    1000.0 * (SELECT p50 FROM m50), 1000.0 * (SELECT p99 FROM m99), (SELECT count(*) FROM s), 1000.0 * max(p99)) FROM s"

@@ -26,6 +26,7 @@ Clock::duration errorBackoff(int consecutive_errors) {
 struct Host::Running {
   std::unique_ptr<PluginInstance> instance;
   double rate_hz = 0.0;
+  bool wake_on_measurement = false;  // with a rate: also step as soon as a measurement arrives
   std::thread thread;
   std::atomic<bool> finished{false};        // the thread has left run()
   std::atomic<Clock::rep> step_started{0};  // steady clock ticks; 0 = not in a step
@@ -37,6 +38,13 @@ struct Host::Running {
 };
 
 Host::Host(const Config& config, const std::string& plugin_dir) : config_(config) {
+  world_.setMeasurementListener([this] {
+    {
+      std::lock_guard<std::mutex> lock(wake_mutex_);
+      ++measurements_;
+    }
+    wake_.notify_all();
+  });
   const ConfigView host = config.block("host");
   max_consecutive_errors_ = host.getInt("max_consecutive_errors", 1, 1000000);
   stuck_after_s_ = host.getDouble("stuck_after_s", 0.05, 3600.0);
@@ -50,6 +58,7 @@ Host::Host(const Config& config, const std::string& plugin_dir) : config_(config
     const ConfigView block = config.block(name);
     auto running = std::make_unique<Running>();
     running->rate_hz = block.has("rate_hz") ? block.getDouble("rate_hz", 0.1, 1000.0) : 0.0;
+    running->wake_on_measurement = block.has("wake_on_measurement") && block.getBool("wake_on_measurement");
     const auto library = PluginLibrary::open(plugin_dir + "/" + name + ".so");
     if (library->name() != name) {
       throw PluginLoadError("'" + library->path() + "' declares the plugin name '" + library->name() + "', expected '" +
@@ -149,6 +158,11 @@ void Host::publishHealth() {
     if (!times.empty()) {
       h.processing_p50_s = quantile(times, 0.5);
       h.processing_p99_s = quantile(times, 0.99);
+      for (const double t_s : times) h.processing_total_s += t_s;
+    }
+    if (const std::vector<double> latencies = world_.takeLatencies(h.plugin); !latencies.empty()) {
+      h.latency_p50_s = quantile(latencies, 0.5);
+      h.latency_p99_s = quantile(latencies, 0.99);
     }
     h.dropped_frames = world_.droppedFrames(h.plugin);
     health.push_back(h);
@@ -185,13 +199,20 @@ void Host::run(Running& plugin) {
   Clock::time_point next_tick = start;
   int consecutive_errors = 0;
   bool gave_up = false;
+  std::uint64_t measurements_seen = 0;
   while (!stop_requested_) {
     if (period > Clock::duration::zero()) {
       std::unique_lock<std::mutex> lock(wake_mutex_);
-      if (wake_.wait_until(lock, next_tick, [this] { return stop_requested_.load(); })) break;
-      next_tick += period;
-      // After a long stall, skip the missed ticks instead of bursting to catch up.
-      if (next_tick < Clock::now()) next_tick = Clock::now() + period;
+      const bool woken = wake_.wait_until(lock, next_tick, [&] {
+        return stop_requested_.load() || (plugin.wake_on_measurement && measurements_ != measurements_seen);
+      });
+      if (stop_requested_) break;
+      measurements_seen = measurements_;
+      if (!woken) {
+        next_tick += period;
+        // After a long stall, skip the missed ticks instead of bursting to catch up.
+        if (next_tick < Clock::now()) next_tick = Clock::now() + period;
+      }
     }
     const std::optional<StepResult> result = stepOnce(plugin, start);
     Clock::duration backoff = Clock::duration::zero();

@@ -64,18 +64,24 @@ void WorldState::addBallFrame(BallFrame frame) {
 
 void WorldState::publishBalls(const std::vector<BallObservation>& observations) {
   if (observations.empty()) return;
-  std::lock_guard<std::mutex> lock(mutex_);
-  BallFrame frame{observations.front().stamp, observations, observations.front().source};
-  takePlace(frame);
-  addBallFrame(std::move(frame));
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    BallFrame frame{observations.front().stamp, observations, observations.front().source};
+    takePlace(frame);
+    addBallFrame(std::move(frame));
+  }
+  announceMeasurement();
 }
 
 void WorldState::publishOmniFrame(const OmniFrame& frame) {
-  std::lock_guard<std::mutex> lock(mutex_);
-  if (!frame.balls.empty()) omni_frames_[frame.source].push(frame);
-  takePlace(frame);
-  journal(frame);
-  ++version_;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (!frame.balls.empty()) omni_frames_[frame.source].push(frame);
+    takePlace(frame);
+    journal(frame);
+    ++version_;
+  }
+  announceMeasurement();
 }
 
 WorldState::DepthArrival WorldState::arriveDepthFrame(std::optional<DepthImage> image, std::uint64_t* pose_cursor) {
@@ -85,18 +91,21 @@ WorldState::DepthArrival WorldState::arriveDepthFrame(std::optional<DepthImage> 
 }
 
 void WorldState::publishBallFrame(std::uint64_t place, BallFrame frame) {
-  std::lock_guard<std::mutex> lock(mutex_);
-  if (place >= first_place_ && place < first_place_ + places_.size()) {
-    Place& taken = places_[place - first_place_];
-    if (std::chrono::steady_clock::now() - taken.taken < patience()) {
-      taken.measurement = frame;
-    } else {
-      // A reader may have gone past its place: it comes now, a late measurement, to every reader.
-      taken.withdrawn = true;
-      takePlace(frame);
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (place >= first_place_ && place < first_place_ + places_.size()) {
+      Place& taken = places_[place - first_place_];
+      if (std::chrono::steady_clock::now() - taken.taken < patience()) {
+        taken.measurement = frame;
+      } else {
+        // A reader may have gone past its place: it comes now, a late measurement, to every reader.
+        taken.withdrawn = true;
+        takePlace(frame);
+      }
     }
+    addBallFrame(std::move(frame));
   }
-  addBallFrame(std::move(frame));
+  announceMeasurement();
 }
 
 std::vector<WorldState::Measurement> WorldState::measurementsSince(std::uint64_t* cursor) const {
@@ -128,11 +137,14 @@ std::optional<SensorPose> WorldState::sensorPose(const std::string& source) cons
 }
 
 void WorldState::publishTeamMessage(const TeamMessage& message) {
-  std::lock_guard<std::mutex> lock(mutex_);
-  team_messages_[message.robot_id] = message;
-  takePlace(message);
-  journal(message);
-  ++version_;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    team_messages_[message.robot_id] = message;
+    takePlace(message);
+    journal(message);
+    ++version_;
+  }
+  announceMeasurement();
 }
 
 std::map<int, TeamMessage> WorldState::teamMessages() const {
@@ -177,11 +189,14 @@ void WorldState::publishFusedBall(const FusedBall& ball) {
 }
 
 void WorldState::publishRobotPose(const RobotPose& pose) {
-  std::lock_guard<std::mutex> lock(mutex_);
-  robot_poses_.push(pose);
-  takePlace(pose);
-  journal(pose);
-  ++version_;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    robot_poses_.push(pose);
+    takePlace(pose);
+    journal(pose);
+    ++version_;
+  }
+  announceMeasurement();
 }
 
 void WorldState::publishDepthImage(DepthImage image) {
@@ -204,10 +219,29 @@ void WorldState::reportDroppedFrames(const std::string& plugin, std::uint64_t to
   dropped_frames_[plugin] = total;
 }
 
+namespace {
+// A plugin's reported times until the host takes them: bounded when nobody does.
+void keep(std::map<std::string, std::vector<double>>& by_plugin, const std::string& plugin, double seconds,
+          std::size_t capacity) {
+  std::vector<double>& times = by_plugin[plugin];
+  if (times.size() < capacity) times.push_back(seconds);
+}
+std::vector<double> take(std::map<std::string, std::vector<double>>& by_plugin, const std::string& plugin) {
+  std::vector<double> times;
+  const auto found = by_plugin.find(plugin);
+  if (found != by_plugin.end()) times.swap(found->second);
+  return times;
+}
+}  // namespace
+
 void WorldState::reportProcessingTime(const std::string& plugin, double seconds) {
   std::lock_guard<std::mutex> lock(mutex_);
-  std::vector<double>& times = processing_times_s_[plugin];
-  if (times.size() < kJournalCapacity) times.push_back(seconds);  // bounded when nobody takes them
+  keep(processing_times_s_, plugin, seconds, kJournalCapacity);
+}
+
+void WorldState::reportLatency(const std::string& plugin, double seconds) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  keep(latencies_s_, plugin, seconds, kJournalCapacity);
 }
 
 std::uint64_t WorldState::droppedFrames(const std::string& plugin) const {
@@ -218,10 +252,12 @@ std::uint64_t WorldState::droppedFrames(const std::string& plugin) const {
 
 std::vector<double> WorldState::takeProcessingTimes(const std::string& plugin) {
   std::lock_guard<std::mutex> lock(mutex_);
-  std::vector<double> times;
-  const auto found = processing_times_s_.find(plugin);
-  if (found != processing_times_s_.end()) times.swap(found->second);
-  return times;
+  return take(processing_times_s_, plugin);
+}
+
+std::vector<double> WorldState::takeLatencies(const std::string& plugin) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return take(latencies_s_, plugin);
 }
 
 namespace {

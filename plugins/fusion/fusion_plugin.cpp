@@ -45,6 +45,8 @@ class FusionPlugin : public fw::Plugin {
         if (frame->source != config_.kinect.source) continue;
         if (alignmentCheck()) alignment_->addKinectFrame(frame->stamp.source_time_s, frame->balls);
         publish(fusion_.addKinectFrame(frame->stamp.source_time_s, frame->balls));
+        // The robot's latency: from the depth frame's arrival on this host to its world ball.
+        world_.reportLatency(name_, fw::wallClockNow_s() - frame->stamp.receive_time_s);
         updated = true;
       } else if (const auto* omni = std::get_if<fw::OmniFrame>(&measurement)) {
         if (omni->source != config_.omni.source) continue;

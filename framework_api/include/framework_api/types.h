@@ -5,6 +5,7 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 #include <cstdint>
+#include <limits>
 #include <optional>
 #include <string>
 #include <vector>
@@ -242,6 +243,11 @@ struct PluginHealth {
   double rate_hz = 0.0;           // frames / the second's length
   double processing_p50_s = 0.0;  // of those frames (the plugin's own, else its step time)
   double processing_p99_s = 0.0;
+  double processing_total_s = 0.0;  // summed over those frames: the plugin's share of a core in the second
+  // From an input's arrival on this host to the plugin's output, for a plugin that reports it (the
+  // fusion: a depth frame's arrival to its world ball's publication); NaN for the others.
+  double latency_p50_s = std::numeric_limits<double>::quiet_NaN();
+  double latency_p99_s = std::numeric_limits<double>::quiet_NaN();
   std::uint64_t dropped_frames = 0;  // total since start, as the plugin reported them
   std::uint64_t errors = 0;          // total since start
   std::uint64_t stuck = 0;           // total since start

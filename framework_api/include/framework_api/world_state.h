@@ -5,6 +5,7 @@
 #include <chrono>
 #include <cstdint>
 #include <deque>
+#include <functional>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -78,6 +79,9 @@ class WorldState {
   // first place still waiting for its balls; at most kMeasurementsKept of the newest.
   static constexpr std::size_t kMeasurementsKept = 1024;
   std::vector<Measurement> measurementsSince(std::uint64_t* cursor) const;
+  // Called after each measurement is published or a depth frame's place filled, outside the state's
+  // lock: the host wakes the plugins that step on a measurement's arrival. Set before any plugin runs.
+  void setMeasurementListener(std::function<void()> listener) { measurement_listener_ = std::move(listener); }
   // Only into the journal (nobody acts on them; the match log and the viewer show them). Every item is
   // a plain value: nothing in the journal may point into a plugin's library, which is unloaded with
   // the plugin while the journal's reader may still hold the item.
@@ -89,9 +93,12 @@ class WorldState {
   // wait for it (the host's step time includes that wait).
   void reportDroppedFrames(const std::string& plugin, std::uint64_t total);
   void reportProcessingTime(const std::string& plugin, double seconds);
+  // And the time from an input's arrival on this host to the plugin's output (PluginHealth).
+  void reportLatency(const std::string& plugin, double seconds);
   std::uint64_t droppedFrames(const std::string& plugin) const;
-  // The processing times reported since the last call (none: the plugin reports none).
+  // The processing times and latencies reported since the last call (none: the plugin reports none).
   std::vector<double> takeProcessingTimes(const std::string& plugin);
+  std::vector<double> takeLatencies(const std::string& plugin);
 
   // Newest first.
   std::vector<BallObservation> recentBalls(const std::string& source) const;
@@ -154,6 +161,11 @@ class WorldState {
   std::uint64_t first_place_ = 0;  // the number of places_.front()
   std::map<std::string, std::uint64_t> dropped_frames_;
   std::map<std::string, std::vector<double>> processing_times_s_;
+  std::map<std::string, std::vector<double>> latencies_s_;
+  std::function<void()> measurement_listener_;
+  void announceMeasurement() const {
+    if (measurement_listener_) measurement_listener_();
+  }
   std::uint64_t version_ = 0;
   bool journal_open_ = false;
   bool journal_depth_ = false;

@@ -52,7 +52,8 @@ CREATE TABLE event (seq INTEGER PRIMARY KEY, wall_time_s REAL NOT NULL, source T
   kind TEXT NOT NULL, message TEXT NOT NULL, source_time_s REAL, receive_time_s REAL);
 CREATE TABLE health (seq INTEGER PRIMARY KEY, wall_time_s REAL NOT NULL, plugin TEXT NOT NULL,
   frames INTEGER, rate_hz REAL, processing_p50_s REAL, processing_p99_s REAL, dropped_frames INTEGER,
-  errors INTEGER, stuck INTEGER, second_end_wall_time_s REAL);
+  errors INTEGER, stuck INTEGER, second_end_wall_time_s REAL, processing_total_s REAL, latency_p50_s REAL,
+  latency_p99_s REAL);
 CREATE TABLE depth_frame (seq INTEGER PRIMARY KEY, wall_time_s REAL NOT NULL, source TEXT NOT NULL,
   frame_index INTEGER NOT NULL, source_time_s REAL NOT NULL, receive_time_s REAL NOT NULL,
   width INTEGER NOT NULL, height INTEGER NOT NULL, fx REAL, fy REAL, cx REAL, cy REAL, depth_zstd BLOB NOT NULL,
@@ -402,9 +403,13 @@ void MatchLogWriter::write(const fw::JournalEntry& entry) {
                 .run(seq, wall, e.source, e.kind, e.message, e.stamp.source_time_s, e.stamp.receive_time_s);
           },
           [&](const fw::PluginHealth& h) {
-            statement("INSERT INTO health VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)")
+            const auto reported = [](double seconds) {  // NaN: the plugin reports none
+              return std::isnan(seconds) ? std::nullopt : std::optional<double>(seconds);
+            };
+            statement("INSERT INTO health VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)")
                 .run(seq, wall, h.plugin, h.frames, h.rate_hz, h.processing_p50_s, h.processing_p99_s, h.dropped_frames,
-                     h.errors, h.stuck, h.wall_time_s);
+                     h.errors, h.stuck, h.wall_time_s, h.processing_total_s, reported(h.latency_p50_s),
+                     reported(h.latency_p99_s));
           },
           [&](const fw::TeamMessage& m) {
             const std::string body = fw::packTeamMessage(m);
@@ -688,9 +693,12 @@ std::vector<fw::JournalEntry> MatchLogReader::entries(std::int64_t after_seq, st
     }
   }
   {
+    // Version 5 added each second's total processing time and the latency.
     const auto health = query(
         "SELECT seq, wall_time_s, plugin, frames, rate_hz, processing_p50_s, processing_p99_s, dropped_frames, errors, "
-        "stuck, second_end_wall_time_s FROM health WHERE seq > ?");
+        "stuck, second_end_wall_time_s" +
+        std::string(schema_ >= 5 ? ", processing_total_s, latency_p50_s, latency_p99_s" : "") +
+        " FROM health WHERE seq > ?");
     Statement& q = *health;
     while (q.row()) {
       fw::PluginHealth h;
@@ -703,6 +711,11 @@ std::vector<fw::JournalEntry> MatchLogReader::entries(std::int64_t after_seq, st
       h.errors = static_cast<std::uint64_t>(q.integer(8));
       h.stuck = static_cast<std::uint64_t>(q.integer(9));
       h.wall_time_s = q.real(10);
+      if (schema_ >= 5) {
+        h.processing_total_s = q.real(11);
+        h.latency_p50_s = q.real(12);
+        h.latency_p99_s = q.real(13);
+      }
       by_seq[q.integer(0)] = {q.real(1), h};
     }
   }
