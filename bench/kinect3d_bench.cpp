@@ -749,7 +749,7 @@ int main(int argc, char** argv) {
     table << "\nkinect3d at 0.27 m: p50 " << format("%.3f ms", ours_p50)
           << (ours_p50 <= 1.0 ? " (target <= 1 ms: met)" : " (target <= 1 ms: **not met**)") << ", "
           << format("%.0fx", octomap.p50_ms / ours_p50) << " faster than the OctoMap baseline"
-          << (octomap.p50_ms / ours_p50 >= 50.0 ? " (target >= 50x: met)" : " (target >= 50x: **not met**)") << ", "
+          << (octomap.p50_ms / ours_p50 >= 100.0 ? " (target >= 100x: met)" : " (target >= 100x: **not met**)") << ", "
           << format("%.2f", ours_p50 / floor_p.p50_ms) << " times the floor pass"
           << (ours_p50 <= 2.0 * floor_p.p50_ms ? " (target <= 2x: met)" : " (target <= 2x: **not met**)")
           << "; the floor pass is " << format("%.1f", floor_p.p50_ms / read_p.p50_ms)
@@ -771,7 +771,10 @@ int main(int argc, char** argv) {
         << "same pinned core, so its time competes with the frames it does not belong to. The 'map' stage is what "
         << "the frame itself spends on the scene map: handing rays over every n-th frame, and waiting when the "
         << "previous integration has not finished. The floor pass is what any voxel detector pays before it "
-        << "does anything: it makes the figures comparable between machines.\n\n"
+        << "does anything: every valid pixel back-projected and counted in its voxel, written as fast as baseline "
+        << "x86-64 allows (`FloorPass` in bench/kinect3d_bench.cpp); reading the frame once is the floor under "
+        << "that. Both make the figures comparable between machines. The whole robot stack (every plugin, "
+        << "logging, latency) is measured by tools/soak.sh (README, \"Measured speed\").\n\n"
         << tables.str();
   }
   return 0;
