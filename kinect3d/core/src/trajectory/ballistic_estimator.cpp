@@ -213,8 +213,9 @@ class BallisticEstimator : public TrajectoryEstimator {
       rhs += A.transpose() * W * target;
     }
     if (!estimate) {
-      theta_ = normal.topLeftCorner<6, 6>().ldlt().solve(rhs.head<6>());
-      covariance_ = normal.topLeftCorner<6, 6>().inverse();
+      const Eigen::LDLT<Matrix6d> ldlt(normal.topLeftCorner<6, 6>());
+      theta_ = ldlt.solve(rhs.head<6>());
+      covariance_ = ldlt.solve(Matrix6d::Identity());
       return;
     }
     // Each prior as one more equation on the change d: d = prior - current.
@@ -226,7 +227,8 @@ class BallisticEstimator : public TrajectoryEstimator {
       rhs[6 + k] += sigma[k] > 0.0 ? prior_weight * (mean[k] - physics_[k]) : 0.0;
       estimated += sigma[k] > 0.0;
     }
-    const Vector8d solution = normal.ldlt().solve(rhs);
+    const Eigen::LDLT<Matrix8d> ldlt(normal);
+    const Vector8d solution = ldlt.solve(rhs);
     // The detections' weights assume model_sigma_m of model error each; how well the fit really
     // meets them rescales its covariance (the least-squares variance factor, held towards 1 by
     // kVarianceFactorPrior pseudo-observations so that five detections cannot talk it into zero).
@@ -243,7 +245,7 @@ class BallisticEstimator : public TrajectoryEstimator {
     const double dof = 3.0 * segment_.size() - 6.0 - estimated;
     const double variance_factor =
         std::max(kMinVarianceFactor, (chi2 + kVarianceFactorPrior) / (std::max(dof, 0.0) + kVarianceFactorPrior));
-    const Matrix8d covariance = variance_factor * normal.inverse();
+    const Matrix8d covariance = variance_factor * ldlt.solve(Matrix8d::Identity());
     theta_ = solution.head<6>();
     physics_[0] = std::clamp(physics_[0] + solution[6], 0.0, kMaxDrag_per_m);
     physics_[1] = std::clamp(physics_[1] + solution[7], -kMaxCurve_radps, kMaxCurve_radps);
