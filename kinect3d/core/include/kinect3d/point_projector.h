@@ -48,8 +48,7 @@ class PointProjector {
     const std::uint16_t* d = &frame.depth_mm[static_cast<std::size_t>(v) * frame.width() + u];
     const float z_mm = d[0];
     if (z_mm < min_mm_ || z_mm > max_mm_) return false;
-    // Tolerance in mm: k steps of z^2 / (8 f b), with z in metres.
-    const float tolerance_mm = tolerance_per_m2_ * z_mm * z_mm * 1e-3f;
+    const float tolerance_mm = toleranceAt_mm(z_mm);
     const int stride = frame.width();
     for (const std::uint16_t n : {d[-1], d[1], d[-stride], d[stride]}) {
       if (n == 0 || std::abs(float(n) - z_mm) > tolerance_mm) return false;
@@ -58,6 +57,9 @@ class PointProjector {
   }
 
  private:
+  // How far a neighbour may lie from depth z_mm: k steps of z^2 / (8 f b), with z in metres.
+  float toleranceAt_mm(float z_mm) const { return tolerance_per_m2_ * z_mm * z_mm * 1e-3f; }
+
   Config config_;
   float min_mm_ = 0, max_mm_ = 0;
   float tolerance_per_m2_ = 0;  // edge_tolerance_steps / (8 f b)
