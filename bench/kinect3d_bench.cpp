@@ -422,7 +422,7 @@ class Rvl {
       writer.put(std::uint32_t(i - valid_from));
       for (std::size_t k = valid_from; k < i; ++k) {
         const std::int32_t difference = std::int32_t(depth[k]) - previous;
-        writer.put(std::uint32_t((difference << 1) ^ (difference >> 31)));
+        writer.put((std::uint32_t(difference) << 1) ^ std::uint32_t(difference >> 31));
         previous = depth[k];
       }
     }

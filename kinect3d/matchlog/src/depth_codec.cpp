@@ -13,9 +13,10 @@ namespace {
 static_assert(__BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__, "the depth codec writes little-endian words");
 
 // 0, -1, 1, -2, ... -> 0, 1, 2, 3, ...: a step of a few millimetres either way stays a small number.
+// In unsigned 16-bit arithmetic: the difference shifted left, its bits flipped when it is negative.
 inline std::uint16_t zigzag(std::uint16_t difference) {
-  const auto d = static_cast<std::int16_t>(difference);
-  return static_cast<std::uint16_t>((d << 1) ^ (d >> 15));
+  const auto negative = static_cast<std::uint16_t>(-(difference >> 15));  // 0 or 0xffff
+  return static_cast<std::uint16_t>((difference << 1) ^ negative);
 }
 inline std::uint16_t unzigzag(std::uint16_t z) { return static_cast<std::uint16_t>((z >> 1) ^ -(z & 1)); }
 
