@@ -381,7 +381,7 @@ std::string colourCodecTable(int repeats) {
   };
   const std::vector<Codec> codecs = {{"PNG, level 1", ".png", {cv::IMWRITE_PNG_COMPRESSION, 1}},
                                      {"JPEG, quality 75", ".jpg", {cv::IMWRITE_JPEG_QUALITY, 75}},
-                                     {"JPEG, quality 90 (the log's)", ".jpg", {cv::IMWRITE_JPEG_QUALITY, 90}}};
+                                     {"JPEG, quality 90 (the log's default)", ".jpg", {cv::IMWRITE_JPEG_QUALITY, 90}}};
   std::ostringstream table;
   table << "| image | codec | size | encode p50 | decode p50 |\n|---|---|---|---|---|\n";
   for (const auto& [label, image] : images) {
