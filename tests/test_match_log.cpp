@@ -464,6 +464,10 @@ TEST_F(LoggedDemo, MatchReportShowsTheLobToAPersonOpeningIt) {
   for (const char* plugin : {"localisation", "kinect3d", "omni", "fusion", "logger"}) {
     EXPECT_NE(dom.find("<td class=\"text\">" + std::string(plugin) + "</td>"), std::string::npos) << plugin;
   }
+  // The fusion's row gives the robot's latency, a number of milliseconds.
+  const std::size_t latency = dom.find("data-plugin=\"fusion\" data-latency-p50-ms=\"");
+  ASSERT_NE(latency, std::string::npos);
+  EXPECT_GT(std::stod(dom.substr(latency + std::string("data-plugin=\"fusion\" data-latency-p50-ms=\"").size())), 0.0);
   const fs::path shot = out.path() / "shot.png";
   ASSERT_EQ(runCommand(chromium + "--screenshot=" + shot.string() + " " + page + " 2>/dev/null").first, 0);
   const cv::Mat picture = cv::imread(shot.string(), cv::IMREAD_COLOR);

@@ -3,6 +3,7 @@
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
+#include <cmath>
 #include <ctime>
 #include <filesystem>
 #include <fstream>
@@ -190,10 +191,15 @@ void writeMatchReport(const std::string& log_folder, const std::string& out_dir)
   json plugins = json::array();
   for (const auto& [plugin, seconds] : health) {
     std::uint64_t frames = 0, dropped = 0, errors = 0, stuck = 0;
-    std::vector<double> p50s, t_s, p99s;
-    double p99 = 0.0;
+    std::vector<double> p50s, t_s, p99s, latency_p50s, latency_p99s;
+    double p99 = 0.0, busy_s = 0.0;
     for (const fw::PluginHealth& h : seconds) {
       frames += h.frames;
+      busy_s += h.processing_total_s;
+      if (!std::isnan(h.latency_p50_s)) {
+        latency_p50s.push_back(h.latency_p50_s);
+        latency_p99s.push_back(h.latency_p99_s);
+      }
       dropped = std::max(dropped, h.dropped_frames);
       errors = std::max(errors, h.errors);
       stuck = std::max(stuck, h.stuck);
@@ -209,6 +215,13 @@ void writeMatchReport(const std::string& log_folder, const std::string& out_dir)
                        {"rate_hz", seconds.empty() ? 0.0 : static_cast<double>(frames) / seconds.size()},
                        {"p50_s", p50s.empty() ? 0.0 : fw::quantile(p50s, 0.5)},
                        {"p99_s", p99},
+                       {"core_share", seconds.empty() ? 0.0 : busy_s / seconds.size()},
+                       // Over the seconds that measured it: the median second's p50 and p99, the worst p99.
+                       {"latency", latency_p50s.empty() ? json()
+                                                        : json{{"p50_s", fw::quantile(latency_p50s, 0.5)},
+                                                               {"p99_s", fw::quantile(latency_p99s, 0.5)},
+                                                               {"worst_p99_s", *std::max_element(latency_p99s.begin(),
+                                                                                                 latency_p99s.end())}}},
                        {"dropped_frames", dropped},
                        {"errors", errors},
                        {"stuck", stuck},
