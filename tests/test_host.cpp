@@ -52,10 +52,10 @@ TEST(Host, PluginsExchangeDataThroughWorldState) {
   EXPECT_EQ(faulty.last_error, "frame checksum mismatch");
 }
 
-TEST(Host, APluginThatWakesOnMeasurementsStepsOnEachArrivalNotOnlyOnItsTicks) {
+TEST(Host, APluginThatWakesOnBallFramesStepsOnEachArrivalNotOnlyOnItsTicks) {
   // Ticks 10 s apart: in the minute this test may wait, ticks alone step the consumer at most 7 times.
   fw::Host host(exchangeConfig({"host.plugins=[tp_producer, tp_consumer]", "tp_producer.frames=200",
-                                "tp_consumer.rate_hz=0.1", "tp_consumer.wake_on_measurement=true"}),
+                                "tp_consumer.rate_hz=0.1", "tp_consumer.wake_on_ball_frame=true"}),
                 TEST_PLUGIN_DIR);
   host.start();
   const auto consumer_steps = [&] { return summaryOf(host.summaries(), "tp_consumer").frames; };

@@ -26,7 +26,7 @@ Clock::duration errorBackoff(int consecutive_errors) {
 struct Host::Running {
   std::unique_ptr<PluginInstance> instance;
   double rate_hz = 0.0;
-  bool wake_on_measurement = false;  // with a rate: also step as soon as a measurement arrives
+  bool wake_on_ball_frame = false;  // with a rate: also step as soon as a depth frame's balls arrive
   std::thread thread;
   std::atomic<bool> finished{false};        // the thread has left run()
   std::atomic<Clock::rep> step_started{0};  // steady clock ticks; 0 = not in a step
@@ -38,10 +38,10 @@ struct Host::Running {
 };
 
 Host::Host(const Config& config, const std::string& plugin_dir) : config_(config) {
-  world_.setMeasurementListener([this] {
+  world_.setBallFrameListener([this] {
     {
       std::lock_guard<std::mutex> lock(wake_mutex_);
-      ++measurements_;
+      ++ball_frames_;
     }
     wake_.notify_all();
   });
@@ -58,7 +58,7 @@ Host::Host(const Config& config, const std::string& plugin_dir) : config_(config
     const ConfigView block = config.block(name);
     auto running = std::make_unique<Running>();
     running->rate_hz = block.has("rate_hz") ? block.getDouble("rate_hz", 0.1, 1000.0) : 0.0;
-    running->wake_on_measurement = block.has("wake_on_measurement") && block.getBool("wake_on_measurement");
+    running->wake_on_ball_frame = block.has("wake_on_ball_frame") && block.getBool("wake_on_ball_frame");
     const auto library = PluginLibrary::open(plugin_dir + "/" + name + ".so");
     if (library->name() != name) {
       throw PluginLoadError("'" + library->path() + "' declares the plugin name '" + library->name() + "', expected '" +
@@ -199,15 +199,15 @@ void Host::run(Running& plugin) {
   Clock::time_point next_tick = start;
   int consecutive_errors = 0;
   bool gave_up = false;
-  std::uint64_t measurements_seen = 0;
+  std::uint64_t ball_frames_seen = 0;
   while (!stop_requested_) {
     if (period > Clock::duration::zero()) {
       std::unique_lock<std::mutex> lock(wake_mutex_);
       const bool woken = wake_.wait_until(lock, next_tick, [&] {
-        return stop_requested_.load() || (plugin.wake_on_measurement && measurements_ != measurements_seen);
+        return stop_requested_.load() || (plugin.wake_on_ball_frame && ball_frames_ != ball_frames_seen);
       });
       if (stop_requested_) break;
-      measurements_seen = measurements_;
+      ball_frames_seen = ball_frames_;
       if (!woken) {
         next_tick += period;
         // After a long stall, skip the missed ticks instead of bursting to catch up.

@@ -70,18 +70,15 @@ void WorldState::publishBalls(const std::vector<BallObservation>& observations) 
     takePlace(frame);
     addBallFrame(std::move(frame));
   }
-  announceMeasurement();
+  announceBallFrame();
 }
 
 void WorldState::publishOmniFrame(const OmniFrame& frame) {
-  {
-    std::lock_guard<std::mutex> lock(mutex_);
-    if (!frame.balls.empty()) omni_frames_[frame.source].push(frame);
-    takePlace(frame);
-    journal(frame);
-    ++version_;
-  }
-  announceMeasurement();
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (!frame.balls.empty()) omni_frames_[frame.source].push(frame);
+  takePlace(frame);
+  journal(frame);
+  ++version_;
 }
 
 WorldState::DepthArrival WorldState::arriveDepthFrame(std::optional<DepthImage> image, std::uint64_t* pose_cursor) {
@@ -105,7 +102,7 @@ void WorldState::publishBallFrame(std::uint64_t place, BallFrame frame) {
     }
     addBallFrame(std::move(frame));
   }
-  announceMeasurement();
+  announceBallFrame();
 }
 
 std::vector<WorldState::Measurement> WorldState::measurementsSince(std::uint64_t* cursor) const {
@@ -137,14 +134,11 @@ std::optional<SensorPose> WorldState::sensorPose(const std::string& source) cons
 }
 
 void WorldState::publishTeamMessage(const TeamMessage& message) {
-  {
-    std::lock_guard<std::mutex> lock(mutex_);
-    team_messages_[message.robot_id] = message;
-    takePlace(message);
-    journal(message);
-    ++version_;
-  }
-  announceMeasurement();
+  std::lock_guard<std::mutex> lock(mutex_);
+  team_messages_[message.robot_id] = message;
+  takePlace(message);
+  journal(message);
+  ++version_;
 }
 
 std::map<int, TeamMessage> WorldState::teamMessages() const {
@@ -189,14 +183,11 @@ void WorldState::publishFusedBall(const FusedBall& ball) {
 }
 
 void WorldState::publishRobotPose(const RobotPose& pose) {
-  {
-    std::lock_guard<std::mutex> lock(mutex_);
-    robot_poses_.push(pose);
-    takePlace(pose);
-    journal(pose);
-    ++version_;
-  }
-  announceMeasurement();
+  std::lock_guard<std::mutex> lock(mutex_);
+  robot_poses_.push(pose);
+  takePlace(pose);
+  journal(pose);
+  ++version_;
 }
 
 void WorldState::publishDepthImage(DepthImage image) {

@@ -94,7 +94,7 @@ class Host {
   double stuck_after_s_ = 0.0;
   std::mutex wake_mutex_;
   std::condition_variable wake_;
-  std::uint64_t measurements_ = 0;  // published so far (under wake_mutex_): wakes wake_on_measurement plugins
+  std::uint64_t ball_frames_ = 0;  // published so far (under wake_mutex_): wakes wake_on_ball_frame plugins
 };
 
 // One summary line per plugin: "kinect3d 1.0.0: 301 frames in 10.0 s (30.1 Hz), 0 errors".

@@ -79,9 +79,9 @@ class WorldState {
   // first place still waiting for its balls; at most kMeasurementsKept of the newest.
   static constexpr std::size_t kMeasurementsKept = 1024;
   std::vector<Measurement> measurementsSince(std::uint64_t* cursor) const;
-  // Called after each measurement is published or a depth frame's place filled, outside the state's
-  // lock: the host wakes the plugins that step on a measurement's arrival. Set before any plugin runs.
-  void setMeasurementListener(std::function<void()> listener) { measurement_listener_ = std::move(listener); }
+  // Called after a depth plugin's balls are published (a frame's place filled), outside the state's
+  // lock: the host wakes the plugins that step on a depth frame's balls. Set before any plugin runs.
+  void setBallFrameListener(std::function<void()> listener) { ball_frame_listener_ = std::move(listener); }
   // Only into the journal (nobody acts on them; the match log and the viewer show them). Every item is
   // a plain value: nothing in the journal may point into a plugin's library, which is unloaded with
   // the plugin while the journal's reader may still hold the item.
@@ -162,9 +162,9 @@ class WorldState {
   std::map<std::string, std::uint64_t> dropped_frames_;
   std::map<std::string, std::vector<double>> processing_times_s_;
   std::map<std::string, std::vector<double>> latencies_s_;
-  std::function<void()> measurement_listener_;
-  void announceMeasurement() const {
-    if (measurement_listener_) measurement_listener_();
+  std::function<void()> ball_frame_listener_;
+  void announceBallFrame() const {
+    if (ball_frame_listener_) ball_frame_listener_();
   }
   std::uint64_t version_ = 0;
   bool journal_open_ = false;
