@@ -567,19 +567,11 @@ std::string depthCodecTable(int repeats) {
          out.resize(LZ4_compress_default(reinterpret_cast<const char*>(residuals.data()),
                                          reinterpret_cast<char*>(out.data()), raw, int(out.size())));
        },
-       [&residuals](const Image& image, const std::vector<std::uint8_t>& in, std::vector<std::uint16_t>& out) {
-         residuals.resize(image.depth.size());
-         LZ4_decompress_safe(reinterpret_cast<const char*>(in.data()), reinterpret_cast<char*>(residuals.data()),
-                             int(in.size()), int(residuals.size() * 2));
-         out.resize(residuals.size());
-         for (int v = 0; v < image.height; ++v) {  // undoes rowDeltaResiduals
-           std::uint16_t left = 0;
-           for (int u = 0; u < image.width; ++u) {
-             const std::uint16_t z = residuals[std::size_t(v) * image.width + u];
-             left = std::uint16_t(left + ((z >> 1) ^ -(z & 1)));
-             out[std::size_t(v) * image.width + u] = left;
-           }
-         }
+       [](const Image& image, const std::vector<std::uint8_t>& in, std::vector<std::uint16_t>& out) {
+         out.resize(image.depth.size());
+         LZ4_decompress_safe(reinterpret_cast<const char*>(in.data()), reinterpret_cast<char*>(out.data()),
+                             int(in.size()), int(out.size() * 2));
+         kinect3d::undoRowDeltaResiduals(out.data(), image.width, image.height);
        }},
       {"zstd level 3 on row deltas", zstdRowDelta(level3_encoder), zstdDecode},
       {"**zstd level 1 on row deltas (the log's)**", zstdRowDelta(log_encoder), zstdDecode},

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The match-length run of the whole robot stack (docs/benchmark.md, docs/match-log.md): the host
+# The match-length run of the whole robot stack (README "Measured speed", docs/match-log.md): the host
 # runs ten minutes of a busy simulated field (bench/scenes/match_soak.yaml, 18,000 frames, in real
 # time) through every plugin a field player runs: depth with colour, detector and trajectory,
 # omni, localisation, fusion, team (sending to a teammate address on loopback) and the logger with

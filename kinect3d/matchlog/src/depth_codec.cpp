@@ -37,11 +37,7 @@ void decodeZstdRowDelta(const std::uint8_t* bytes, std::size_t size, int width, 
   const std::size_t written = ZSTD_decompress(depth_mm.data(), pixels * 2, bytes, size);
   if (ZSTD_isError(written)) throw DepthCodecError(std::string("damaged (") + ZSTD_getErrorName(written) + ")");
   if (written != pixels * 2) throw DepthCodecError("damaged (" + std::to_string(written) + " bytes decompressed)");
-  for (int v = 0; v < height; ++v) {
-    std::uint16_t* row = depth_mm.data() + static_cast<std::size_t>(v) * width;
-    std::uint16_t left = 0;
-    for (int u = 0; u < width; ++u) row[u] = left = static_cast<std::uint16_t>(left + unzigzag(row[u]));
-  }
+  undoRowDeltaResiduals(depth_mm.data(), width, height);
 }
 
 void decodePng(const std::uint8_t* bytes, std::size_t size, int width, int height,
@@ -73,6 +69,14 @@ void rowDeltaResiduals(const std::uint16_t* depth_mm, int width, int height, std
     residual[0] = zigzag(row[0]);
     // Written without a carried "left" so that the compiler vectorises it.
     for (int u = 1; u < width; ++u) residual[u] = zigzag(static_cast<std::uint16_t>(row[u] - row[u - 1]));
+  }
+}
+
+void undoRowDeltaResiduals(std::uint16_t* residuals, int width, int height) {
+  for (int v = 0; v < height; ++v) {
+    std::uint16_t* row = residuals + static_cast<std::size_t>(v) * width;
+    std::uint16_t left = 0;
+    for (int u = 0; u < width; ++u) row[u] = left = static_cast<std::uint16_t>(left + unzigzag(row[u]));
   }
 }
 

@@ -29,8 +29,10 @@ enum class DepthCodec {
   kPng,           // 16-bit grey PNG (zlib level 1), schema versions 2 to 4
 };
 
-// The transform before zstd: each pixel's zigzagged difference to its left neighbour.
+// The transform before zstd: each pixel's zigzagged difference to its left neighbour; and its
+// inverse, in place (residuals become millimetres).
 void rowDeltaResiduals(const std::uint16_t* depth_mm, int width, int height, std::uint16_t* residuals);
+void undoRowDeltaResiduals(std::uint16_t* residuals, int width, int height);
 
 // Encodes frames one after another, reusing its buffers: no heap allocation once it has seen a
 // frame of the size.
