@@ -376,6 +376,32 @@ TEST(BallDetector, ABallWithDarkPanelsIsFoundAndAnotherKinectMakesNoBall) {
   EXPECT_EQ(sim::scoreFrames(sim::runDetectorOnScene(facing, shippedDetector(facing)), facing, {}).reported, 0);
 }
 
+// A classic ball's black panels notch its outline where they cross the limb; another Kinect's
+// specks of false depth fall inside the ball's box beside it. Neither makes it less a ball. The
+// detector before the notch and speck rules found 81 % and 88 % of these frames.
+TEST(BallDetector, KicksOfABallWithDarkPanelsOrBesideAnotherKinectsSpecksAreFound) {
+  auto scoreWith = [](const auto& change) {
+    sim::DetectionScore score;
+    for (const char* name : {"kick_away", "ground_kick"}) {
+      for (int seed = 1; seed <= 3; ++seed) {
+        sim::Scene scene = sim::loadScene(name);
+        scene.noise.seed = static_cast<std::uint64_t>(seed);
+        change(scene);
+        score.add(sim::scoreFrames(sim::runDetectorOnScene(scene, shippedDetector(scene)), scene, {}));
+      }
+    }
+    return score;
+  };
+  const sim::DetectionScore dark = scoreWith([](sim::Scene& scene) { scene.ball->dark_panels = true; });
+  EXPECT_GT(dark.eligible, 200);
+  EXPECT_GE(dark.recall(), 0.92);
+  EXPECT_EQ(dark.off_truth, 0);
+  const sim::DetectionScore facing = scoreWith([](sim::Scene& scene) { scene.noise.interference = 1.0; });
+  EXPECT_GT(facing.eligible, 200);
+  EXPECT_GE(facing.recall(), 0.93);
+  EXPECT_EQ(facing.off_truth, 0);
+}
+
 TEST(BallDetector, CovarianceGrowsWithRangeAlongTheRay) {
   auto covarianceAt = [](int d) {
     sim::Scene scene = sim::loadScene("hung_" + std::to_string(d) + "m");

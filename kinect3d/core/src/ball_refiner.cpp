@@ -1,6 +1,7 @@
 #include "kinect3d/ball_refiner.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 
 namespace kinect3d {
@@ -65,26 +66,90 @@ bool BallRefiner::gatherPoints(const BallCandidate& candidate, const OccupancyGr
   };
   // The rectangle holds the ball's pixels and, for a 0.81 m core near the sensor, a hundred times
   // more. A coarse pass finds where the points are, and refuses what is already wider than a ball.
+  // Another Kinect facing ours throws specks of false depth about (a few pixels each, at any
+  // depth): one inside the box, away from the ball in the image, is not the ball's. So the coarse
+  // points are joined into pieces across the image, and a piece of at most kSpeckCells farther than
+  // a ball's diameter from the largest piece's middle is left out. Anything larger still counts: a
+  // limb cut into pieces by dropout stays as wide as it is.
   constexpr int kCoarse_px = 4;
+  constexpr int kSpeckCells = 2;
   const int ua = std::max(1, int(u0)), ub = std::min(in.width - 1, int(u1) + 1);
   const int va = std::max(1, int(v0)), vb = std::min(in.height - 1, int(v1) + 1);
-  int cu0 = ub, cu1 = ua - 1, cv0 = vb, cv1 = va - 1;
-  double nearest_m = 1e9;
-  for (int v = va; v < vb; v += kCoarse_px) {
-    for (int u = ua; u < ub; u += kCoarse_px) {
-      if (!pointAt(u, v)) continue;
-      cu0 = std::min(cu0, u), cu1 = std::max(cu1, u), cv0 = std::min(cv0, v), cv1 = std::max(cv1, v);
-      nearest_m = std::min(nearest_m, frame.at(u, v) * 0.001);
+  if (ub <= ua || vb <= va) return false;
+  const int cells_u = (ub - ua + kCoarse_px - 1) / kCoarse_px, cells_v = (vb - va + kCoarse_px - 1) / kCoarse_px;
+  constexpr int kEmpty = -1, kUnvisited = -2;
+  coarse_.assign(static_cast<std::size_t>(cells_u) * cells_v, kEmpty);
+  for (int cv = 0; cv < cells_v; ++cv) {
+    for (int cu = 0; cu < cells_u; ++cu) {
+      if (pointAt(ua + cu * kCoarse_px, va + cv * kCoarse_px)) coarse_[cv * cells_u + cu] = kUnvisited;
     }
   }
-  if (cu1 < cu0) return false;
+  // Pieces, 8-connected on the coarse grid: each cell gets its piece's index.
+  piece_cells_.clear();
+  for (int start = 0; start < static_cast<int>(coarse_.size()); ++start) {
+    if (coarse_[start] != kUnvisited) continue;
+    const int piece = static_cast<int>(piece_cells_.size());
+    piece_cells_.push_back(0);
+    flood_.assign(1, start);
+    coarse_[start] = piece;
+    while (!flood_.empty()) {
+      const int cell = flood_.back();
+      flood_.pop_back();
+      ++piece_cells_[piece];
+      const int cu = cell % cells_u, cv = cell / cells_u;
+      for (int dv = -1; dv <= 1; ++dv) {
+        for (int du = -1; du <= 1; ++du) {
+          const int nu = cu + du, nv = cv + dv;
+          if (nu < 0 || nv < 0 || nu >= cells_u || nv >= cells_v) continue;
+          int& neighbour = coarse_[nv * cells_u + nu];
+          if (neighbour != kUnvisited) continue;
+          neighbour = piece;
+          flood_.push_back(nv * cells_u + nu);
+        }
+      }
+    }
+  }
+  if (piece_cells_.empty()) return false;
+  const int largest =
+      static_cast<int>(std::max_element(piece_cells_.begin(), piece_cells_.end()) - piece_cells_.begin());
+  // The largest piece's middle and the ball's diameter there, in cells: a speck within it may be
+  // the ball's own, cut off by a dark panel or a hole.
+  Eigen::Vector2d middle = Eigen::Vector2d::Zero();
+  double largest_nearest_m = 1e9;
+  for (int cell = 0; cell < static_cast<int>(coarse_.size()); ++cell) {
+    if (coarse_[cell] != largest) continue;
+    const int cu = cell % cells_u, cv = cell / cells_u;
+    middle += Eigen::Vector2d(cu, cv);
+    largest_nearest_m = std::min(largest_nearest_m, frame.at(ua + cu * kCoarse_px, va + cv * kCoarse_px) * 0.001);
+  }
+  middle /= piece_cells_[largest];
+  const double diameter_cells = 2.0 * config_.radius_m * in.fx / largest_nearest_m / kCoarse_px;
+  speck_near_.assign(piece_cells_.size(), false);
+  for (int cell = 0; cell < static_cast<int>(coarse_.size()); ++cell) {
+    if (coarse_[cell] < 0) continue;
+    speck_near_[coarse_[cell]] = speck_near_[coarse_[cell]] ||
+                                 (Eigen::Vector2d(cell % cells_u, cell / cells_u) - middle).norm() <= diameter_cells;
+  }
+  auto kept = [&](int piece) { return piece_cells_[piece] > kSpeckCells || piece == largest || speck_near_[piece]; };
+  int cu0 = cells_u, cu1 = -1, cv0 = cells_v, cv1 = -1;
+  double nearest_m = 1e9;
+  for (int cv = 0; cv < cells_v; ++cv) {
+    for (int cu = 0; cu < cells_u; ++cu) {
+      const int piece = coarse_[cv * cells_u + cu];
+      if (piece < 0 || !kept(piece)) continue;
+      cu0 = std::min(cu0, cu), cu1 = std::max(cu1, cu), cv0 = std::min(cv0, cv), cv1 = std::max(cv1, cv);
+      nearest_m = std::min(nearest_m, frame.at(ua + cu * kCoarse_px, va + cv * kCoarse_px) * 0.001);
+    }
+  }
   const double widest_px = config_.max_size_ratio * 2.0 * config_.radius_m * in.fx / nearest_m;
-  if (std::max(cu1 - cu0, cv1 - cv0) > widest_px + 2 * kCoarse_px) return false;
+  if (kCoarse_px * std::max(cu1 - cu0, cv1 - cv0) > widest_px + 2 * kCoarse_px) return false;
   // Every surface pixel around the coarse points whose point lies in the box.
   points_.clear();
   pixels_.clear();
-  for (int v = std::max(va, cv0 - kCoarse_px); v < std::min(vb, cv1 + kCoarse_px + 1); ++v) {
-    for (int u = std::max(ua, cu0 - kCoarse_px); u < std::min(ub, cu1 + kCoarse_px + 1); ++u) {
+  const int pu0 = ua + (cu0 - 1) * kCoarse_px, pu1 = ua + (cu1 + 1) * kCoarse_px;
+  const int pv0 = va + (cv0 - 1) * kCoarse_px, pv1 = va + (cv1 + 1) * kCoarse_px;
+  for (int v = std::max(va, pv0); v < std::min(vb, pv1 + 1); ++v) {
+    for (int u = std::max(ua, pu0); u < std::min(ub, pu1 + 1); ++u) {
       if (const std::optional<Eigen::Vector3d> p_R = pointAt(u, v)) {
         points_.push_back(*p_R);
         pixels_.emplace_back(u, v);
@@ -152,6 +217,10 @@ std::optional<Eigen::Vector3d> BallRefiner::centreFromOutline(const Eigen::Vecto
   constexpr double kMaxWholeResidualP80 = 0.4;  // radii, the 80th percentile over the limb rays
   constexpr double kMaxLimbResidual = 0.15;     // radii, the median over the limb rays of a ball seen in part
   constexpr double kMaxPixelSpread = 1.3;       // radii across the view from the fitted centre
+  constexpr double kMaxPartMove = 0.8;          // radii
+  constexpr double kMaxNotchedResidualP80 = 0.25;
+  constexpr double kNotch_r = 0.15;             // an end this far inside the circle may be a panel's notch
+  constexpr int kSectors = 8, kMinSectors = 7;  // round the centre, holding limb ends
   const Intrinsics& in = frame.intrinsics;
   const Eigen::Isometry3d T_S_R = T_R_S.inverse();
   double front_m = 1e9;  // the ball's nearest depth along the optical axis
@@ -175,8 +244,10 @@ std::optional<Eigen::Vector3d> BallRefiner::centreFromOutline(const Eigen::Vecto
     extend(column_ends_[px.x() - lo.x()], px.y());
   }
   limb_rays_S_.clear();  // unit rays through the outer edge of limb pixels
+  limb_blank_.clear();   // and whether beyond each the sensor returned nothing at all
   int hidden = 0;
   auto visit = [&](int u, int v, int du, int dv) {
+    bool passes_behind = false;
     for (int k = 1; k <= kLook_px; ++k) {
       const int x = u + k * du, y = v + k * dv;
       if (!coverage.inView(x, y)) {
@@ -189,9 +260,11 @@ std::optional<Eigen::Vector3d> BallRefiner::centreFromOutline(const Eigen::Vecto
         return;
       }
       if (d_m > 0.0 && d_m <= ball_far_m) continue;  // the ball's own edge pixels, dropped by the edge filter
+      passes_behind = passes_behind || d_m > 0.0;
     }
     limb_rays_S_.push_back(
         Eigen::Vector3d((u + 0.5 * du - in.cx) / in.fx, (v + 0.5 * dv - in.cy) / in.fy, 1.0).normalized());
+    limb_blank_.push_back(!passes_behind);
   };
   for (int row = 0; row < static_cast<int>(row_ends_.size()); ++row) {
     if (row_ends_[row].first == kNone) continue;
@@ -218,26 +291,76 @@ std::optional<Eigen::Vector3d> BallRefiner::centreFromOutline(const Eigen::Vecto
   const double r_eff = config_.radius_m - range / in.fx;
   const Eigen::Vector3d ray = c0_S / range;
   const Eigen::Vector3d e1 = ray.cross(Eigen::Vector3d::UnitY()).normalized(), e2 = ray.cross(e1);
-  Eigen::Vector2d ab = Eigen::Vector2d::Zero();
-  for (int iteration = 0; iteration < 10; ++iteration) {
-    const Eigen::Vector3d c = c0_S + ab.x() * e1 + ab.y() * e2;
-    Eigen::Matrix2d JtJ = Eigen::Matrix2d::Zero();
-    Eigen::Vector2d Jtr = Eigen::Vector2d::Zero();
-    for (const Eigen::Vector3d& d : limb_rays_S_) {
-      const Eigen::Vector3d w = c - c.dot(d) * d;  // from the ray to the centre, across the ray
-      const double distance = w.norm();
-      if (distance < 1e-9) continue;
-      const Eigen::Vector2d J(w.dot(e1) / distance, w.dot(e2) / distance);
-      JtJ += J * J.transpose();
-      Jtr += J * (distance - r_eff);
+  // The centre across the view fitted to the limb rays not left out.
+  auto fitOutline = [&](Eigen::Vector2d ab) {
+    for (int iteration = 0; iteration < 10; ++iteration) {
+      const Eigen::Vector3d c = c0_S + ab.x() * e1 + ab.y() * e2;
+      Eigen::Matrix2d JtJ = Eigen::Matrix2d::Zero();
+      Eigen::Vector2d Jtr = Eigen::Vector2d::Zero();
+      for (std::size_t i = 0; i < limb_rays_S_.size(); ++i) {
+        if (notch_[i]) continue;
+        const Eigen::Vector3d& d = limb_rays_S_[i];
+        const Eigen::Vector3d w = c - c.dot(d) * d;  // from the ray to the centre, across the ray
+        const double distance = w.norm();
+        if (distance < 1e-9) continue;
+        const Eigen::Vector2d J(w.dot(e1) / distance, w.dot(e2) / distance);
+        JtJ += J * J.transpose();
+        Jtr += J * (distance - r_eff);
+      }
+      const Eigen::Vector2d step = JtJ.ldlt().solve(-Jtr);
+      ab += step;
+      if (step.norm() < 1e-5) break;
     }
-    const Eigen::Vector2d step = JtJ.ldlt().solve(-Jtr);
-    ab += step;
-    if (step.norm() < 1e-5) break;
+    return ab;
+  };
+  notch_.assign(limb_rays_S_.size(), false);
+  Eigen::Vector2d ab = fitOutline(Eigen::Vector2d::Zero());
+  auto fromCentreOf_r = [&](const Eigen::Vector2d& at, const Eigen::Vector3d& d) {
+    const Eigen::Vector3d c = c0_S + at.x() * e1 + at.y() * e2;
+    return (c - c.dot(d) * d).norm() / config_.radius_m;
+  };
+  auto residualAt = [&](const Eigen::Vector2d& at, double share) {
+    radial_.clear();
+    for (std::size_t i = 0; i < limb_rays_S_.size(); ++i) {
+      if (!notch_[i]) radial_.push_back(std::abs(fromCentreOf_r(at, limb_rays_S_[i]) - r_eff / config_.radius_m));
+    }
+    const auto rank = radial_.begin() + static_cast<std::ptrdiff_t>(share * (radial_.size() - 1));
+    std::nth_element(radial_.begin(), rank, radial_.end());
+    return *rank;
+  };
+  // A classic ball's black panels return no depth: where one crosses the limb the outline has a
+  // notch, its ends inside the circle with nothing at all beyond them. A whole outline that fails
+  // as a circle is fitted again without such ends; it must then still be a ball's all round.
+  bool notched = false;
+  if (whole && (ab.norm() > kMaxWholeMove * config_.radius_m || residualAt(ab, 0.8) > kMaxWholeResidualP80)) {
+    Eigen::Vector2d at = ab;
+    for (int round = 0; round < 4; ++round) {
+      for (std::size_t i = 0; i < limb_rays_S_.size(); ++i) {
+        notch_[i] = limb_blank_[i] && fromCentreOf_r(at, limb_rays_S_[i]) < r_eff / config_.radius_m - kNotch_r;
+      }
+      at = fitOutline(at);
+    }
+    int sectors = 0, kept = 0;
+    std::array<bool, kSectors> seen{};
+    const Eigen::Vector3d c = c0_S + at.x() * e1 + at.y() * e2;
+    for (std::size_t i = 0; i < limb_rays_S_.size(); ++i) {
+      if (notch_[i]) continue;
+      ++kept;
+      const Eigen::Vector3d w = limb_rays_S_[i] * c.dot(limb_rays_S_[i]) - c;  // centre to the ray
+      const double angle = std::atan2(w.dot(e2), w.dot(e1));
+      seen[static_cast<std::size_t>(std::clamp(int((angle + M_PI) / (2 * M_PI) * kSectors), 0, kSectors - 1))] = true;
+    }
+    for (bool s : seen) sectors += s;
+    if (kept >= kMinLimbEnds && sectors >= kMinSectors && at.norm() <= kMaxWholeMove * config_.radius_m &&
+        residualAt(at, 0.8) <= kMaxNotchedResidualP80) {
+      ab = at;
+      notched = true;
+    } else {
+      notch_.assign(limb_rays_S_.size(), false);
+    }
   }
   // The centroid of the smallest part of a disc the refiner accepts (min_visible_fraction, a
   // quarter) lies 0.65 radii from the centre (a half disc's 0.42): a larger move is not a ball's.
-  constexpr double kMaxPartMove = 0.8;  // radii
   if (ab.norm() > (whole ? kMaxWholeMove : kMaxPartMove) * config_.radius_m) return std::nullopt;
   const Eigen::Vector3d c_S = c0_S + ab.x() * e1 + ab.y() * e2;
   auto fromCentre_r = [&](const Eigen::Vector3d& d) { return (c_S - c_S.dot(d) * d).norm() / config_.radius_m; };
@@ -251,14 +374,9 @@ std::optional<Eigen::Vector3d> BallRefiner::centreFromOutline(const Eigen::Vecto
   if (!coverage.inView(static_cast<int>(std::lround(centre_px.x())), static_cast<int>(std::lround(centre_px.y())))) {
     return std::nullopt;
   }
-  radial_.clear();
-  for (const Eigen::Vector3d& d : limb_rays_S_) radial_.push_back(std::abs(fromCentre_r(d) - r_eff / config_.radius_m));
-  const double share = whole ? 0.8 : 0.5;
-  const auto rank = radial_.begin() + static_cast<std::ptrdiff_t>(share * (radial_.size() - 1));
-  std::nth_element(radial_.begin(), rank, radial_.end());
-  if (*rank > (whole ? kMaxWholeResidualP80 : kMaxLimbResidual)) return std::nullopt;
+  if (residualAt(ab, whole ? 0.8 : 0.5) > (whole ? kMaxWholeResidualP80 : kMaxLimbResidual)) return std::nullopt;
   // A whole ball keeps the cap's centre; a part-seen one takes the outline's.
-  return whole ? center_R : T_R_S * c_S;
+  return whole && !notched ? center_R : T_R_S * c_S;
 }
 
 bool BallRefiner::surfacedLikeABall(const Eigen::Vector3d& center_R, const Eigen::Isometry3d& T_R_S) const {

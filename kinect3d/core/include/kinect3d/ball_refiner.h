@@ -75,10 +75,13 @@ class BallRefiner {
   Config config_;
   DepthNoiseModel noise_;
   // Scratch, reused between candidates.
+  mutable std::vector<int> coarse_, piece_cells_, flood_;  // the coarse pass's cells and pieces
+  mutable std::vector<bool> speck_near_;
   mutable std::vector<Eigen::Vector3d> points_;
   mutable std::vector<Eigen::Vector2i> pixels_;  // where each point was seen
   mutable std::vector<std::pair<int, int>> row_ends_, column_ends_;
   mutable std::vector<Eigen::Vector3d> limb_rays_S_;
+  mutable std::vector<bool> limb_blank_, notch_;
   mutable std::vector<double> radial_;
 };
 
