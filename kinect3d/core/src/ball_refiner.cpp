@@ -68,11 +68,14 @@ bool BallRefiner::gatherPoints(const BallCandidate& candidate, const OccupancyGr
   // more. A coarse pass finds where the points are, and refuses what is already wider than a ball.
   // Another Kinect facing ours throws specks of false depth about (a few pixels each, at any
   // depth): one inside the box, away from the ball in the image, is not the ball's. So the coarse
-  // points are joined into pieces across the image, and a piece of at most kSpeckCells farther than
-  // a ball's diameter from the largest piece's middle is left out. Anything larger still counts: a
-  // limb cut into pieces by dropout stays as wide as it is.
+  // points are joined into pieces across the image, and a speck is left out: a piece of at most
+  // kSpeckCells, farther than a ball's diameter from the largest piece's middle, whose depth no
+  // neighbouring point shares. A piece of a real surface that only grazes the box (a leg below a
+  // hand) goes on beyond it at its own depth and counts, and so does anything larger: a limb cut
+  // into pieces by dropout stays as wide as it is.
   constexpr int kCoarse_px = 4;
   constexpr int kSpeckCells = 2;
+  constexpr double kSameSurface_sigma = 3.0;
   const int ua = std::max(1, int(u0)), ub = std::min(in.width - 1, int(u1) + 1);
   const int va = std::max(1, int(v0)), vb = std::min(in.height - 1, int(v1) + 1);
   if (ub <= ua || vb <= va) return false;
@@ -124,19 +127,34 @@ bool BallRefiner::gatherPoints(const BallCandidate& candidate, const OccupancyGr
   }
   middle /= piece_cells_[largest];
   const double diameter_cells = 2.0 * config_.radius_m * in.fx / largest_nearest_m / kCoarse_px;
-  speck_near_.assign(piece_cells_.size(), false);
-  for (int cell = 0; cell < static_cast<int>(coarse_.size()); ++cell) {
-    if (coarse_[cell] < 0) continue;
-    speck_near_[coarse_[cell]] = speck_near_[coarse_[cell]] ||
-                                 (Eigen::Vector2d(cell % cells_u, cell / cells_u) - middle).norm() <= diameter_cells;
+  speck_.assign(piece_cells_.size(), false);
+  for (int piece = 0; piece < static_cast<int>(piece_cells_.size()); ++piece) {
+    speck_[piece] = piece != largest && piece_cells_[piece] <= kSpeckCells;
   }
-  auto kept = [&](int piece) { return piece_cells_[piece] > kSpeckCells || piece == largest || speck_near_[piece]; };
+  for (int cell = 0; cell < static_cast<int>(coarse_.size()); ++cell) {
+    const int piece = coarse_[cell];
+    if (piece < 0 || !speck_[piece]) continue;
+    const int cu = cell % cells_u, cv = cell / cells_u;
+    if ((Eigen::Vector2d(cu, cv) - middle).norm() <= diameter_cells) speck_[piece] = false;
+    const int u = ua + cu * kCoarse_px, v = va + cv * kCoarse_px;
+    const double depth_m = frame.at(u, v) * 0.001;
+    const double step_m = kSameSurface_sigma * noise_.axialSigma_m(depth_m) + noise_.quantisationStep_m(depth_m);
+    for (int y = v - kCoarse_px; y <= v + kCoarse_px; y += kCoarse_px) {
+      for (int x = u - kCoarse_px; x <= u + kCoarse_px; x += kCoarse_px) {
+        if (x < 0 || y < 0 || x >= in.width || y >= in.height) continue;
+        const bool in_piece = x >= ua && x < ub && y >= va && y < vb &&
+                              coarse_[(y - va) / kCoarse_px * cells_u + (x - ua) / kCoarse_px] == piece;
+        const double there_m = frame.at(x, y) * 0.001;
+        if (!in_piece && there_m > 0.0 && std::abs(there_m - depth_m) <= step_m) speck_[piece] = false;
+      }
+    }
+  }
   int cu0 = cells_u, cu1 = -1, cv0 = cells_v, cv1 = -1;
   double nearest_m = 1e9;
   for (int cv = 0; cv < cells_v; ++cv) {
     for (int cu = 0; cu < cells_u; ++cu) {
       const int piece = coarse_[cv * cells_u + cu];
-      if (piece < 0 || !kept(piece)) continue;
+      if (piece < 0 || speck_[piece]) continue;
       cu0 = std::min(cu0, cu), cu1 = std::max(cu1, cu), cv0 = std::min(cv0, cv), cv1 = std::max(cv1, cv);
       nearest_m = std::min(nearest_m, frame.at(ua + cu * kCoarse_px, va + cv * kCoarse_px) * 0.001);
     }
@@ -219,8 +237,9 @@ std::optional<Eigen::Vector3d> BallRefiner::centreFromOutline(const Eigen::Vecto
   constexpr double kMaxPixelSpread = 1.3;       // radii across the view from the fitted centre
   constexpr double kMaxPartMove = 0.8;          // radii
   constexpr double kMaxNotchedResidualP80 = 0.25;
-  constexpr double kNotch_r = 0.15;             // an end this far inside the circle may be a panel's notch
-  constexpr int kSectors = 8, kMinSectors = 7;  // round the centre, holding limb ends
+  constexpr double kMaxNotchedElongation = 1.8;  // the pixels' spread, longest over shortest
+  constexpr double kNotch_r = 0.15;              // an end this far inside the circle may be a panel's notch
+  constexpr int kSectors = 8, kMinSectors = 7;   // round the centre, holding limb ends
   const Intrinsics& in = frame.intrinsics;
   const Eigen::Isometry3d T_S_R = T_R_S.inverse();
   double front_m = 1e9;  // the ball's nearest depth along the optical axis
@@ -351,7 +370,21 @@ std::optional<Eigen::Vector3d> BallRefiner::centreFromOutline(const Eigen::Vecto
       seen[static_cast<std::size_t>(std::clamp(int((angle + M_PI) / (2 * M_PI) * kSectors), 0, kSectors - 1))] = true;
     }
     for (bool s : seen) sectors += s;
-    if (kept >= kMinLimbEnds && sectors >= kMinSectors && at.norm() <= kMaxWholeMove * config_.radius_m &&
+    // Panels are spread over the ball: what they leave is about as wide one way as the other. A
+    // foot or a hand whose long sides were taken for notches is not.
+    Eigen::Vector2d mean_px = Eigen::Vector2d::Zero();
+    for (const Eigen::Vector2i& px : pixels_) mean_px += px.cast<double>();
+    mean_px /= static_cast<double>(pixels_.size());
+    Eigen::Matrix2d spread = Eigen::Matrix2d::Zero();
+    for (const Eigen::Vector2i& px : pixels_) {
+      const Eigen::Vector2d d = px.cast<double>() - mean_px;
+      spread += d * d.transpose();
+    }
+    // The eigenvalues of a symmetric 2x2 matrix, in closed form.
+    const double half_trace = spread.trace() / 2;
+    const double gap = std::sqrt(std::pow((spread(0, 0) - spread(1, 1)) / 2, 2) + spread(0, 1) * spread(0, 1));
+    const bool round = std::sqrt((half_trace + gap) / std::max(half_trace - gap, 1e-9)) <= kMaxNotchedElongation;
+    if (kept >= kMinLimbEnds && sectors >= kMinSectors && round && at.norm() <= kMaxWholeMove * config_.radius_m &&
         residualAt(at, 0.8) <= kMaxNotchedResidualP80) {
       ab = at;
       notched = true;

@@ -76,7 +76,7 @@ class BallRefiner {
   DepthNoiseModel noise_;
   // Scratch, reused between candidates.
   mutable std::vector<int> coarse_, piece_cells_, flood_;  // the coarse pass's cells and pieces
-  mutable std::vector<bool> speck_near_;
+  mutable std::vector<bool> speck_;                        // per piece: left out
   mutable std::vector<Eigen::Vector3d> points_;
   mutable std::vector<Eigen::Vector2i> pixels_;  // where each point was seen
   mutable std::vector<std::pair<int, int>> row_ends_, column_ends_;
