@@ -114,6 +114,9 @@ TEST(ColourCheck, RejectsThePhantomsOfPeopleLampsAndLoudspeakersAndKeepsTheBall)
     }
   }
   EXPECT_GT(off.off_truth, 100);  // the depth alone reports the lamps and the loudspeaker
+  // Each of them with its distance from the sensor, within what a Kinect sees (the report's ranges).
+  ASSERT_EQ(off.off_truth_ranges_m.size(), static_cast<std::size_t>(off.off_truth));
+  for (const double range_m : off.off_truth_ranges_m) EXPECT_TRUE(range_m > 0.5 && range_m < 10.0) << range_m;
   EXPECT_EQ(on.off_truth, 0);
   EXPECT_GT(confirmed_balls, 100);
   EXPECT_GE(on.recall(), off.recall() - 0.01);

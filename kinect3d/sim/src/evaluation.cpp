@@ -90,11 +90,15 @@ DetectionScore scoreFrames(const std::vector<EvaluatedFrame>& frames, const Scen
   for (const EvaluatedFrame& f : frames) {
     ++score.frames;
     double nearest = INFINITY;
+    const Eigen::Vector3d sensor_R = scene.sensorPoseAt(f.truth.time_s).T_R_S().translation();
     for (const fw::BallObservation& ball : f.balls) {
       ++score.reported;
       const double error = f.truth.has_ball ? (ball.position_m - f.truth.ball_center_R).norm() : INFINITY;
       nearest = std::min(nearest, error);
-      score.off_truth += error > criteria.match_m;
+      if (error > criteria.match_m) {
+        ++score.off_truth;
+        score.off_truth_ranges_m.push_back((ball.position_m - sensor_R).norm());
+      }
     }
     if (!shouldBeFound(f.truth, scene, criteria)) continue;
     ++score.eligible;
@@ -113,6 +117,7 @@ void DetectionScore::add(const DetectionScore& other) {
   reported += other.reported;
   off_truth += other.off_truth;
   errors_m.insert(errors_m.end(), other.errors_m.begin(), other.errors_m.end());
+  off_truth_ranges_m.insert(off_truth_ranges_m.end(), other.off_truth_ranges_m.begin(), other.off_truth_ranges_m.end());
 }
 
 RealFramesResult detectOnDepthImages(const std::vector<std::string>& images, double cx, double cy,

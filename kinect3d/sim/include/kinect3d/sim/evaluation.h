@@ -46,11 +46,12 @@ struct EvaluationCriteria {
 
 struct DetectionScore {
   int frames = 0;
-  int eligible = 0;              // frames where the ball should be found
-  int found = 0;                 // eligible frames with a reported ball within match_m
-  int reported = 0;              // balls reported, in any frame
-  int off_truth = 0;             // reported balls farther than match_m from the true ball (or with none)
-  std::vector<double> errors_m;  // 3D error of the nearest reported ball, eligible found frames
+  int eligible = 0;                        // frames where the ball should be found
+  int found = 0;                           // eligible frames with a reported ball within match_m
+  int reported = 0;                        // balls reported, in any frame
+  int off_truth = 0;                       // reported balls farther than match_m from the true ball (or with none)
+  std::vector<double> errors_m;            // 3D error of the nearest reported ball, eligible found frames
+  std::vector<double> off_truth_ranges_m;  // each ball off the truth: its distance from the sensor
 
   double recall() const { return eligible ? double(found) / eligible : 1.0; }
   void add(const DetectionScore& other);
