@@ -209,8 +209,13 @@ Scene crowdScene(int seed, CrowdBall ball) {
       const Eigen::Vector3d toward_robot = -thrower.feet_m.normalized();
       launch.position_m = thrower.feet_m + Eigen::Vector3d(0, 0, 0.75 * thrower.height_m) + 0.75 * toward_robot;
       // Thrown to the side of the robot, rising a little: it stays in view as it leaves the hands.
-      launch.velocity_mps = Eigen::Vector3d((uniform(0.0, 1.0) < 0.5 ? -1.0 : 1.0) * uniform(1.5, 3.0),
-                                            -uniform(1.0, 2.5), uniform(0.5, 2.0));
+      // One draw a statement: C++ leaves the order of calls within one expression to the compiler,
+      // and a seed must make the same crowd whichever built it (this is the order GCC chose).
+      const double up_mps = uniform(0.5, 2.0);
+      const double towards_mps = uniform(1.0, 2.5);
+      const double sideways = uniform(0.0, 1.0) < 0.5 ? -1.0 : 1.0;
+      const double sideways_mps = uniform(1.5, 3.0);
+      launch.velocity_mps = Eigen::Vector3d(sideways * sideways_mps, -towards_mps, up_mps);
       break;
     }
     case CrowdBall::kOverAHead: {
