@@ -211,7 +211,8 @@ void people(const fw::Config& config, const ReportOptions& options, std::ostream
      << within(3, 4) << " at 3-4 m, " << within(4, 5) << " at 4-5 m, " << within(5, 100)
      << " beyond 5 m. Beyond 4 m a ball is under 30 pixels across and its 11 cm of relief spans two depth steps: "
         "a fist, a hand held before a body or a foot beside dark trousers then has a ball's size, outline and "
-        "depth, and the colour check (below) is what tells them apart.\n\n";
+        "depth. The colour check (below) is what tells most of them apart: it rejects every phantom of its own "
+        "crowds, which the rules were tuned on, but not every one of crowds like these.\n\n";
 
   const PeopleScores tuned = peopleScores(config, kTunedFirstSeed, kTunedSeeds, nullptr);
   md << "On the seeds the rules were first set on (" << kTunedFirstSeed << "-" << kTunedFirstSeed + kTunedSeeds - 1
