@@ -107,6 +107,33 @@ TEST(Host, ReplayStepsEachInputsPluginThenTheRatedOnesAtTheRobotsMoment) {
   EXPECT_GT(fw::wallClockNow_s(), 1.7e9);
 }
 
+TEST(Host, ReplayOfOneSourceStepsItToItsEndAndTheRatedOnesAfterEachInput) {
+  fw::Host host(exchangeConfig({"host.plugins=[tp_producer, tp_consumer]", "tp_producer.frames=3"}), TEST_PLUGIN_DIR);
+  std::vector<std::size_t> balls_seen;  // after each input, what the world state holds
+  std::vector<bool> consumed;
+  host.replaySource("tp_producer", [&] {
+    balls_seen.push_back(host.world().recentBalls("tp_producer").size());
+    consumed.push_back(host.world().fusedBall().has_value());
+  });
+  EXPECT_EQ(balls_seen, (std::vector<std::size_t>{1, 2, 3})) << "one call per input, each after it";
+  EXPECT_EQ(consumed, (std::vector<bool>{true, true, true})) << "the consumer stepped before each call";
+  EXPECT_EQ(summaryOf(host.summaries(), "tp_consumer").steps, 3u) << "once per input";
+  EXPECT_TRUE(summaryOf(host.summaries(), "tp_producer").end_of_stream);
+
+  fw::Host failing(exchangeConfig({"host.plugins=[tp_faulty]", "host.max_consecutive_errors=4"}), TEST_PLUGIN_DIR);
+  int inputs = 0;
+  failing.replaySource("tp_faulty", [&] { ++inputs; });
+  EXPECT_EQ(inputs, 0);
+  EXPECT_TRUE(failing.summaries().at(0).gave_up) << "a source that only fails ends the replay";
+  EXPECT_EQ(failing.summaries().at(0).errors, 4u);
+  try {
+    failing.replaySource("tp_nobody", [] {});
+    FAIL() << "no such plugin";
+  } catch (const fw::PluginError& e) {
+    EXPECT_NE(std::string(e.what()).find("no plugin 'tp_nobody' is loaded"), std::string::npos) << e.what();
+  }
+}
+
 TEST(Host, APluginThatKeepsFailingBacksOffThenGivesUp) {
   fw::Host host(exchangeConfig({"host.plugins=[tp_faulty]", "host.max_consecutive_errors=4"}), TEST_PLUGIN_DIR);
   const auto started = Clock::now();

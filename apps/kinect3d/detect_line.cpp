@@ -1,6 +1,13 @@
 #include "detect_line.h"
 
+#include <cerrno>
 #include <cstdio>
+#include <cstring>
+#include <stdexcept>
+
+#include "framework_api/host.h"
+#include "framework_api/install_layout.h"
+#include "framework_api/log.h"
 
 namespace kinect3d {
 
@@ -51,6 +58,55 @@ std::string detectLine(std::uint64_t frame_index, double t_s, const std::vector<
     line += "null";
   }
   return line + "}}";
+}
+
+void DetectLines::add(const fw::DepthImage& image) {
+  if (image.source != source_) return;
+  flush();
+  frame_ = Frame{image.index, image.stamp.source_time_s, {}};
+}
+
+void DetectLines::add(const fw::WorldItem& item) {
+  if (const auto* image = std::get_if<fw::DepthImage>(&item)) {
+    add(*image);
+  } else if (const auto* frame = std::get_if<fw::BallFrame>(&item)) {
+    if (frame_ && frame->source == source_) frame_->balls = frame->balls;
+  } else if (const auto* fit = std::get_if<fw::BallTrajectory>(&item)) {
+    if (fit->source == source_) trajectory_ = *fit;
+  } else if (const auto* lost = std::get_if<fw::TrajectoryCleared>(&item)) {
+    if (lost->source == source_) trajectory_.reset();
+  }
+}
+
+void DetectLines::flush(std::optional<double> process_s) {
+  if (!frame_) return;
+  write_(detectLine(frame_->index, frame_->t_s, frame_->balls, process_s, trajectory_));
+  ++frames_;
+  frames_with_ball_ += !frame_->balls.empty();
+  frame_.reset();
+}
+
+void detect(const fw::Config& config, std::ostream& out, const std::string& out_name) {
+  const std::string plugin = "kinect3d";
+  fw::Host host(config, fw::defaultPluginDir());
+  host.world().openJournal(true);  // the depth images give the frame numbers
+  DetectLines lines(plugin, [&](const std::string& line) {
+    out << line << "\n";
+    out.flush();
+    if (!out) throw std::runtime_error("cannot write the detections to " + out_name + ": " + std::strerror(errno));
+  });
+  host.replaySource(plugin, [&] {
+    std::uint64_t refused = 0;
+    for (const fw::JournalEntry& entry : host.world().takeJournal(&refused)) lines.add(entry.item);
+    const std::vector<double> process_s = host.world().takeProcessingTimes(plugin);
+    lines.flush(process_s.empty() ? std::nullopt : std::optional<double>(process_s.back()));
+  });
+  for (const fw::PluginSummary& summary : host.summaries()) {
+    if (summary.gave_up) throw std::runtime_error(fw::formatSummary(summary));
+    if (summary.errors > 0) fw::logWarn("detect", fw::formatSummary(summary));
+  }
+  fw::logInfo("detect", config.block(plugin).getString("source") + ": " + std::to_string(lines.frames()) +
+                            " frames, ball in " + std::to_string(lines.framesWithBall()));
 }
 
 }  // namespace kinect3d

@@ -171,45 +171,6 @@ void writeSceneMap(const std::string& uri, int last, const fw::Config& config, c
                               " (" + std::to_string(detector.sceneMap()->integrations()) + " ray integrations)");
 }
 
-void runDetect(const std::string& source_uri, const fw::Config& config, const std::string& output, bool realtime) {
-  const fw::ConfigView block = config.block("kinect3d");
-  const std::string uri = source_uri.empty() ? block.getString("source") : source_uri;
-  kinect3d::BallDetector detector(kinect3d::readDetectorConfig(block), "kinect3d");
-  const auto trajectory = kinect3d::makeTrajectoryEstimator(kinect3d::readTrajectoryConfig(block));
-  kinect3d::SourceOptions options;
-  options.realtime = realtime;
-  auto source = kinect3d::cliSources().open(uri, options);
-
-  std::ofstream file;
-  if (!output.empty()) {
-    file.open(output);
-    if (!file) throw std::runtime_error("cannot write '" + output + "'");
-  }
-  std::ostream& out = output.empty() ? std::cout : file;
-  kinect3d::DepthFrame frame;
-  kinect3d::Detections detections;
-  std::uint64_t frames = 0, with_ball = 0;
-  for (;;) {
-    const kinect3d::ReadResult result = source->read(frame);
-    if (result == kinect3d::ReadResult::kEnd) break;
-    if (result == kinect3d::ReadResult::kNoFrameYet) continue;
-    detector.detect(frame, detections);
-    out << kinect3d::detectLine(frame.index, frame.source_time_s, detections.balls, detections.times.total(),
-                                trajectory->update(frame.source_time_s, detections.balls))
-        << "\n";
-    out.flush();
-    if (!out) {
-      throw std::runtime_error("cannot write the detections to " +
-                               (output.empty() ? std::string("standard output") : "'" + output + "'") + " (frame " +
-                               std::to_string(frame.index) + "): " + std::strerror(errno));
-    }
-    ++frames;
-    with_ball += !detections.balls.empty();
-  }
-  fw::logInfo("detect",
-              source->describe() + ": " + std::to_string(frames) + " frames, ball in " + std::to_string(with_ball));
-}
-
 // The configuration every command that runs the detector takes: the shipped defaults, a robot
 // file, --set overrides.
 struct ConfigOptions {
@@ -225,7 +186,12 @@ struct ConfigOptions {
     }
     command->add_option("--defaults", defaults_dir, "Folder of per-plugin defaults")->capture_default_str();
   }
-  fw::Config load() const { return fw::Config::load(defaults_dir, robot_file, overrides); }
+  // With `more` over the user's --set.
+  fw::Config load(const std::vector<std::string>& more = {}) const {
+    std::vector<std::string> all = overrides;
+    all.insert(all.end(), more.begin(), more.end());
+    return fw::Config::load(defaults_dir, robot_file, all);
+  }
 };
 
 void runFuse(const std::string& depth_uri, const std::string& omni_file, const std::string& pose_file,
@@ -366,17 +332,27 @@ void addSnapshot(CLI::App& app) {
 void addDetect(CLI::App& app) {
   struct Options {
     std::string source, output;
-    bool realtime = false;
     ConfigOptions config;
   };
   auto options = std::make_shared<Options>();
-  CLI::App* command = app.add_subcommand("detect", "Detect balls in every frame; one JSON line per frame");
+  CLI::App* command = app.add_subcommand(
+      "detect", "Run the robot's kinect3d plugin on every frame of a recording; one JSON line per frame");
   command->add_option("--source", options->source, "Depth source URI (default: kinect3d.source of the configuration)");
   options->config.addTo(command);
   command->add_option("--output", options->output, "Write the JSON lines here instead of stdout");
-  command->add_flag("--realtime", options->realtime, "Pace recordings and the simulator at their frame rate");
-  command->callback(
-      [options] { runDetect(options->source, options->config.load(), options->output, options->realtime); });
+  command->callback([options] {
+    // The kinect3d plugin alone, reading as fast as it can.
+    std::vector<std::string> detect_only = {"host.plugins=[kinect3d]", "kinect3d.realtime=false"};
+    if (!options->source.empty()) detect_only.push_back("kinect3d.source=" + fw::yamlQuoted(options->source));
+    const fw::Config config = options->config.load(detect_only);
+    if (options->output.empty()) {
+      kinect3d::detect(config, std::cout, "standard output");
+      return;
+    }
+    std::ofstream file(options->output);
+    if (!file) throw std::runtime_error("cannot write '" + options->output + "'");
+    kinect3d::detect(config, file, "'" + options->output + "'");
+  });
 }
 
 // `calibrate drag`: the ball's drag and restitution from the flights in detect output files.

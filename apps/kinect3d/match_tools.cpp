@@ -91,7 +91,7 @@ void replayMatch(const std::string& log_folder, const std::string& defaults_dir,
   // records under output, and nothing prints to the console.
   std::vector<std::string> replay_overrides;
   for (const std::string& source : sources) {
-    replay_overrides.push_back(source + ".source=log:" + log_folder);
+    replay_overrides.push_back(source + ".source=" + fw::yamlQuoted("log:" + log_folder));
     replay_overrides.push_back(source + ".realtime=false");
   }
   const fw::Config configured = fw::Config::load(defaults_dir, robot, overrides);
@@ -101,11 +101,13 @@ void replayMatch(const std::string& log_folder, const std::string& defaults_dir,
     // The team plugin hands out the teammates' messages the robot received, and never talks to the
     // robot network, whether the robot received any or not.
     if (plugin == "team" && sources.insert(plugin).second) {
-      replay_overrides.insert(replay_overrides.end(), {"team.source=log:" + log_folder, "team.realtime=false"});
+      replay_overrides.insert(replay_overrides.end(),
+                              {"team.source=" + fw::yamlQuoted("log:" + log_folder), "team.realtime=false"});
     }
   }
-  replay_overrides.insert(replay_overrides.end(), {"host.plugins=[" + plugins + "logger]", "logger.folder=" + output,
-                                                   "logger.fallback_folder=\"\"", "host.replay_of=" + log_folder});
+  replay_overrides.insert(replay_overrides.end(),
+                          {"host.plugins=[" + plugins + "logger]", "logger.folder=" + fw::yamlQuoted(output),
+                           "logger.fallback_folder=\"\"", "host.replay_of=" + fw::yamlQuoted(log_folder)});
   replay_overrides.insert(replay_overrides.end(), overrides.begin(), overrides.end());
   const fw::Config config = fw::Config::load(defaults_dir, robot, replay_overrides);
 
@@ -145,38 +147,17 @@ void exportMatch(const std::string& log_folder, const ExportFiles& files) {
   }
   std::optional<sim::TumSequenceWriter> tum;
   if (!files.tum.empty()) tum.emplace(files.tum);
-  // A frame's line is complete when the next frame arrives: its balls and trajectory follow it.
-  struct Pending {
-    std::uint64_t index;
-    double t_s;
-    std::vector<fw::BallObservation> balls;
-    std::optional<fw::BallTrajectory> trajectory;
-  };
-  std::optional<Pending> pending;
-  const auto flush = [&] {
-    if (!pending || files.detections.empty()) return;
-    detections << detectLine(pending->index, pending->t_s, pending->balls, std::nullopt, pending->trajectory) << "\n";
+  DetectLines lines(source, [&](const std::string& line) {
+    detections << line << "\n";
     if (!detections) throw std::runtime_error("cannot write '" + files.detections + "'");
-  };
+  });
   inLoggedOrder(
-      log, source,
-      [&](const fw::JournalEntry& entry) {
-        if (!pending) return;
-        if (const auto* frame = std::get_if<fw::BallFrame>(&entry.item)) {
-          if (!frame->balls.empty() && frame->balls.front().source == source) pending->balls = frame->balls;
-        } else if (const auto* fit = std::get_if<fw::BallTrajectory>(&entry.item)) {
-          if (fit->source == source) pending->trajectory = *fit;
-        } else if (const auto* lost = std::get_if<fw::TrajectoryCleared>(&entry.item)) {
-          if (lost->source == source) pending->trajectory.reset();
-        }
-      },
+      log, source, [&](const fw::JournalEntry& entry) { lines.add(entry.item); },
       [&](const fw::DepthImage& image, double) {
-        flush();
-        // The trajectory stands until the source withdraws it.
-        pending = Pending{image.index, image.stamp.source_time_s, {}, pending ? pending->trajectory : std::nullopt};
         if (tum) tum->write(fromDepthImage(image));
+        if (!files.detections.empty()) lines.add(image);
       });
-  flush();
+  if (!files.detections.empty()) lines.flush();
   fw::logInfo("export", log_folder + ": " + std::to_string(omni.size()) + " omni images, " +
                             std::to_string(poses.size()) + " poses" +
                             (files.detections.empty() && files.tum.empty() ? "" : ", the depth of '" + source + "'"));

@@ -492,4 +492,10 @@ void ConfigView::requireOnlyKeys(const std::vector<std::string>& allowed) const 
   }
 }
 
+std::string yamlQuoted(const std::string& text) {
+  YAML::Emitter emitter;
+  emitter << YAML::DoubleQuoted << text;
+  return emitter.c_str();
+}
+
 }  // namespace fw

@@ -215,24 +215,18 @@ void Host::run(Running& plugin) {
       }
     }
     const std::optional<StepResult> result = stepOnce(plugin, start);
-    Clock::duration backoff = Clock::duration::zero();
     if (result) {
       consecutive_errors = 0;
       if (*result == StepResult::kEndOfStream) break;
       continue;
     }
-    {
-      std::lock_guard<std::mutex> lock(plugin.mutex);
-      if (++consecutive_errors >= max_consecutive_errors_) {
-        plugin.summary.gave_up = gave_up = true;
-        logError(plugin.summary.name, "gave up after " + std::to_string(consecutive_errors) +
-                                          " failed steps in a row; last: " + plugin.summary.last_error);
-        break;
-      }
-      backoff = errorBackoff(consecutive_errors);
+    if (givesUp(plugin, ++consecutive_errors)) {
+      gave_up = true;
+      break;
     }
     // A plugin that keeps failing waits longer each time (a source that cannot read must not spin),
     // and a stop request ends the wait at once.
+    const Clock::duration backoff = errorBackoff(consecutive_errors);
     std::unique_lock<std::mutex> lock(wake_mutex_);
     if (wake_.wait_for(lock, backoff, [this] { return stop_requested_.load(); })) break;
   }
@@ -249,6 +243,15 @@ void Host::run(Running& plugin) {
     plugin.finished = true;
   }
   wake_.notify_all();
+}
+
+bool Host::givesUp(Running& plugin, int consecutive_errors) {
+  if (consecutive_errors < max_consecutive_errors_) return false;
+  std::lock_guard<std::mutex> lock(plugin.mutex);
+  plugin.summary.gave_up = true;
+  logError(plugin.summary.name, "gave up after " + std::to_string(consecutive_errors) +
+                                    " failed steps in a row; last: " + plugin.summary.last_error);
+  return true;
 }
 
 std::optional<StepResult> Host::stepOnce(Running& plugin, Clock::time_point start) {
@@ -321,6 +324,35 @@ void Host::replay(const std::vector<ReplayStep>& steps) {
     for (auto& plugin : plugins_) {
       if (plugin->rate_hz > 0.0 && sources.count(plugin->summary.name) == 0) stepOnce(*plugin, start);
     }
+  }
+}
+
+void Host::replaySource(const std::string& source_name, const std::function<void()>& after_input) {
+  const Clock::time_point start = Clock::now();
+  const auto found = std::find_if(plugins_.begin(), plugins_.end(),
+                                  [&](const auto& plugin) { return plugin->summary.name == source_name; });
+  if (found == plugins_.end()) {
+    throw PluginError("no plugin '" + source_name + "' is loaded (host.plugins) to hand out the recording");
+  }
+  Running& source = **found;
+  for (int consecutive_errors = 0;;) {
+    const std::optional<StepResult> result = stepOnce(source, start);
+    if (!result) {
+      // Counted and logged: the input is lost, as it would be on the robot.
+      if (givesUp(source, ++consecutive_errors)) break;
+      continue;
+    }
+    consecutive_errors = 0;
+    if (*result == StepResult::kEndOfStream) break;
+    if (*result == StepResult::kIdle) continue;
+    for (auto& plugin : plugins_) {
+      if (plugin->rate_hz > 0.0 && plugin.get() != &source) stepOnce(*plugin, start);
+    }
+    after_input();
+  }
+  for (auto& plugin : plugins_) {
+    std::lock_guard<std::mutex> lock(plugin->mutex);
+    plugin->summary.elapsed_s = secondsSince(start);
   }
 }
 

@@ -28,6 +28,9 @@ class ConfigError : public std::runtime_error {
 
 class ConfigView;
 
+// Any text (a path, a URI) as a YAML double-quoted scalar, for an override's value.
+std::string yamlQuoted(const std::string& text);
+
 class Config {
  public:
   // Loads every defaults file in defaults_dir, merges robot_file over them (empty = none), then

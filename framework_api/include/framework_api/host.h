@@ -8,6 +8,7 @@
 #include <chrono>
 #include <condition_variable>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -61,6 +62,12 @@ class Host {
     double wall_time_s;  // when the robot received it
   };
   void replay(const std::vector<ReplayStep>& steps);
+  // The deterministic mode for one recorded source, instead of start(): steps the plugin `source`
+  // until its source ends (or until it gives up after host.max_consecutive_errors failed steps), and
+  // after each input it hands out, every other plugin with a rate once, then after_input. The wall
+  // clock is the system's: inputs arrive as fast as the plugins take them (kinect3d detect runs the
+  // kinect3d plugin so). Throws PluginError when no plugin `source` is loaded.
+  void replaySource(const std::string& source, const std::function<void()>& after_input);
   // Asks every plugin thread to stop after its current step and joins those that do within grace.
   // Returns the plugins still inside a step then (stuck in a blocking call): their threads are
   // detached and their instances deliberately never destroyed, since their code is still running;
@@ -82,6 +89,9 @@ class Host {
   void run(Running& plugin);
   // One step, counted in the plugin's summary (an error logged too); nothing when it failed.
   std::optional<StepResult> stepOnce(Running& plugin, std::chrono::steady_clock::time_point start);
+  // After a failed step: true (the plugin's summary says it gave up, and the log why) once it has
+  // failed host.max_consecutive_errors times in a row.
+  bool givesUp(Running& plugin, int consecutive_errors);
   void publishHealth();
 
   std::chrono::steady_clock::time_point last_health_ = std::chrono::steady_clock::now();
