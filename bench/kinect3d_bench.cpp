@@ -33,11 +33,11 @@
 #include "fusion/ball_fusion.h"
 #include "kinect3d/ball_detector.h"
 #include "kinect3d/config_io.h"
-#include "kinect3d/depth_codec.h"
 #include "kinect3d/kinect_disparity.h"
 #include "kinect3d/sim/evaluation.h"
 #include "kinect3d/sim/field_sensors.h"
 #include "kinect3d/sim/kinect_simulator.h"
+#include "matchlog/depth_codec.h"
 
 namespace {
 std::atomic<long> g_allocations{0};   // every thread's
@@ -530,15 +530,15 @@ std::string depthCodecTable(int repeats) {
     std::function<void(const Image&, std::vector<std::uint8_t>&)> encode;
     std::function<void(const Image&, const std::vector<std::uint8_t>&, std::vector<std::uint16_t>&)> decode;
   };
-  kinect3d::DepthEncoder log_encoder, level3_encoder(3);
-  const auto zstdRowDelta = [](kinect3d::DepthEncoder& encoder) {
+  fw::DepthEncoder log_encoder, level3_encoder(3);
+  const auto zstdRowDelta = [](fw::DepthEncoder& encoder) {
     return [&encoder](const Image& image, std::vector<std::uint8_t>& out) {
-      const kinect3d::DepthEncoder::Bytes bytes = encoder.encode(image.depth.data(), image.width, image.height);
+      const fw::DepthEncoder::Bytes bytes = encoder.encode(image.depth.data(), image.width, image.height);
       out.assign(bytes.data, bytes.data + bytes.size);
     };
   };
   const auto zstdDecode = [](const Image& image, const std::vector<std::uint8_t>& in, std::vector<std::uint16_t>& out) {
-    kinect3d::decodeDepth(kinect3d::DepthCodec::kZstdRowDelta, in.data(), in.size(), image.width, image.height, out);
+    fw::decodeDepth(fw::DepthCodec::kZstdRowDelta, in.data(), in.size(), image.width, image.height, out);
   };
   std::vector<std::uint16_t> residuals;
   const std::vector<Codec> codecs = {
@@ -549,7 +549,7 @@ std::string depthCodecTable(int repeats) {
                       {cv::IMWRITE_PNG_COMPRESSION, 1});
        },
        [](const Image& image, const std::vector<std::uint8_t>& in, std::vector<std::uint16_t>& out) {
-         kinect3d::decodeDepth(kinect3d::DepthCodec::kPng, in.data(), in.size(), image.width, image.height, out);
+         fw::decodeDepth(fw::DepthCodec::kPng, in.data(), in.size(), image.width, image.height, out);
        }},
       {"RVL",
        [](const Image& image, std::vector<std::uint8_t>& out) {
@@ -561,7 +561,7 @@ std::string depthCodecTable(int repeats) {
       {"lz4 on row deltas",
        [&residuals](const Image& image, std::vector<std::uint8_t>& out) {
          residuals.resize(image.depth.size());
-         kinect3d::rowDeltaResiduals(image.depth.data(), image.width, image.height, residuals.data());
+         fw::rowDeltaResiduals(image.depth.data(), image.width, image.height, residuals.data());
          const int raw = int(residuals.size() * 2);
          out.resize(LZ4_compressBound(raw));
          out.resize(LZ4_compress_default(reinterpret_cast<const char*>(residuals.data()),
@@ -571,7 +571,7 @@ std::string depthCodecTable(int repeats) {
          out.resize(image.depth.size());
          LZ4_decompress_safe(reinterpret_cast<const char*>(in.data()), reinterpret_cast<char*>(out.data()),
                              int(in.size()), int(out.size() * 2));
-         kinect3d::undoRowDeltaResiduals(out.data(), image.width, image.height);
+         fw::undoRowDeltaResiduals(out.data(), image.width, image.height);
        }},
       {"zstd level 3 on row deltas", zstdRowDelta(level3_encoder), zstdDecode},
       {"**zstd level 1 on row deltas (the log's)**", zstdRowDelta(log_encoder), zstdDecode},

@@ -10,7 +10,7 @@
 #include <vector>
 
 #include "demo_log.h"
-#include "kinect3d/match_log.h"
+#include "matchlog/match_log.h"
 #include "run_command.h"
 
 // What a run published, one line per publication of one kind, every number to the last bit, the
@@ -33,7 +33,7 @@ inline Published publishedIn(const std::string& log_folder) {
     for (Eigen::Index i = 0; i < m.size(); ++i) out << m(i) << ',';
     return out.str();
   };
-  for (const fw::JournalEntry& entry : kinect3d::MatchLogReader(log_folder).entries()) {
+  for (const fw::JournalEntry& entry : fw::MatchLogReader(log_folder).entries()) {
     if (const auto* frame = std::get_if<fw::BallFrame>(&entry.item)) {
       std::string balls;
       for (const fw::BallObservation& b : frame->balls) {
@@ -53,7 +53,8 @@ inline Published publishedIn(const std::string& log_folder) {
     } else if (const auto* event = std::get_if<fw::Event>(&entry.item)) {
       // What the disk and the robot network did is not what a replay repeats.
       if (event->source != "logger" && event->source != "team") {
-        published.events.push_back(line(event->source, event->kind, event->message, event->stamp.source_time_s));
+        published.events.push_back(line(event->source, event->kind, event->message, event->stamp.source_time_s,
+                                        event->value ? *event->value : 0.0));
       }
     } else if (const auto* ball = std::get_if<fw::FusedBall>(&entry.item)) {
       std::string sources;
@@ -61,8 +62,8 @@ inline Published publishedIn(const std::string& log_folder) {
       published.world_balls.push_back(
           line(ball->stamp.source_time_s, vector(ball->position_F), vector(ball->position_R), vector(ball->velocity_F),
                vector(ball->covariance_F), fw::toString(ball->state), ball->air_probability, sources, ball->age_s));
-    } else if (std::holds_alternative<fw::FusedBallCleared>(entry.item)) {
-      published.world_balls.push_back("no ball");
+    } else if (const auto* none = std::get_if<fw::FusedBallCleared>(&entry.item)) {
+      published.world_balls.push_back(line("no ball", none->stamp.source_time_s));
     }
   }
   return published;

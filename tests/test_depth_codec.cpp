@@ -5,17 +5,17 @@
 #include <opencv2/imgcodecs.hpp>
 #include <random>
 
-#include "kinect3d/depth_codec.h"
 #include "kinect3d/sim/kinect_simulator.h"
+#include "matchlog/depth_codec.h"
 #include "real_data.h"
 
 namespace {
 
 std::vector<std::uint16_t> roundTrip(const std::vector<std::uint16_t>& depth_mm, int width, int height) {
-  kinect3d::DepthEncoder encoder;
-  const kinect3d::DepthEncoder::Bytes bytes = encoder.encode(depth_mm.data(), width, height);
+  fw::DepthEncoder encoder;
+  const fw::DepthEncoder::Bytes bytes = encoder.encode(depth_mm.data(), width, height);
   std::vector<std::uint16_t> decoded;
-  kinect3d::decodeDepth(kinect3d::DepthCodec::kZstdRowDelta, bytes.data, bytes.size, width, height, decoded);
+  fw::decodeDepth(fw::DepthCodec::kZstdRowDelta, bytes.data, bytes.size, width, height, decoded);
   return decoded;
 }
 
@@ -27,7 +27,7 @@ std::size_t pngSize(const std::vector<std::uint16_t>& depth_mm, int width, int h
 }
 
 std::size_t encodedSize(const std::vector<std::uint16_t>& depth_mm, int width, int height) {
-  kinect3d::DepthEncoder encoder;
+  fw::DepthEncoder encoder;
   return encoder.encode(depth_mm.data(), width, height).size;
 }
 
@@ -47,12 +47,12 @@ TEST(DepthCodec, EveryValueAndEveryStepComesBackExactly) {
     }
   }
   // One encoder for many frames (as the log uses it): each comes back, not the one before.
-  kinect3d::DepthEncoder encoder;
+  fw::DepthEncoder encoder;
   for (std::uint16_t fill : {std::uint16_t(1000), std::uint16_t(0), std::uint16_t(4321)}) {
     const std::vector<std::uint16_t> image(64 * 48, fill);
-    const kinect3d::DepthEncoder::Bytes bytes = encoder.encode(image.data(), 64, 48);
+    const fw::DepthEncoder::Bytes bytes = encoder.encode(image.data(), 64, 48);
     std::vector<std::uint16_t> decoded;
-    kinect3d::decodeDepth(kinect3d::DepthCodec::kZstdRowDelta, bytes.data, bytes.size, 64, 48, decoded);
+    fw::decodeDepth(fw::DepthCodec::kZstdRowDelta, bytes.data, bytes.size, 64, 48, decoded);
     EXPECT_EQ(decoded, image) << fill;
   }
 }
@@ -92,11 +92,11 @@ TEST(DepthCodec, RealFramesComeBackExactlyInLessSpaceThanPng) {
 }
 
 std::string decodeError(const std::vector<std::uint8_t>& bytes, int width, int height,
-                        kinect3d::DepthCodec codec = kinect3d::DepthCodec::kZstdRowDelta) {
+                        fw::DepthCodec codec = fw::DepthCodec::kZstdRowDelta) {
   try {
     std::vector<std::uint16_t> decoded;
-    kinect3d::decodeDepth(codec, bytes.data(), bytes.size(), width, height, decoded);
-  } catch (const kinect3d::DepthCodecError& e) {
+    fw::decodeDepth(codec, bytes.data(), bytes.size(), width, height, decoded);
+  } catch (const fw::DepthCodecError& e) {
     return e.what();
   }
   return "no error";
@@ -104,8 +104,8 @@ std::string decodeError(const std::vector<std::uint8_t>& bytes, int width, int h
 
 TEST(DepthCodec, DamagedBytesAreRefusedWithTheirReason) {
   const std::vector<std::uint16_t> image(64 * 48, 1500);
-  kinect3d::DepthEncoder encoder;
-  const kinect3d::DepthEncoder::Bytes encoded = encoder.encode(image.data(), 64, 48);
+  fw::DepthEncoder encoder;
+  const fw::DepthEncoder::Bytes encoded = encoder.encode(image.data(), 64, 48);
   const std::vector<std::uint8_t> bytes(encoded.data, encoded.data + encoded.size);
   EXPECT_EQ(decodeError({}, 64, 48), "empty");
   EXPECT_EQ(decodeError({0x0b, 0xad, 0xc0, 0xde}, 64, 48), "not zstd-compressed");
@@ -114,7 +114,7 @@ TEST(DepthCodec, DamagedBytesAreRefusedWithTheirReason) {
   EXPECT_EQ(decodeError(bytes, 32, 48), "not a 32x48 image (6144 bytes)");
   const std::vector<std::uint8_t> cut(bytes.begin(), bytes.begin() + bytes.size() / 2);
   EXPECT_EQ(decodeError(cut, 64, 48).rfind("damaged (", 0), 0u) << decodeError(cut, 64, 48);
-  EXPECT_EQ(decodeError(bytes, 64, 48, kinect3d::DepthCodec::kPng), "not a 64x48 16-bit PNG");
+  EXPECT_EQ(decodeError(bytes, 64, 48, fw::DepthCodec::kPng), "not a 64x48 16-bit PNG");
 }
 
 }  // namespace

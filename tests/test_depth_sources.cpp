@@ -205,12 +205,12 @@ TEST(DepthSource, UnknownSchemeAndMissingPaths) {
 
 TEST(DepthSourceTable, HoldsOnlyWhatTheApplicationAdds) {
   kinect3d::DepthSourceTable table = kinect3d::DepthSourceTable::core();
-  EXPECT_EQ(table.schemes(), (std::vector<std::string>{"fakenect", "freenect", "oni", "openni2", "tum"}));
+  EXPECT_EQ(table.schemes(), (std::vector<std::string>{"fakenect", "freenect", "log", "oni", "openni2", "tum"}));
   try {
     table.open("sim:hung_3m");
     FAIL() << "the core alone opened the simulator";
   } catch (const DepthSourceError& e) {
-    EXPECT_NE(std::string(e.what()).find("expected one of fakenect:, freenect:, oni:, openni2:, tum:"),
+    EXPECT_NE(std::string(e.what()).find("expected one of fakenect:, freenect:, log:, oni:, openni2:, tum:"),
               std::string::npos)
         << e.what();
   }

@@ -16,11 +16,11 @@
 #include "kinect3d/depth_source.h"
 #include "kinect3d/fakenect_recording.h"
 #include "kinect3d/kinect_disparity.h"
-#include "kinect3d/match_log.h"
 #include "kinect3d/sensor_calibration.h"
 #include "kinect3d/sim/scene.h"
 #include "kinect3d/sim/sequence_writer.h"
 #include "match_view.h"
+#include "matchlog/match_log.h"
 #include "real_data.h"
 #include "run_command.h"
 #include "scoped_temp_dir.h"
@@ -194,7 +194,7 @@ TEST(FreenectOverFakenect, TheKinectPathPlaysARecordingIntoTheHostAndGravityAlon
   EXPECT_NEAR(std::stod(output.substr(at + said.size(), 8)), 4.0, 0.2) << "the pitch gravity implies: " << output;
 
   const fs::path log = *fs::directory_iterator(temp.path() / "logs");
-  const kinect3d::MatchLogReader reader(log.string());
+  const fw::MatchLogReader reader(log.string());
   const auto frames = reader.depthFrameStamps("kinect3d");
   ASSERT_GE(frames.size(), 110u) << "of the recording's 120 frames";
   const fw::DepthImage image = reader.depthFrame(frames[10].seq);

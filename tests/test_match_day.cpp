@@ -17,8 +17,8 @@
 #include "demo_log.h"
 #include "framework_api/host.h"
 #include "host_process.h"
-#include "kinect3d/match_log.h"
 #include "match_view.h"
+#include "matchlog/match_log.h"
 #include "run_command.h"
 #include "scoped_temp_dir.h"
 
@@ -50,7 +50,7 @@ std::vector<std::string> runFolders(const fs::path& base) {
 
 std::vector<fw::Event> eventsOf(const std::string& folder, const std::string& kind) {
   std::vector<fw::Event> events;
-  for (const fw::Event& event : itemsOf<fw::Event>(kinect3d::MatchLogReader(folder).entries())) {
+  for (const fw::Event& event : itemsOf<fw::Event>(fw::MatchLogReader(folder).entries())) {
     if (event.kind == kind) events.push_back(event);
   }
   return events;
@@ -76,7 +76,7 @@ TEST(MatchDay, ARobotWhoseLogFolderCannotBeCreatedPlaysAndRecordsIntoTheFallback
   const std::vector<fw::Event> why = eventsOf(runs[0], "recording_fallback");
   ASSERT_EQ(why.size(), 1u);
   EXPECT_NE(why[0].message.find("cannot create the log folder"), std::string::npos) << why[0].message;
-  const kinect3d::MatchLogReader log(runs[0]);
+  const fw::MatchLogReader log(runs[0]);
   EXPECT_FALSE(itemsOf<fw::BallFrame>(log.entries()).empty()) << "the match is recorded";
   EXPECT_TRUE(log.depthSources().empty()) << "the fallback (RAM on most robots) takes no depth";
 }
@@ -104,17 +104,16 @@ TEST(MatchDay, WithNowhereToRecordOrAFullDiskTheRobotStillPlays) {
 TEST(MatchDay, RunsStartedWithinTheSameSecondGetFoldersOfTheirOwn) {
   ScopedTempDir dir;
   const double now_s = fw::wallClockNow_s();
-  const std::string first = kinect3d::claimRunFolder(dir.path().string(), "demo", now_s);
-  const std::string second = kinect3d::claimRunFolder(dir.path().string(), "demo", now_s);
-  const std::string third = kinect3d::claimRunFolder(dir.path().string(), "demo", now_s);
+  const std::string first = fw::claimRunFolder(dir.path().string(), "demo", now_s);
+  const std::string second = fw::claimRunFolder(dir.path().string(), "demo", now_s);
+  const std::string third = fw::claimRunFolder(dir.path().string(), "demo", now_s);
   EXPECT_EQ(second, first + "-2");
   EXPECT_EQ(third, first + "-3");
   // Two loggers writing there at once: each its own log.
   std::vector<std::thread> runs;
   for (int i = 0; i < 2; ++i) {
-    runs.emplace_back([&] {
-      const kinect3d::MatchLogWriter writer(kinect3d::claimRunFolder(dir.path().string(), "twin", now_s), {});
-    });
+    runs.emplace_back(
+        [&] { const fw::MatchLogWriter writer(fw::claimRunFolder(dir.path().string(), "twin", now_s), {}); });
   }
   for (std::thread& run : runs) run.join();
   EXPECT_EQ(runFolders(dir.path()).size(), 5u);
@@ -190,21 +189,21 @@ TEST(MatchDay, SighupStopsTheRobotCleanlyWithItsLogClosed) {
   ASSERT_EQ(runs.size(), 1u);
   EXPECT_FALSE(fs::exists(runs[0] + "/match.sqlite-wal")) << "the log was closed, not abandoned";
   EXPECT_FALSE(fs::exists(runs[0] + "/match.sqlite-shm"));
-  EXPECT_NO_THROW(kinect3d::MatchLogReader{runs[0]});
+  EXPECT_NO_THROW(fw::MatchLogReader{runs[0]});
 }
 
 // A copy of log whose every stamp (depth, balls, omni images, poses) from its 30th depth frame on
 // is moved by jump_s.
 void copyWithClockJump(const std::string& log_folder, const std::string& copy_folder, double jump_s) {
-  const kinect3d::MatchLogReader log(log_folder);
-  kinect3d::MatchLogWriter copy(copy_folder, log.run());
-  const std::vector<kinect3d::MatchLogReader::DepthFrameStamp> depth = log.depthFrameStamps("kinect3d");
+  const fw::MatchLogReader log(log_folder);
+  fw::MatchLogWriter copy(copy_folder, log.run());
+  const std::vector<fw::MatchLogReader::DepthFrameStamp> depth = log.depthFrameStamps("kinect3d");
   const double jump_from_wall_s = depth.at(30).wall_time_s;
   const auto moved = [&](double wall_s, fw::Stamp& stamp) {
     if (wall_s >= jump_from_wall_s) stamp.source_time_s += jump_s;
   };
   std::vector<fw::JournalEntry> entries = log.entries();
-  kinect3d::MatchLogReader::DepthFrames frames(log, "kinect3d");
+  fw::MatchLogReader::DepthFrames frames(log, "kinect3d");
   fw::DepthImage image;
   double image_wall_s = 0.0;
   bool has_image = frames.next(image, image_wall_s);
@@ -236,8 +235,8 @@ TEST(MatchDay, ALogWhoseClocksJumpReplaysInTheHostAndInReplayWithoutAStall) {
   runDemo((dir.path() / "live").string());
   const std::string live = onlySubfolder(dir.path() / "live");
   // What the live run logged (a busy machine may have logged fewer frames than the scene has).
-  const std::vector<fw::JournalEntry> logged = kinect3d::MatchLogReader(live).entries();
-  const std::uint64_t depth_frames = kinect3d::MatchLogReader(live).depthSources().at(0).second;
+  const std::vector<fw::JournalEntry> logged = fw::MatchLogReader(live).entries();
+  const std::uint64_t depth_frames = fw::MatchLogReader(live).depthSources().at(0).second;
   const std::size_t omni_frames = itemsOf<fw::OmniFrame>(logged).size();
   const std::size_t poses = itemsOf<fw::RobotPose>(logged).size();
   for (const double jump_s : {1e9, 100.0, -1e6}) {
@@ -256,7 +255,7 @@ TEST(MatchDay, ALogWhoseClocksJumpReplaysInTheHostAndInReplayWithoutAStall) {
     EXPECT_EQ(summaryOf(summaries, "omni").frames, omni_frames);
     EXPECT_EQ(summaryOf(summaries, "localisation").frames, poses);
     EXPECT_EQ(summaryOf(summaries, "fusion").stuck, 0u);
-    const double t0 = kinect3d::MatchLogReader(live).depthFrameStamps("kinect3d").front().source_time_s;
+    const double t0 = fw::MatchLogReader(live).depthFrameStamps("kinect3d").front().source_time_s;
     const auto after_jump = [&](const std::vector<fw::JournalEntry>& entries) {
       std::size_t count = 0;
       for (const fw::FusedBall& ball : itemsOf<fw::FusedBall>(entries)) {
@@ -264,7 +263,7 @@ TEST(MatchDay, ALogWhoseClocksJumpReplaysInTheHostAndInReplayWithoutAStall) {
       }
       return count;
     };
-    EXPECT_GT(after_jump(kinect3d::MatchLogReader(onlySubfolder(rerun)).entries()), 10u)
+    EXPECT_GT(after_jump(fw::MatchLogReader(onlySubfolder(rerun)).entries()), 10u)
         << "the world ball goes on after the jump";
     // `kinect3d replay` of the same log, as fast as it can.
     const std::string replayed = (dir.path() / ("replayed" + name)).string();
@@ -272,7 +271,7 @@ TEST(MatchDay, ALogWhoseClocksJumpReplaysInTheHostAndInReplayWithoutAStall) {
         runCommand(std::string(KINECT3D_EXE) + " replay " + jumped + " --output " + replayed + " 2>&1");
     EXPECT_EQ(status, 0) << out;
     EXPECT_NE(out.find("the fusion starts again from it"), std::string::npos) << out;
-    EXPECT_GT(after_jump(kinect3d::MatchLogReader(onlySubfolder(replayed)).entries()), 10u);
+    EXPECT_GT(after_jump(fw::MatchLogReader(onlySubfolder(replayed)).entries()), 10u);
   }
 }
 
@@ -289,10 +288,10 @@ std::string crashedLog(const fs::path& base, const std::string& from) {
   const std::string folder = (base / "crashed").string();
   const pid_t child = fork();
   if (child == 0) {
-    const kinect3d::MatchLogReader log(from);
-    kinect3d::MatchLogWriter writer(folder, log.run());
+    const fw::MatchLogReader log(from);
+    fw::MatchLogWriter writer(folder, log.run());
     for (const fw::JournalEntry& entry : log.entries()) writer.write(entry);
-    kinect3d::MatchLogReader::DepthFrames frames(log, "kinect3d");
+    fw::MatchLogReader::DepthFrames frames(log, "kinect3d");
     fw::DepthImage image;
     double wall_s = 0.0;
     for (int i = 0; i < 5 && frames.next(image, wall_s); ++i) writer.write({wall_s, image});

@@ -20,8 +20,8 @@
 #include "framework_api/host.h"
 #include "fusion/json_lines.h"
 #include "host_process.h"
-#include "kinect3d/log_source.h"
-#include "kinect3d/match_log.h"
+#include "kinect3d/depth_source.h"
+#include "matchlog/match_log.h"
 #include "published_log.h"
 #include "run_command.h"
 #include "scoped_temp_dir.h"
@@ -33,8 +33,8 @@ namespace fs = std::filesystem;
 
 std::string errorOf(const std::string& folder) {
   try {
-    kinect3d::MatchLogReader log(folder);
-  } catch (const kinect3d::MatchLogError& e) {
+    fw::MatchLogReader log(folder);
+  } catch (const fw::MatchLogError& e) {
     return e.what();
   }
   return "no error";
@@ -43,7 +43,7 @@ std::string errorOf(const std::string& folder) {
 TEST(MatchLog, RoundTripsEveryKindOfPublication) {
   ScopedTempDir dir;
   const std::string folder = (dir.path() / "run").string();
-  kinect3d::RunInfo run{"keeper", "0.1.0", "host:\n  robot_name: keeper\n", 1700000000.5, ""};
+  fw::RunInfo run{"keeper", "0.1.0", "host:\n  robot_name: keeper\n", 1700000000.5, ""};
   fw::BallObservation ball = fw::BallObservation::inRobotFrame({0.1, 2.5, 0.7}, Eigen::Matrix3d::Identity() * 1e-4,
                                                                fw::BallState::kAir, "kinect3d", {100.0, 2000.01});
   ball.covariance_m2(0, 1) = ball.covariance_m2(1, 0) = 2e-5;
@@ -86,20 +86,20 @@ TEST(MatchLog, RoundTripsEveryKindOfPublication) {
       {1.2, trajectory},
       {1.3, fw::TrajectoryCleared{"kinect3d"}},
       {1.4, fused},
-      {1.5, fw::FusedBallCleared{}},
+      {1.5, fw::FusedBallCleared{{100.1, 2000.04}}},
       {1.6, fw::RobotPose{1.0, -2.0, 0.3, {99.8, 2000.0}}},
-      {1.7, fw::Event{"kinect3d", "floor_found", "aligned", {100.0, 2000.0}}},
+      {1.7, fw::Event{"fusion", "omni_latency", "42 ms", {100.0, 2000.0}, 0.042}},
       {1.8, health},
       {1.85, teammate},
       {1.9, smallDepthImage(0)},
   };
   {
-    kinect3d::MatchLogWriter writer(folder, run);
+    fw::MatchLogWriter writer(folder, run);
     for (const fw::JournalEntry& entry : written) writer.write(entry);
     writer.write({2.0, smallDepthImage(1)});
     writer.commit();
   }
-  const kinect3d::MatchLogReader log(folder);
+  const fw::MatchLogReader log(folder);
   EXPECT_EQ(log.run().robot, "keeper");
   EXPECT_EQ(log.run().config_yaml, run.config_yaml);
   EXPECT_DOUBLE_EQ(log.run().start_wall_time_s, 1700000000.5);
@@ -127,7 +127,10 @@ TEST(MatchLog, RoundTripsEveryKindOfPublication) {
   EXPECT_EQ(std::get<fw::FusedBall>(read[5].item).sources, fused.sources);
   EXPECT_EQ(std::get<fw::FusedBall>(read[5].item).covariance_F, fused.covariance_F);
   EXPECT_DOUBLE_EQ(std::get<fw::RobotPose>(read[7].item).theta_rad, 0.3);
-  EXPECT_EQ(std::get<fw::Event>(read[8].item).kind, "floor_found");
+  EXPECT_DOUBLE_EQ(std::get<fw::FusedBallCleared>(read[6].item).stamp.source_time_s, 100.1);
+  EXPECT_DOUBLE_EQ(std::get<fw::FusedBallCleared>(read[6].item).stamp.receive_time_s, 2000.04);
+  EXPECT_EQ(std::get<fw::Event>(read[8].item).kind, "omni_latency");
+  EXPECT_EQ(std::get<fw::Event>(read[8].item).value, std::optional<double>(0.042));
   EXPECT_EQ(std::get<fw::PluginHealth>(read[9].item).dropped_frames, 2u);
   EXPECT_DOUBLE_EQ(std::get<fw::PluginHealth>(read[9].item).processing_p99_s, 0.004);
   EXPECT_DOUBLE_EQ(std::get<fw::PluginHealth>(read[9].item).processing_total_s, 0.09);
@@ -143,7 +146,7 @@ TEST(MatchLog, RoundTripsEveryKindOfPublication) {
   EXPECT_TRUE(message.kinect_balls[0].position_m.isApprox(ball.position_m));
 
   ASSERT_EQ(log.depthSources(), (std::vector<std::pair<std::string, std::uint64_t>>{{"kinect3d", 2}}));
-  kinect3d::MatchLogReader::DepthFrames frames(log, "kinect3d");
+  fw::MatchLogReader::DepthFrames frames(log, "kinect3d");
   fw::DepthImage image;
   double wall_s = 0.0;
   for (std::uint64_t i = 0; i < 2; ++i) {
@@ -160,15 +163,15 @@ TEST(MatchLog, RoundTripsEveryKindOfPublication) {
 TEST(MatchLog, AVersion3LogFromBeforeTheTeamStillReads) {
   ScopedTempDir dir;
   {
-    kinect3d::MatchLogWriter writer(dir.path().string(), {});
+    fw::MatchLogWriter writer(dir.path().string(), {});
     writer.write({1.0, fw::RobotPose{1.0, -2.0, 0.3, {99.8, 2000.0}}});
   }
   sqlite3* db = nullptr;
-  ASSERT_EQ(sqlite3_open((dir.path() / kinect3d::kMatchLogFile).c_str(), &db), SQLITE_OK);
+  ASSERT_EQ(sqlite3_open((dir.path() / fw::kMatchLogFile).c_str(), &db), SQLITE_OK);
   ASSERT_EQ(sqlite3_exec(db, "DROP TABLE team_message; PRAGMA user_version=3", nullptr, nullptr, nullptr), SQLITE_OK);
   sqlite3_close(db);
   std::int64_t last_seq = -1;
-  const std::vector<fw::JournalEntry> read = kinect3d::MatchLogReader(dir.path().string()).entries(0, &last_seq);
+  const std::vector<fw::JournalEntry> read = fw::MatchLogReader(dir.path().string()).entries(0, &last_seq);
   ASSERT_EQ(read.size(), 1u);
   EXPECT_DOUBLE_EQ(std::get<fw::RobotPose>(read[0].item).y_m, -2.0);
   EXPECT_GT(last_seq, 0);
@@ -177,12 +180,12 @@ TEST(MatchLog, AVersion3LogFromBeforeTheTeamStillReads) {
 TEST(MatchLog, AVersion4LogWithItsDepthAsPngStillReads) {
   ScopedTempDir dir;
   {
-    kinect3d::MatchLogWriter writer(dir.path().string(), {});
+    fw::MatchLogWriter writer(dir.path().string(), {});
     for (std::uint64_t i = 0; i < 3; ++i) writer.write({1.0 + i, smallDepthImage(i)});
   }
   // Made as version 4 wrote it: the same rows, each depth a 16-bit PNG in a column named png.
   sqlite3* db = nullptr;
-  ASSERT_EQ(sqlite3_open((dir.path() / kinect3d::kMatchLogFile).c_str(), &db), SQLITE_OK);
+  ASSERT_EQ(sqlite3_open((dir.path() / fw::kMatchLogFile).c_str(), &db), SQLITE_OK);
   ASSERT_EQ(sqlite3_exec(db, "ALTER TABLE depth_frame RENAME COLUMN depth_zstd TO png; PRAGMA user_version=4", nullptr,
                          nullptr, nullptr),
             SQLITE_OK);
@@ -201,8 +204,8 @@ TEST(MatchLog, AVersion4LogWithItsDepthAsPngStillReads) {
   sqlite3_finalize(update);
   sqlite3_close(db);
 
-  const kinect3d::MatchLogReader log(dir.path().string());
-  kinect3d::MatchLogReader::DepthFrames frames(log, "kinect3d");
+  const fw::MatchLogReader log(dir.path().string());
+  fw::MatchLogReader::DepthFrames frames(log, "kinect3d");
   fw::DepthImage image;
   double wall_s = 0.0;
   for (std::uint64_t i = 0; i < 3; ++i) {
@@ -224,7 +227,7 @@ TEST(MatchLog, ColourIsKeptAtTheJpegQualityItIsGiven) {
   ScopedTempDir dir;
   const auto logged = [&](int quality) {
     const std::string folder = (dir.path() / std::to_string(quality)).string();
-    { kinect3d::MatchLogWriter(folder, {}, quality).write({1.0, image}); }
+    { fw::MatchLogWriter(folder, {}, quality).write({1.0, image}); }
     sqlite3* db = nullptr;
     EXPECT_EQ(sqlite3_open((folder + "/match.sqlite").c_str(), &db), SQLITE_OK);
     sqlite3_stmt* size = nullptr;
@@ -233,23 +236,23 @@ TEST(MatchLog, ColourIsKeptAtTheJpegQualityItIsGiven) {
     const int bytes = sqlite3_column_int(size, 0);
     sqlite3_finalize(size);
     sqlite3_close(db);
-    const fw::DepthImage read = kinect3d::MatchLogReader(folder).depthFrame(1);
+    const fw::DepthImage read = fw::MatchLogReader(folder).depthFrame(1);
     EXPECT_TRUE(read.colour.has_value()) << quality;
     return bytes;
   };
   EXPECT_LT(logged(30), logged(95));
   try {
-    kinect3d::MatchLogWriter((dir.path() / "zero").string(), {}, 0);
+    fw::MatchLogWriter((dir.path() / "zero").string(), {}, 0);
     ADD_FAILURE() << "a quality of 0 was taken";
-  } catch (const kinect3d::MatchLogError& e) {
+  } catch (const fw::MatchLogError& e) {
     EXPECT_NE(std::string(e.what()).find("zero: a colour JPEG quality of 0 (1 to 100)"), std::string::npos) << e.what();
   }
 }
 
 TEST(MatchLog, NeverWritesOverAnotherLog) {
   ScopedTempDir dir;
-  { kinect3d::MatchLogWriter first(dir.path().string(), {}); }
-  EXPECT_THROW(kinect3d::MatchLogWriter(dir.path().string(), {}), kinect3d::MatchLogError);
+  { fw::MatchLogWriter first(dir.path().string(), {}); }
+  EXPECT_THROW(fw::MatchLogWriter(dir.path().string(), {}), fw::MatchLogError);
 }
 
 TEST(MatchLog, ABadLogIsNamedWithItsFileAndWhatIsWrong) {
@@ -266,7 +269,7 @@ TEST(MatchLog, ABadLogIsNamedWithItsFileAndWhatIsWrong) {
   fs::remove(file);
 
   {
-    kinect3d::MatchLogWriter writer(dir.path().string(), {});
+    fw::MatchLogWriter writer(dir.path().string(), {});
     for (int i = 0; i < 200; ++i) writer.write({i * 1.0, smallDepthImage(i)});
   }
   fs::remove(file.string() + "-wal");
@@ -276,13 +279,13 @@ TEST(MatchLog, ABadLogIsNamedWithItsFileAndWhatIsWrong) {
   EXPECT_NE(truncated.find("malformed"), std::string::npos) << truncated;
   fs::remove(file);
 
-  { kinect3d::MatchLogWriter writer(dir.path().string(), {}); }
+  { fw::MatchLogWriter writer(dir.path().string(), {}); }
   sqlite3* db = nullptr;
   ASSERT_EQ(sqlite3_open(file.c_str(), &db), SQLITE_OK);
   sqlite3_exec(db, "PRAGMA user_version=99", nullptr, nullptr, nullptr);
   sqlite3_close(db);
   EXPECT_NE(
-      errorOf(dir.path().string()).find(file.string() + ": schema version 99, this program reads versions 2 to 5"),
+      errorOf(dir.path().string()).find(file.string() + ": schema version 99, this program reads versions 2 to 6"),
       std::string::npos)
       << errorOf(dir.path().string());
 }
@@ -305,7 +308,7 @@ std::string LoggedDemo::folder_;
 
 TEST_F(LoggedDemo, HoldsTheWholeRunInItsOwnFolder) {
   EXPECT_NE(fs::path(folder_).filename().string().find("_demo"), std::string::npos) << folder_;
-  const kinect3d::MatchLogReader log(folder_);
+  const fw::MatchLogReader log(folder_);
   EXPECT_EQ(log.run().robot, "demo");
   EXPECT_NE(log.run().config_yaml.find("sim:lob_over_robot"), std::string::npos);
   const auto entries = log.entries();
@@ -372,7 +375,7 @@ TEST_F(LoggedDemo, ReplayGivesTheSameLogTwiceAndChangesOnlyWhatASettingTouches) 
   const std::string a = replayInto(folder_, out.path() / "a"), b = replayInto(folder_, out.path() / "b");
   const std::string c = replayInto(folder_, out.path() / "c", "--set fusion.pose.sigma_xy_m=0.3");
   // Twice: the same log, entry for entry, its wall clock included (a replay stamps the robot's moments).
-  const auto entriesA = kinect3d::MatchLogReader(a).entries(), entriesB = kinect3d::MatchLogReader(b).entries();
+  const auto entriesA = fw::MatchLogReader(a).entries(), entriesB = fw::MatchLogReader(b).entries();
   ASSERT_EQ(entriesA.size(), entriesB.size());
   for (std::size_t i = 0; i < entriesA.size(); ++i) {
     ASSERT_EQ(entriesA[i].item.index(), entriesB[i].item.index()) << i;
@@ -383,18 +386,17 @@ TEST_F(LoggedDemo, ReplayGivesTheSameLogTwiceAndChangesOnlyWhatASettingTouches) 
   const Published publishedA = publishedIn(a), publishedC = publishedIn(c);
   expectSame(publishedA.detections, publishedC.detections, "detection");
   expectSame(publishedA.trajectories, publishedC.trajectories, "trajectory");
-  EXPECT_EQ(itemsOf<fw::RobotPose>(kinect3d::MatchLogReader(c).entries()).size(),
-            itemsOf<fw::RobotPose>(entriesA).size());
+  EXPECT_EQ(itemsOf<fw::RobotPose>(fw::MatchLogReader(c).entries()).size(), itemsOf<fw::RobotPose>(entriesA).size());
   // Fusion told that localisation is ten times worse gives less certain world balls.
   const auto fusedA = itemsOf<fw::FusedBall>(entriesA),
-             fusedC = itemsOf<fw::FusedBall>(kinect3d::MatchLogReader(c).entries());
+             fusedC = itemsOf<fw::FusedBall>(fw::MatchLogReader(c).entries());
   int differ = 0;
   for (std::size_t i = 0; i < std::min(fusedA.size(), fusedC.size()); ++i) {
     differ += (fusedA[i].covariance_F - fusedC[i].covariance_F).norm() > 1e-9;
   }
   EXPECT_GT(differ, 10);
-  EXPECT_EQ(kinect3d::MatchLogReader(c).run().replayed_from, folder_);
-  EXPECT_TRUE(kinect3d::MatchLogReader(folder_).run().replayed_from.empty());
+  EXPECT_EQ(fw::MatchLogReader(c).run().replayed_from, folder_);
+  EXPECT_TRUE(fw::MatchLogReader(folder_).run().replayed_from.empty());
 }
 
 TEST_F(LoggedDemo, ExportsTheFilesTheOtherCommandsRead) {
@@ -405,7 +407,7 @@ TEST_F(LoggedDemo, ExportsTheFilesTheOtherCommandsRead) {
                        pose.string() + " --detections " + detections.string() + " --tum " + tum.string() + " 2>&1")
                 .first,
             0);
-  const kinect3d::MatchLogReader log(folder_);
+  const fw::MatchLogReader log(folder_);
   const auto entries = log.entries();
   EXPECT_EQ(fusion::readOmniFile(omni.string(), "omni").size(), itemsOf<fw::OmniFrame>(entries).size());
   EXPECT_EQ(fusion::readPoseFile(pose.string()).size(), itemsOf<fw::RobotPose>(entries).size());
@@ -428,12 +430,12 @@ TEST_F(LoggedDemo, TheWholeHostReRunsTheMatchFromItsLog) {
                                                        "localisation.source=" + source, "kinect3d.realtime=false"});
   std::map<std::string, std::uint64_t> frames;
   for (const fw::PluginSummary& summary : summaries) frames[summary.name] = summary.frames;
-  const kinect3d::MatchLogReader original(folder_);
+  const fw::MatchLogReader original(folder_);
   const auto entries = original.entries();
   EXPECT_EQ(frames["kinect3d"], original.depthSources().at(0).second);
   EXPECT_EQ(frames["omni"], itemsOf<fw::OmniFrame>(entries).size());
   EXPECT_EQ(frames["localisation"], itemsOf<fw::RobotPose>(entries).size());
-  const kinect3d::MatchLogReader rerun(onlySubfolder(out.path()));
+  const fw::MatchLogReader rerun(onlySubfolder(out.path()));
   const auto rerun_balls = itemsOf<fw::BallFrame>(rerun.entries());
   EXPECT_GT(rerun_balls.size(), itemsOf<fw::BallFrame>(entries).size() / 2);
   EXPECT_GT(itemsOf<fw::FusedBall>(rerun.entries()).size(), 50u);
@@ -454,7 +456,7 @@ TEST_F(LoggedDemo, MatchReportShowsTheLobToAPersonOpeningIt) {
   EXPECT_NE(dom.find("data-drawn=\"yes\""), std::string::npos);  // every chart drawn without a script error
   EXPECT_NE(dom.find("Match report: demo"), std::string::npos);
   // The timeline holds every ball each source saw.
-  const auto entries = kinect3d::MatchLogReader(folder_).entries();
+  const auto entries = fw::MatchLogReader(folder_).entries();
   std::size_t seen = itemsOf<fw::FusedBall>(entries).size();
   for (const fw::BallFrame& frame : itemsOf<fw::BallFrame>(entries)) seen += frame.balls.size();
   for (const fw::OmniFrame& frame : itemsOf<fw::OmniFrame>(entries)) seen += frame.balls.size();
@@ -482,7 +484,7 @@ TEST(MatchLog, ADepthFrameOfNoSensorsSizeIsRefusedBeforeItIsDecoded) {
   ScopedTempDir dir;
   const std::string folder = (dir.path() / "run").string();
   {
-    kinect3d::MatchLogWriter writer(folder, {});
+    fw::MatchLogWriter writer(folder, {});
     for (std::uint64_t i = 0; i < 3; ++i) writer.write({1.0 + i, smallDepthImage(i)});
   }
   sqlite3* db = nullptr;
@@ -495,15 +497,15 @@ TEST(MatchLog, ADepthFrameOfNoSensorsSizeIsRefusedBeforeItIsDecoded) {
                          nullptr, nullptr, nullptr),
             SQLITE_OK);
   sqlite3_close(db);
-  const kinect3d::MatchLogReader log(folder);
-  kinect3d::MatchLogReader::DepthFrames frames(log, "kinect3d");
+  const fw::MatchLogReader log(folder);
+  fw::MatchLogReader::DepthFrames frames(log, "kinect3d");
   fw::DepthImage image;
   double wall_s = 0.0;
   ASSERT_TRUE(frames.next(image, wall_s));
   try {
     frames.next(image, wall_s);
     ADD_FAILURE() << "a 10000x10000 frame was read";
-  } catch (const kinect3d::MatchLogError& e) {
+  } catch (const fw::MatchLogError& e) {
     EXPECT_NE(std::string(e.what()).find("depth frame 1 (seq 2): 10000x10000 is no depth sensor's size (each side 8 "
                                          "to 4096 pixels)"),
               std::string::npos)
@@ -513,7 +515,7 @@ TEST(MatchLog, ADepthFrameOfNoSensorsSizeIsRefusedBeforeItIsDecoded) {
   try {
     log.depthFrame(frame2);
     ADD_FAILURE() << "a frame whose image is not its row's size was read";
-  } catch (const kinect3d::MatchLogError& e) {
+  } catch (const fw::MatchLogError& e) {
     EXPECT_NE(std::string(e.what()).find("depth frame 2 (seq 3): its depth is not a 32x48 image (6144 bytes)"),
               std::string::npos)
         << e.what();
@@ -524,22 +526,20 @@ TEST(MatchLog, StampsThatAreNotFiniteAreRefusedOneByOneOrSkippedByTheLogSource) 
   ScopedTempDir dir;
   const std::string folder = (dir.path() / "run").string();
   {
-    kinect3d::MatchLogWriter writer(folder, {});
+    fw::MatchLogWriter writer(folder, {});
     std::uint64_t index = 0;
     for (const double stamp_s : {0.0, std::numeric_limits<double>::quiet_NaN(), HUGE_VAL, -HUGE_VAL, 0.1}) {
       fw::DepthImage image = smallDepthImage(index++);
       image.stamp.source_time_s = stamp_s;
       if (std::isnan(stamp_s)) {
         // SQLite keeps no NaN: this one publication is refused, the batch goes on.
-        EXPECT_THROW(writer.write({1.0, image}), kinect3d::MatchLogRefused);
+        EXPECT_THROW(writer.write({1.0, image}), fw::MatchLogRefused);
         continue;
       }
       writer.write({1.0, image});
     }
   }
-  kinect3d::DepthSourceTable sources = kinect3d::DepthSourceTable::core();
-  kinect3d::addLogSource(sources);
-  const auto source = sources.open("log:" + folder);
+  const auto source = kinect3d::DepthSourceTable::core().open("log:" + folder);
   kinect3d::DepthFrame frame;
   std::vector<double> stamps;
   for (kinect3d::ReadResult result; (result = source->read(frame)) != kinect3d::ReadResult::kEnd;) {
@@ -558,7 +558,7 @@ TEST(Logger, StopsAtItsBudgetLoudlyAndDetectionGoesOn) {
     frames[summary.name] = summary.frames;
   }
   EXPECT_EQ(frames["kinect3d"], 105u);  // every frame of the scene
-  const kinect3d::MatchLogReader log(onlySubfolder(dir.path()));
+  const fw::MatchLogReader log(onlySubfolder(dir.path()));
   const auto events = itemsOf<fw::Event>(log.entries());
   ASSERT_FALSE(events.empty());
   EXPECT_EQ(events.back().kind, "recording_stopped");
@@ -580,7 +580,7 @@ TEST(Logger, AHostKilledMidRunLeavesALogThatOpensWithEveryCommittedBatch) {
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
     host.drainOutput();
     try {
-      const auto sources = kinect3d::MatchLogReader(onlySubfolder(dir.path())).depthSources();
+      const auto sources = fw::MatchLogReader(onlySubfolder(dir.path())).depthSources();
       committed = sources.empty() ? 0 : sources[0].second;
     } catch (const std::exception&) {
       // not there yet
@@ -590,10 +590,10 @@ TEST(Logger, AHostKilledMidRunLeavesALogThatOpensWithEveryCommittedBatch) {
   host.signal(SIGKILL);
   ASSERT_EQ(host.waitExit(std::chrono::seconds(60)), 128 + SIGKILL);
 
-  const kinect3d::MatchLogReader log(onlySubfolder(dir.path()));  // opens cleanly
+  const fw::MatchLogReader log(onlySubfolder(dir.path()));  // opens cleanly
   ASSERT_FALSE(log.entries().empty());
   ASSERT_EQ(log.depthSources().size(), 1u);
-  kinect3d::MatchLogReader::DepthFrames frames(log, "kinect3d");
+  fw::MatchLogReader::DepthFrames frames(log, "kinect3d");
   fw::DepthImage image;
   double wall_s = 0.0;
   std::uint64_t count = 0;

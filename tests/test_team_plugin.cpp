@@ -107,7 +107,7 @@ struct Received {
 };
 Received receivedIn(const std::string& run, const Lob& lob) {
   Received r;
-  for (const fw::JournalEntry& entry : kinect3d::MatchLogReader(run).entries()) {
+  for (const fw::JournalEntry& entry : fw::MatchLogReader(run).entries()) {
     if (const auto* message = std::get_if<fw::TeamMessage>(&entry.item)) {
       ++r.messages;
       EXPECT_EQ(message->robot_name, "keeper") << "only the keeper's messages are taken";
@@ -247,7 +247,7 @@ TEST(TeamPlugin, AKeeperAMetreOffIsDiscountedByTheDefenderAndNotUsed) {
   // world ball of the defender rests on the keeper's observations.
   double discounted_at_s = kNever;  // the defender's fusion clock
   int after = 0, with_keeper_after = 0;
-  for (const fw::JournalEntry& entry : kinect3d::MatchLogReader(run).entries()) {
+  for (const fw::JournalEntry& entry : fw::MatchLogReader(run).entries()) {
     if (const auto* event = std::get_if<fw::Event>(&entry.item)) {
       if (event->kind == "teammate_discounted") discounted_at_s = event->stamp.source_time_s;
       if (event->kind == "teammate_trusted") discounted_at_s = kNever;
@@ -303,7 +303,7 @@ TEST(TeamPlugin, ThreeRobotsInOneWorldHoldTheLobOnlyTheKeepersKinectSees) {
   for (const char* name : {"keeper", "defender", "striker"}) {
     std::vector<double> air_errors_m;
     int in_air = 0;
-    for (const fw::JournalEntry& entry : kinect3d::MatchLogReader(onlySubfolder(dir.path() / name)).entries()) {
+    for (const fw::JournalEntry& entry : fw::MatchLogReader(onlySubfolder(dir.path() / name)).entries()) {
       const auto* ball = std::get_if<fw::FusedBall>(&entry.item);
       if (ball == nullptr) continue;
       const Eigen::Vector3d true_F = truth.positionAt(ball->stamp.source_time_s - world_start_s);

@@ -29,7 +29,7 @@
 #include "framework_api/config.h"
 #include "framework_api/world_state.h"
 #include "host_process.h"
-#include "kinect3d/match_log.h"
+#include "matchlog/match_log.h"
 #include "run_command.h"
 #include "scoped_temp_dir.h"
 #include "small_depth_image.h"
@@ -143,7 +143,7 @@ ScopedTempDir* ViewedDemo::dir_ = nullptr;
 std::string ViewedDemo::folder_;
 
 TEST_F(ViewedDemo, ThePageShowsTheLobInThreeDimensionsAndInTime) {
-  const kinect3d::MatchLogReader log(folder_);
+  const fw::MatchLogReader log(folder_);
   const auto entries = log.entries();
   const auto frames = log.depthFrameStamps("kinect3d");
   ASSERT_GT(frames.size(), 60u);
@@ -242,12 +242,12 @@ nlohmann::json servedFrame(const ServedView& view, int frame) {
 
 // A log written by hand: 30 small depth frames at 30 Hz (a wall 2 m ahead), and after each what
 // also_logged writes.
-using AlsoLogged = std::function<void(kinect3d::MatchLogWriter&, const fw::DepthImage&)>;
+using AlsoLogged = std::function<void(fw::MatchLogWriter&, const fw::DepthImage&)>;
 std::string smallLog(const fs::path& dir, const AlsoLogged& also_logged = {}) {
   const std::string folder = (dir / "run").string();
   const fw::Config config = fw::Config::load(std::string(PROJECT_CONFIG_DIR) + "/defaults",
                                              std::string(PROJECT_CONFIG_DIR) + "/robots/demo.yaml", {});
-  kinect3d::MatchLogWriter writer(folder, {"demo", "0.1.0", config.toYaml(), 2000.0, ""});
+  fw::MatchLogWriter writer(folder, {"demo", "0.1.0", config.toYaml(), 2000.0, ""});
   for (int i = 0; i < 30; ++i) {
     fw::DepthImage image = smallDepthImage(static_cast<std::uint64_t>(i));
     image.depth_mm.assign(image.depth_mm.size(), 2000);
@@ -261,7 +261,7 @@ TEST(ViewedLog, TheFusedBallIsHeldUntilTheFusionClearsIt) {
   // The world ball published with frame 3 and cleared at frame 20, nothing published between (no
   // source saw the ball).
   ScopedTempDir dir;
-  const std::string folder = smallLog(dir.path(), [](kinect3d::MatchLogWriter& writer, const fw::DepthImage& image) {
+  const std::string folder = smallLog(dir.path(), [](fw::MatchLogWriter& writer, const fw::DepthImage& image) {
     if (image.index == 3) {
       fw::FusedBall ball;
       ball.position_R = {0.2, 1.5, 1.1};
@@ -292,7 +292,7 @@ TEST(ViewedLog, TeammatesAreDrawnInThisRobotsFrameWhereTheirMessagesPutThem) {
   // From frame 5 this robot stands at (1, 2) in the field facing the field's -x; the keeper at (1, 4)
   // facing +y sees a ball at (0, 4, 0.5) with its Kinect and one with its omni camera at (2, 4).
   ScopedTempDir dir;
-  const std::string folder = smallLog(dir.path(), [](kinect3d::MatchLogWriter& writer, const fw::DepthImage& image) {
+  const std::string folder = smallLog(dir.path(), [](fw::MatchLogWriter& writer, const fw::DepthImage& image) {
     if (image.index < 5) return;
     writer.write({image.stamp.receive_time_s, fw::RobotPose{1.0, 2.0, M_PI / 2, image.stamp}});
     fw::TeamMessage message;
@@ -401,7 +401,7 @@ TEST(LiveView, FollowsARobotAsItRunsAndStopsOnSigterm) {
   }
   EXPECT_GT(later, early + 20);
   EXPECT_EQ(view.stop(), 0);
-  EXPECT_NO_THROW(kinect3d::MatchLogReader(onlySubfolder(logs.path())));  // the host's log, kept
+  EXPECT_NO_THROW(fw::MatchLogReader(onlySubfolder(logs.path())));  // the host's log, kept
 }
 
 }  // namespace

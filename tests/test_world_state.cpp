@@ -125,6 +125,14 @@ TEST(WorldState, JournalHoldsEveryPublicationInOrderOnlyOnceOpened) {
   EXPECT_LE(entries[0].wall_time_s, entries[2].wall_time_s);
   EXPECT_EQ(refused, 0u);
   EXPECT_TRUE(world.takeJournal(&refused).empty());  // taken once
+
+  // Every update of the world ball is kept, one without a ball too, even when there was none before.
+  world.clearFusedBall({3.0, 4.0});
+  world.clearFusedBall({3.1, 4.1});
+  const std::vector<fw::JournalEntry> updates = world.takeJournal(&refused);
+  ASSERT_EQ(updates.size(), 2u);
+  EXPECT_DOUBLE_EQ(std::get<fw::FusedBallCleared>(updates[1].item).stamp.source_time_s, 3.1);
+  EXPECT_FALSE(world.fusedBall());
 }
 
 TEST(WorldState, JournalRefusesAndCountsWhatItsReaderCannotKeepUpWith) {

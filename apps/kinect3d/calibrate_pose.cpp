@@ -11,10 +11,10 @@
 #include <iostream>
 #include <sstream>
 
-#include "cli_sources.h"
 #include "framework_api/log.h"
 #include "kinect3d/ball_detector.h"
 #include "kinect3d/config_io.h"
+#include "kinect3d/sim/sim_sources.h"
 
 namespace kinect3d {
 
@@ -174,7 +174,7 @@ PoseCalibration calibratePose(const PoseCalibrationOptions& options, const fw::C
   const fw::ConfigView block = config.block("kinect3d");
   const double radius_m = readDetectorConfig(block).ball.radius_m;
   const std::vector<MarkSpec> specs = readMarks(options.marks_file, radius_m);
-  const auto source = cliSources().open(options.source);
+  const auto source = sim::sourcesWithSimulator().open(options.source);
   const bool live = source->frameCount() == 0;
   for (const MarkSpec& spec : specs) {
     if (!live && !spec.window_s) {

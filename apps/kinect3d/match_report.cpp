@@ -14,7 +14,7 @@
 #include "chart_page.h"
 #include "framework_api/config.h"
 #include "framework_api/log.h"
-#include "kinect3d/match_log.h"
+#include "matchlog/match_log.h"
 #include "recorded_truth.h"
 
 namespace kinect3d {
@@ -94,9 +94,9 @@ json flightJson(const Flight& flight, const std::vector<fw::BallObservation>& ba
 }  // namespace
 
 void writeMatchReport(const std::string& log_folder, const std::string& out_dir) {
-  const MatchLogReader log(log_folder);
+  const fw::MatchLogReader log(log_folder);
   const std::vector<fw::JournalEntry> entries = log.entries();
-  const RunInfo& run = log.run();
+  const fw::RunInfo& run = log.run();
   const double start_s = run.start_wall_time_s;
   const auto sources = log.depthSources();
   const std::string depth_source = sources.empty() ? "kinect3d" : sources.front().first;

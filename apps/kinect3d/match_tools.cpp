@@ -1,10 +1,12 @@
 #include "match_tools.h"
 
 #include <algorithm>
+#include <chrono>
 #include <filesystem>
 #include <fstream>
 #include <optional>
 #include <set>
+#include <thread>
 
 #include "detect_line.h"
 #include "framework_api/config.h"
@@ -12,8 +14,8 @@
 #include "framework_api/install_layout.h"
 #include "framework_api/log.h"
 #include "fusion/json_lines.h"
-#include "kinect3d/match_log.h"
 #include "kinect3d/sim/sequence_writer.h"
+#include "matchlog/match_log.h"
 
 namespace kinect3d {
 
@@ -22,18 +24,18 @@ namespace {
 namespace fs = std::filesystem;
 
 // The log's first depth plugin: the one whose frames are replayed or exported.
-std::string depthSource(const MatchLogReader& log) {
+std::string depthSource(const fw::MatchLogReader& log) {
   const auto sources = log.depthSources();
-  if (sources.empty()) throw MatchLogError(log.folder() + ": the match log holds no depth frames");
+  if (sources.empty()) throw fw::MatchLogError(log.folder() + ": the match log holds no depth frames");
   return sources.front().first;
 }
 
 // Visits the logged entries and the depth frames of one source together, in the order they were
 // logged (by the host's wall clock; a depth frame before anything logged at the same moment).
 template <typename OnEntry, typename OnDepth>
-void inLoggedOrder(const MatchLogReader& log, const std::string& depth_source, OnEntry on_entry, OnDepth on_depth) {
+void inLoggedOrder(const fw::MatchLogReader& log, const std::string& depth_source, OnEntry on_entry, OnDepth on_depth) {
   const std::vector<fw::JournalEntry> entries = log.entries();
-  MatchLogReader::DepthFrames frames(log, depth_source);
+  fw::MatchLogReader::DepthFrames frames(log, depth_source);
   fw::DepthImage image;
   double depth_wall_s = 0.0;
   bool has_depth = frames.next(image, depth_wall_s);
@@ -54,7 +56,7 @@ void inLoggedOrder(const MatchLogReader& log, const std::string& depth_source, O
 
 void replayMatch(const std::string& log_folder, const std::string& defaults_dir, const std::string& robot_file,
                  const std::vector<std::string>& overrides, const std::string& output) {
-  const MatchLogReader log(log_folder);
+  const fw::MatchLogReader log(log_folder);
   std::string robot = robot_file;
   if (robot.empty()) {
     fs::create_directories(output);
@@ -68,24 +70,24 @@ void replayMatch(const std::string& log_folder, const std::string& defaults_dir,
   // images and poses come from the plugins of those names (a plugin's name is its library's).
   std::vector<fw::Host::ReplayStep> steps;
   std::set<std::string> sources;
-  for (const MatchLogReader::Input& input : log.inputs()) {
+  for (const fw::MatchLogReader::Input& input : log.inputs()) {
     switch (input.kind) {
-      case MatchLogReader::Input::Kind::kDepth:
+      case fw::MatchLogReader::Input::Kind::kDepth:
         steps.push_back({input.depth_source, input.wall_time_s});
         break;
-      case MatchLogReader::Input::Kind::kOmni:
+      case fw::MatchLogReader::Input::Kind::kOmni:
         steps.push_back({"omni", input.wall_time_s});
         break;
-      case MatchLogReader::Input::Kind::kPose:
+      case fw::MatchLogReader::Input::Kind::kPose:
         steps.push_back({"localisation", input.wall_time_s});
         break;
-      case MatchLogReader::Input::Kind::kTeam:
+      case fw::MatchLogReader::Input::Kind::kTeam:
         steps.push_back({"team", input.wall_time_s});
         break;
     }
     sources.insert(steps.back().plugin);
   }
-  if (steps.empty()) throw MatchLogError(log_folder + ": the match log holds no inputs to replay");
+  if (steps.empty()) throw fw::MatchLogError(log_folder + ": the match log holds no inputs to replay");
 
   // The robot's plugins as configured, but the sources read the log as fast as they can, the logger
   // records under output, and nothing prints to the console.
@@ -111,7 +113,7 @@ void replayMatch(const std::string& log_folder, const std::string& defaults_dir,
   replay_overrides.insert(replay_overrides.end(), overrides.begin(), overrides.end());
   const fw::Config config = fw::Config::load(defaults_dir, robot, replay_overrides);
 
-  const std::set<std::string> before = entriesOf(output);
+  const std::set<std::string> before = fw::entriesOf(output);
   {
     fw::Host host(config, fw::defaultPluginDir());
     host.replay(steps);
@@ -119,13 +121,14 @@ void replayMatch(const std::string& log_folder, const std::string& defaults_dir,
       if (summary.errors > 0) fw::logWarn("replay", fw::formatSummary(summary));
     }
   }  // the logger records its last batch as the host unloads it
-  const std::optional<std::string> run = newRunIn(output, before);
-  if (!run) throw MatchLogError(output + ": the replay was not recorded there (the logger's messages above say why)");
+  const std::optional<std::string> run = fw::newRunIn(output, before);
+  if (!run)
+    throw fw::MatchLogError(output + ": the replay was not recorded there (the logger's messages above say why)");
   fw::logInfo("replay", log_folder + " -> " + *run + ": " + std::to_string(steps.size()) + " inputs replayed");
 }
 
 void exportMatch(const std::string& log_folder, const ExportFiles& files) {
-  const MatchLogReader log(log_folder);
+  const fw::MatchLogReader log(log_folder);
   for (const std::string& file : {files.omni, files.pose, files.detections}) {
     if (!file.empty() && fs::path(file).has_parent_path()) fs::create_directories(fs::path(file).parent_path());
   }
@@ -161,6 +164,29 @@ void exportMatch(const std::string& log_folder, const ExportFiles& files) {
   fw::logInfo("export", log_folder + ": " + std::to_string(omni.size()) + " omni images, " +
                             std::to_string(poses.size()) + " poses" +
                             (files.detections.empty() && files.tum.empty() ? "" : ", the depth of '" + source + "'"));
+}
+
+// The run folder the logger of a host started after `before` writes, once it holds a readable log.
+std::string newRunFolder(const std::string& base, const std::set<std::string>& before) {
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+  while (std::chrono::steady_clock::now() < deadline) {
+    if (const std::optional<std::string> run = fw::newRunIn(base, before)) return *run;
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  }
+  throw std::runtime_error(base + ": the logger started no run there within 20 s");
+}
+
+// A match log folder as given, or in a folder of them (the logger's logs/) the newest, said aloud.
+std::string newestRun(const std::string& folder) {
+  if (fs::exists(fs::path(folder) / fw::kMatchLogFile)) return folder;
+  std::vector<std::string> runs;
+  for (const fs::directory_entry& entry : fs::directory_iterator(folder)) {
+    if (fs::exists(entry.path() / fw::kMatchLogFile)) runs.push_back(entry.path().string());
+  }
+  if (runs.empty()) throw std::runtime_error(folder + ": neither a match log nor a folder of them");
+  const std::string newest = *std::max_element(runs.begin(), runs.end());  // <date>_<time>_<robot>
+  fw::logInfo("view", "the newest of " + std::to_string(runs.size()) + " runs in " + folder + ": " + newest);
+  return newest;
 }
 
 }  // namespace kinect3d

@@ -2,6 +2,7 @@
 // settings, and take its inputs out as the files the other commands read.
 #pragma once
 
+#include <set>
 #include <string>
 #include <vector>
 
@@ -24,5 +25,11 @@ struct ExportFiles {
   std::string tum;         // the depth, as a TUM RGB-D folder
 };
 void exportMatch(const std::string& log_folder, const ExportFiles& files);
+
+// `kinect3d view`'s log folders. The run folder a logger started in base after `before` (its
+// entries then), once it holds a readable log; throws after 20 s without one.
+std::string newRunFolder(const std::string& base, const std::set<std::string>& before);
+// A match log folder as given, or the newest in a folder of them (the logger's logs/), said aloud.
+std::string newestRun(const std::string& folder);
 
 }  // namespace kinect3d

@@ -68,7 +68,7 @@ struct MatchView::Timelines {
 
 MatchView::MatchView(const std::string& log_folder)
     : folder_(log_folder),
-      log_(std::make_unique<MatchLogReader>(log_folder)),
+      log_(std::make_unique<fw::MatchLogReader>(log_folder)),
       truth_(std::make_unique<RecordedTruth>(log_->run())),
       published_(std::make_unique<Published>()),
       timelines_(std::make_unique<Timelines>()) {
@@ -84,7 +84,7 @@ std::uintmax_t MatchView::logBytes() const {
   std::error_code error;
   std::uintmax_t bytes = 0;
   for (const char* suffix : {"", "-wal"}) {
-    const std::uintmax_t size = std::filesystem::file_size(folder_ + "/" + kMatchLogFile + suffix, error);
+    const std::uintmax_t size = std::filesystem::file_size(folder_ + "/" + fw::kMatchLogFile + suffix, error);
     if (!error) bytes += size;
   }
   return bytes;
@@ -100,7 +100,7 @@ void MatchView::index() {
     const auto sources = log_->depthSources();
     depth_source_ = sources.empty() ? "kinect3d" : sources.front().first;
   }
-  const std::vector<MatchLogReader::DepthFrameStamp> new_frames =
+  const std::vector<fw::MatchLogReader::DepthFrameStamp> new_frames =
       log_->depthFrameStamps(depth_source_, frames_.empty() ? 0 : frames_.back().seq);
   if (frames_.empty() && !new_frames.empty()) {
     // The page's zero, and the depth sensor's clock against the host's for what carries only a wall
@@ -193,7 +193,7 @@ void MatchView::index() {
   for (const auto& [plugin, series] : l.processing)
     processing_series.push_back({{"plugin", plugin}, {"series", series}});
   for (const auto& [plugin, series] : l.dropped) dropped_series.push_back({{"plugin", plugin}, {"series", series}});
-  const RunInfo& run = log_->run();
+  const fw::RunInfo& run = log_->run();
   run_ = {{"robot", run.robot},
           {"software_version", run.software_version},
           {"replayed_from", run.replayed_from},

@@ -21,14 +21,14 @@
 #include <vector>
 
 #include "kinect3d/ball_detector.h"
-#include "kinect3d/match_log.h"
+#include "matchlog/match_log.h"
 #include "recorded_truth.h"
 
 namespace kinect3d {
 
 class MatchView {
  public:
-  // Throws MatchLogError naming the log when it cannot be read, fw::ConfigError when its recorded
+  // Throws fw::MatchLogError naming the log when it cannot be read, fw::ConfigError when its recorded
   // configuration cannot.
   explicit MatchView(const std::string& log_folder);
   ~MatchView();
@@ -58,12 +58,12 @@ class MatchView {
                      const Eigen::Vector3d& camera_in_S_m);
 
   std::string folder_;
-  std::unique_ptr<MatchLogReader> log_;
+  std::unique_ptr<fw::MatchLogReader> log_;
   std::unique_ptr<RecordedTruth> truth_;
   DetectorConfig detector_config_;
   std::unique_ptr<BallDetector> detector_;
   std::string depth_source_;
-  std::vector<MatchLogReader::DepthFrameStamp> frames_;
+  std::vector<fw::MatchLogReader::DepthFrameStamp> frames_;
   double t0_ = 0.0;                // the first depth frame's source time: the page's zero
   double wall_to_source_s_ = 0.0;  // the depth sensor's clock minus the host's
   std::unique_ptr<Published> published_;

@@ -1,69 +1,98 @@
 #include "offline_fusion.h"
 
-#include <algorithm>
+#include <cmath>
+#include <limits>
 
-#include "cli_sources.h"
+#include "framework_api/host.h"
+#include "framework_api/install_layout.h"
+#include "framework_api/log.h"
 #include "fusion/json_lines.h"
-#include "kinect3d/ball_detector.h"
-#include "kinect3d/config_io.h"
+#include "kinect3d/sim/sim_sources.h"
 
 namespace kinect3d {
 
-FusionRun fuseFiles(const fw::Config& config, const std::string& depth_uri, const std::string& omni_file,
-                    const std::string& pose_file) {
-  const fw::ConfigView fusion_block = config.block("fusion");
-  fusion::BallFusion fusion(fusion::readFusionConfig(fusion_block));
-  const std::vector<fw::OmniFrame> omni = omni_file.empty()
-                                              ? std::vector<fw::OmniFrame>{}
-                                              : fusion::readOmniFile(omni_file, fusion_block.getString("omni.source"));
-  const std::vector<fw::RobotPose> poses =
-      pose_file.empty() ? std::vector<fw::RobotPose>{} : fusion::readPoseFile(pose_file);
-  fw::PoseHistory pose_history;
-  for (const fw::RobotPose& pose : poses) pose_history.add(pose);
+namespace {
 
-  // Every input as an event on its source clock; at equal times poses go first, then the Kinect.
-  struct Event {
-    double t_s;
-    int order;  // 0 pose, 1 Kinect, 2 omni
-    std::size_t index;
-  };
-  std::vector<Event> events;
-  for (std::size_t i = 0; i < poses.size(); ++i) events.push_back({poses[i].stamp.source_time_s, 0, i});
-  for (std::size_t i = 0; i < omni.size(); ++i) events.push_back({omni[i].stamp.source_time_s, 2, i});
-
-  std::vector<std::pair<double, std::vector<fw::BallObservation>>> kinect_frames;
-  if (!depth_uri.empty()) {
-    const fw::ConfigView kinect3d = config.block("kinect3d");
-    BallDetector detector(readDetectorConfig(kinect3d), kinect3d.path());
-    const auto source = cliSources().open(depth_uri);
-    DepthFrame frame;
-    Detections detections;
-    for (ReadResult result; (result = source->read(frame)) != ReadResult::kEnd;) {
-      if (result == ReadResult::kNoFrameYet) continue;
-      const std::optional<Eigen::Isometry3d> T_F_R =
-          poses.empty() ? std::nullopt : std::optional<Eigen::Isometry3d>(pose_history.at(frame.source_time_s).T_F_R());
-      detector.detect(frame, detections, T_F_R);
-      events.push_back({frame.source_time_s, 1, kinect_frames.size()});
-      kinect_frames.emplace_back(frame.source_time_s, detections.balls);
-    }
+// The source times of every frame a recorded depth source delivers (those the kinect3d plugin will get).
+std::vector<double> frameTimes(const std::string& uri) {
+  const auto source = sim::sourcesWithSimulator().open(uri);
+  if (source->frameCount() == 0) {
+    throw DepthSourceError(uri + ": a live device; fuse reads recordings (vision_host runs a live robot)");
   }
-  std::stable_sort(events.begin(), events.end(), [](const Event& a, const Event& b) {
-    return a.t_s < b.t_s || (a.t_s == b.t_s && a.order < b.order);
-  });
+  std::vector<double> times;
+  DepthFrame frame;
+  for (ReadResult result; (result = source->read(frame)) != ReadResult::kEnd;) {
+    if (result == ReadResult::kFrame) times.push_back(frame.source_time_s);
+  }
+  return times;
+}
+
+template <typename Item>
+std::vector<double> stampsOf(const std::vector<Item>& items) {
+  std::vector<double> times;
+  for (const Item& item : items) times.push_back(item.stamp.source_time_s);
+  return times;
+}
+
+// The inputs of several plugins merged into one order: by time, at equal times by the plugins'
+// order in `inputs`, each plugin's own order kept. An input whose time is not finite has no step:
+// its plugin skips it (with a warning) on the way to the next.
+std::vector<fw::Host::ReplayStep> inTimeOrder(const std::vector<std::pair<std::string, std::vector<double>>>& inputs) {
+  std::vector<std::size_t> next(inputs.size(), 0);
+  std::vector<fw::Host::ReplayStep> steps;
+  for (;;) {
+    std::optional<std::size_t> earliest;
+    double earliest_t = std::numeric_limits<double>::infinity();
+    for (std::size_t k = 0; k < inputs.size(); ++k) {
+      const std::vector<double>& times = inputs[k].second;
+      while (next[k] < times.size() && !std::isfinite(times[next[k]])) ++next[k];
+      if (next[k] < times.size() && (!earliest || times[next[k]] < earliest_t)) {
+        earliest = k;
+        earliest_t = times[next[k]];
+      }
+    }
+    if (!earliest) return steps;
+    steps.push_back({inputs[*earliest].first, earliest_t});
+    ++next[*earliest];
+  }
+}
+
+}  // namespace
+
+FusionRun fuseRecorded(const fw::Config& config, const RecordedFiles& files) {
+  std::vector<std::pair<std::string, std::vector<double>>> inputs;
+  std::vector<std::string> overrides;
+  std::string plugins;
+  const auto add = [&](const std::string& plugin, const std::string& source, std::vector<double> times) {
+    inputs.emplace_back(plugin, std::move(times));
+    overrides.push_back(plugin + ".source=" + fw::yamlQuoted(source));
+    overrides.push_back(plugin + ".realtime=false");
+    plugins += plugin + ", ";
+  };
+  if (!files.pose.empty()) add("localisation", "file:" + files.pose, stampsOf(fusion::readPoseFile(files.pose)));
+  if (!files.depth.empty()) add("kinect3d", files.depth, frameTimes(files.depth));
+  if (!files.omni.empty()) add("omni", "file:" + files.omni, stampsOf(fusion::readOmniFile(files.omni, "omni")));
+  overrides.push_back("host.plugins=[" + plugins + "fusion]");
+  const std::vector<fw::Host::ReplayStep> steps = inTimeOrder(inputs);
 
   FusionRun run;
-  for (const Event& event : events) {
-    if (event.order == 0) {
-      fusion.addPose(poses[event.index]);
-    } else if (event.order == 1) {
-      const auto& [t_s, balls] = kinect_frames[event.index];
-      run.updates.push_back(fusion.addKinectFrame(t_s, balls));
-    } else {
-      run.updates.push_back(fusion.addOmniFrame(omni[event.index].stamp.source_time_s, omni[event.index].balls));
+  fw::Host host(config.with(overrides), fw::defaultPluginDir());
+  host.world().openJournal(false);
+  std::uint64_t refused = 0;
+  host.replay(steps, [&] {
+    for (const fw::JournalEntry& entry : host.world().takeJournal(&refused)) {
+      if (const auto* ball = std::get_if<fw::FusedBall>(&entry.item)) {
+        run.updates.push_back({ball->stamp.source_time_s, *ball, {}});
+      } else if (const auto* none = std::get_if<fw::FusedBallCleared>(&entry.item)) {
+        run.updates.push_back({none->stamp.source_time_s, std::nullopt, {}});
+      } else if (const auto* event = std::get_if<fw::Event>(&entry.item)) {
+        if (event->source == "fusion" && event->kind == "omni_latency") run.omni_latency_s = event->value;
+      }
     }
+  });
+  for (const fw::PluginSummary& summary : host.summaries()) {
+    if (summary.errors > 0) fw::logWarn("fuse", fw::formatSummary(summary));
   }
-  run.omni_latency_s = fusion.omniLatency_s();
-  run.latency_examples = fusion.omniLatencyExamples();
   return run;
 }
 

@@ -4,7 +4,7 @@
 
 namespace kinect3d {
 
-RecordedTruth::RecordedTruth(const RunInfo& run) {
+RecordedTruth::RecordedTruth(const fw::RunInfo& run) {
   try {
     const fw::ConfigView root = fw::Config::parseDocument(run.config_yaml, "recorded configuration").root();
     const std::string source = root.child("kinect3d").getString("source");

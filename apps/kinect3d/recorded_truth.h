@@ -6,16 +6,16 @@
 
 #include <Eigen/Core>
 
-#include "kinect3d/match_log.h"
 #include "kinect3d/sim/ball_motion.h"
 #include "kinect3d/sim/scene.h"
+#include "matchlog/match_log.h"
 
 namespace kinect3d {
 
 class RecordedTruth {
  public:
   // Nothing known for a log without a simulated source, or whose scene cannot be loaded any more.
-  explicit RecordedTruth(const RunInfo& run);
+  explicit RecordedTruth(const fw::RunInfo& run);
 
   bool known() const { return motion_.has_value(); }
   // The ball's centre in the robot frame at a source time of the depth sensor; only when known().

@@ -304,6 +304,13 @@ Config Config::load(const std::string& defaults_dir, const std::string& robot_fi
   if (!robot_file.empty()) {
     mergeInto(data->root, loadYamlFile(robot_file), "", Source{robot_file}, *data);
   }
+  Config config(std::move(data));
+  return config.with(overrides);
+}
+
+Config Config::with(const std::vector<std::string>& overrides) const {
+  auto data = std::make_shared<Data>(*data_);
+  data->root = YAML::Clone(data_->root);
   for (const std::string& assignment : overrides) {
     mergeInto(data->root, overrideToYaml(assignment), "", Source{"--set " + assignment, false}, *data);
   }

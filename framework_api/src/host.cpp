@@ -289,7 +289,7 @@ std::optional<StepResult> Host::stepOnce(Running& plugin, Clock::time_point star
   return result;
 }
 
-void Host::replay(const std::vector<ReplayStep>& steps) {
+void Host::replay(const std::vector<ReplayStep>& steps, const std::function<void()>& after_input) {
   const Clock::time_point start = Clock::now();
   std::map<std::string, Running*> by_name;
   for (auto& plugin : plugins_) by_name[plugin->summary.name] = plugin.get();
@@ -324,6 +324,7 @@ void Host::replay(const std::vector<ReplayStep>& steps) {
     for (auto& plugin : plugins_) {
       if (plugin->rate_hz > 0.0 && sources.count(plugin->summary.name) == 0) stepOnce(*plugin, start);
     }
+    if (after_input) after_input();
   }
 }
 

@@ -146,11 +146,11 @@ std::map<int, TeamMessage> WorldState::teamMessages() const {
   return team_messages_;
 }
 
-void WorldState::clearFusedBall() {
+void WorldState::clearFusedBall(const Stamp& stamp) {
   std::lock_guard<std::mutex> lock(mutex_);
+  journal(FusedBallCleared{stamp});
   if (fused_ball_) {
     fused_ball_.reset();
-    journal(FusedBallCleared{});
     ++version_;
   }
 }

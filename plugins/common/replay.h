@@ -14,7 +14,7 @@
 #include "framework_api/log.h"
 #include "framework_api/plugin.h"
 #include "framework_api/replay_clock.h"
-#include "kinect3d/match_log.h"
+#include "matchlog/match_log.h"
 
 namespace replay {
 
@@ -31,7 +31,7 @@ std::vector<Item> load(const fw::ConfigView& block,
     if (source.rfind("file:", 0) == 0) return readFile(source.substr(5));
     if (source.rfind("log:", 0) == 0) {
       std::vector<Item> items;
-      for (const fw::JournalEntry& entry : kinect3d::MatchLogReader(source.substr(4)).entries()) {
+      for (const fw::JournalEntry& entry : fw::MatchLogReader(source.substr(4)).entries()) {
         if (const Item* item = std::get_if<Item>(&entry.item)) items.push_back(*item);
       }
       return items;

@@ -71,9 +71,9 @@ class FusionPlugin : public fw::Plugin {
       ball.stamp.receive_time_s = fw::wallClockNow_s();
       world_.publishFusedBall(ball);
     } else {
-      world_.clearFusedBall();
+      world_.clearFusedBall({update.time_s, fw::wallClockNow_s()});
     }
-    reportLatency();
+    reportLatency(update.time_s);
     checkAlignment(update.time_s);
   }
 
@@ -147,14 +147,20 @@ class FusionPlugin : public fw::Plugin {
         {name_, standing.discounted ? "teammate_discounted" : "teammate_trusted", text, {t_s, fw::wallClockNow_s()}});
   }
 
-  // Says once when the omni camera's latency has been learnt.
-  void reportLatency() {
-    if (latency_reported_ || !fusion_.omniLatency_s()) return;
-    latency_reported_ = true;
-    fw::logInfo(name_, "omni camera's stamps are " + std::to_string(std::lround(1000 * *fusion_.omniLatency_s())) +
-                           " ms late against the Kinect's (learnt from " +
-                           std::to_string(fusion_.omniLatencyExamples()) +
-                           " bearings of a ball both sensors saw); compensated");
+  // Follows the omni camera's latency as it is learnt: an event "omni_latency" with the latency as its
+  // value whenever it has moved by a millisecond (the match log keeps its course), stamped with the
+  // update that learnt it; the console is told once, when it is first learnt.
+  void reportLatency(double t_s) {
+    static constexpr double kLatencyNews_s = 0.001;
+    const std::optional<double> latency_s = fusion_.omniLatency_s();
+    if (!latency_s || (said_latency_s_ && std::abs(*latency_s - *said_latency_s_) < kLatencyNews_s)) return;
+    const std::string message = "omni camera's stamps are " + std::to_string(std::lround(1000 * *latency_s)) +
+                                " ms late against the Kinect's (learnt from " +
+                                std::to_string(fusion_.omniLatencyExamples()) +
+                                " bearings of a ball both sensors saw); compensated";
+    if (!said_latency_s_) fw::logInfo(name_, message);
+    said_latency_s_ = latency_s;
+    world_.publishEvent({name_, "omni_latency", message, {t_s, fw::wallClockNow_s()}, latency_s});
   }
 
   fw::WorldState& world_;
@@ -166,7 +172,7 @@ class FusionPlugin : public fw::Plugin {
   std::uint64_t seen_version_ = 0;
   std::uint64_t cursor_ = 0;                 // what was read of the measurements (fw::WorldState)
   std::map<int, bool> teammate_discounted_;  // as last said, by robot id
-  bool latency_reported_ = false;
+  std::optional<double> said_latency_s_;     // the omni latency last said
 };
 
 }  // namespace

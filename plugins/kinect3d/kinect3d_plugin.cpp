@@ -16,7 +16,6 @@
 #include "kinect3d/ball_detector.h"
 #include "kinect3d/config_io.h"
 #include "kinect3d/depth_source.h"
-#include "kinect3d/log_source.h"
 #include "kinect3d/sensor_calibration.h"
 #include "kinect3d/sim/sim_sources.h"
 #include "kinect3d/trajectory.h"
@@ -38,9 +37,7 @@ class Kinect3dPlugin : public fw::Plugin {
     options.sim_world_start_wall_s = replay::simWorldStart(context);
     const std::string uri = context.config.getString("source");
     try {
-      kinect3d::DepthSourceTable sources = kinect3d::sim::sourcesWithSimulator();
-      kinect3d::addLogSource(sources);
-      source_ = sources.open(uri, options);
+      source_ = kinect3d::sim::sourcesWithSimulator().open(uri, options);
     } catch (const kinect3d::DepthSourceError& e) {
       throw fw::ConfigError(context.config.originOf("source") + ": kinect3d.source: " + e.what());
     }

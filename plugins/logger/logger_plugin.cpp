@@ -17,7 +17,7 @@
 
 #include "framework_api/log.h"
 #include "framework_api/plugin.h"
-#include "kinect3d/match_log.h"
+#include "matchlog/match_log.h"
 
 namespace {
 
@@ -69,7 +69,7 @@ class LoggerPlugin : public fw::Plugin {
     }
     try {
       record();  // what the other plugins published last: they have all stopped by now
-    } catch (const kinect3d::MatchLogError& e) {
+    } catch (const fw::MatchLogError& e) {
       fw::logError(name_, std::string("the last batch was not recorded: ") + e.what());
     }
     if (writer_->fileGone()) {
@@ -84,7 +84,7 @@ class LoggerPlugin : public fw::Plugin {
       try {
         record();
         checkLog();
-      } catch (const kinect3d::MatchLogError& e) {
+      } catch (const fw::MatchLogError& e) {
         lose(e.what());
       }
     } else if (!stopped_for_good_) {
@@ -110,7 +110,7 @@ class LoggerPlugin : public fw::Plugin {
     for (const fw::JournalEntry& entry : entries) {
       try {
         writer_->write(entry);
-      } catch (const kinect3d::MatchLogRefused& e) {
+      } catch (const fw::MatchLogRefused& e) {
         if (fw::worthLogging(++unrecordable_)) {
           fw::logWarn(name_, std::string(e.what()) + " (" + std::to_string(unrecordable_) + " so far)");
         }
@@ -148,7 +148,7 @@ class LoggerPlugin : public fw::Plugin {
     try {
       writer_->write({fw::wallClockNow_s(), fw::Event{name_, kind, message, {}}});
       writer_->commit();
-    } catch (const kinect3d::MatchLogError&) {
+    } catch (const fw::MatchLogError&) {
       // The disk refuses even this line: the next log's recording_resumed tells the story.
     }
     writer_.reset();
@@ -212,10 +212,10 @@ class LoggerPlugin : public fw::Plugin {
       return base + ": the disk has " + megabytes(*available) + " left (logger.min_free_mb)";
     }
     try {
-      writer_ = std::make_unique<kinect3d::MatchLogWriter>(
-          kinect3d::claimRunFolder(base, run_.robot, fw::wallClockNow_s()), run_, colour_jpeg_quality_);
+      writer_ = std::make_unique<fw::MatchLogWriter>(fw::claimRunFolder(base, run_.robot, fw::wallClockNow_s()), run_,
+                                                     colour_jpeg_quality_);
       if (gap_ || !why_not_folder.empty()) writeResumed(why_not_folder);
-    } catch (const kinect3d::MatchLogError& e) {
+    } catch (const fw::MatchLogError& e) {
       writer_.reset();
       return e.what();
     }
@@ -265,8 +265,8 @@ class LoggerPlugin : public fw::Plugin {
   const double budget_bytes_;
   const double min_free_bytes_;
   const double retry_s_;
-  kinect3d::RunInfo run_;
-  std::unique_ptr<kinect3d::MatchLogWriter> writer_;  // null: not recording
+  fw::RunInfo run_;
+  std::unique_ptr<fw::MatchLogWriter> writer_;  // null: not recording
   bool stopped_for_good_ = false;
   std::string last_why_not_;  // what the last NOT RECORDING said
   std::optional<Gap> gap_;    // since when and why nothing is recorded (before the first log, too)

@@ -23,7 +23,7 @@
 #include "framework_api/pose_history.h"
 #include "fusion/fusion_config.h"
 #include "fusion/measurements.h"
-#include "kinect3d/match_log.h"
+#include "matchlog/match_log.h"
 #include "replay.h"
 #include "team_packet.h"
 #include "udp_channel.h"
@@ -375,7 +375,7 @@ class RecordedTeammates {
   static std::vector<fw::TeamMessage> readMessages(const fw::ConfigView& config, const std::string& folder) {
     try {
       std::vector<fw::TeamMessage> messages;
-      for (const fw::JournalEntry& entry : kinect3d::MatchLogReader(folder).entries()) {
+      for (const fw::JournalEntry& entry : fw::MatchLogReader(folder).entries()) {
         if (const auto* message = std::get_if<fw::TeamMessage>(&entry.item)) messages.push_back(*message);
       }
       return messages;

@@ -5,21 +5,21 @@
 #include <filesystem>
 
 #include "fuzz_input_file.h"
-#include "kinect3d/match_log.h"
+#include "matchlog/match_log.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   const std::string path = fuzz::writeFile("match.sqlite", fuzz::asText(data, size));
   try {
-    const kinect3d::MatchLogReader log(std::filesystem::path(path).parent_path().string());
+    const fw::MatchLogReader log(std::filesystem::path(path).parent_path().string());
     log.entries();
     for (const auto& [source, count] : log.depthSources()) {
-      kinect3d::MatchLogReader::DepthFrames frames(log, source);
+      fw::MatchLogReader::DepthFrames frames(log, source);
       fw::DepthImage image;
       double wall_time_s = 0.0;
       while (frames.next(image, wall_time_s)) {
       }
     }
-  } catch (const kinect3d::MatchLogError&) {
+  } catch (const fw::MatchLogError&) {
   }
   return 0;
 }

@@ -37,6 +37,8 @@ class Config {
   // each "dotted.key=value" override (the value is YAML: 0.2, true, [a, b], {x: 1}).
   static Config load(const std::string& defaults_dir, const std::string& robot_file,
                      const std::vector<std::string>& overrides);
+  // This configuration with more overrides on top (what a command sets for its run).
+  Config with(const std::vector<std::string>& overrides) const;
 
   // A standalone YAML document with no schema (scene files, camera files): every value keeps its
   // file:line for errors, and the reader checks keys with requireOnlyKeys and the typed getters.

@@ -56,12 +56,13 @@ class Host {
   // with a rate that hands out inputs too, like the team plugin, is stepped only for them): every plugin
   // sees what it saw on the robot, in the order the robot received it, whatever the timing was
   // (kinect3d replay plays a match log's inputs so, with the sources reading that log). Throws
-  // PluginError naming a step whose plugin is not loaded or has nothing left to hand out.
+  // PluginError naming a step whose plugin is not loaded or has nothing left to hand out. Calls
+  // after_input (if any) after each step, its input and the rated plugins done.
   struct ReplayStep {
     std::string plugin;  // the source plugin that hands out this input
     double wall_time_s;  // when the robot received it
   };
-  void replay(const std::vector<ReplayStep>& steps);
+  void replay(const std::vector<ReplayStep>& steps, const std::function<void()>& after_input = {});
   // The deterministic mode for one recorded source, instead of start(): steps the plugin `source`
   // until its source ends (or until it gives up after host.max_consecutive_errors failed steps), and
   // after each input it hands out, every other plugin with a rate once, then after_input. The wall

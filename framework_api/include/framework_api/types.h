@@ -8,6 +8,7 @@
 #include <limits>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace fw {
@@ -214,6 +215,11 @@ struct ColourImage {
 // along the optical axis (0 = no data), row-major, with the pinhole intrinsics that back-project it,
 // and what else the sensor measured with it.
 struct DepthImage {
+  // The image sizes any depth source may claim (a camera.yaml, a match log's frame): a bad file
+  // claiming more is refused before anything that size is allocated.
+  static constexpr int kMinSide_px = 8;
+  static constexpr int kMaxSide_px = 4096;
+
   int width = 0;
   int height = 0;
   double fx = 0.0, fy = 0.0, cx = 0.0, cy = 0.0;
@@ -229,10 +235,16 @@ struct DepthImage {
 // Something a person reading the log after the match wants to find on the timeline: a sensor lost
 // or reopened, the floor found, a calibration alarm. kind is a short fixed word, message the detail.
 struct Event {
+  Event() = default;
+  Event(std::string source, std::string kind, std::string message, Stamp stamp,
+        std::optional<double> value = std::nullopt)
+      : source(std::move(source)), kind(std::move(kind)), message(std::move(message)), stamp(stamp), value(value) {}
+
   std::string source;
   std::string kind;
   std::string message;
   Stamp stamp;
+  std::optional<double> value;  // the number it is about, for tools (omni_latency: the learnt latency, s)
 };
 
 // One plugin's health over the last second, published by the host once a second.

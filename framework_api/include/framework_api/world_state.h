@@ -20,11 +20,14 @@
 
 namespace fw {
 
-// A source that lost the ball (its trajectory withdrawn), and a world that has no ball any more.
+// A source that lost the ball (its trajectory withdrawn), and an update of the world ball that left
+// the world without one (stamp: the update's time, as a FusedBall's).
 struct TrajectoryCleared {
   std::string source;
 };
-struct FusedBallCleared {};
+struct FusedBallCleared {
+  Stamp stamp;
+};
 
 // One publication as the journal keeps it, with the host's wall clock when it was published.
 using WorldItem = std::variant<BallFrame, OmniFrame, BallTrajectory, TrajectoryCleared, FusedBall, FusedBallCleared,
@@ -44,7 +47,9 @@ class WorldState {
   void publishBalls(const std::vector<BallObservation>& observations);
   void publishOmniFrame(const OmniFrame& frame);
   void publishFusedBall(const FusedBall& ball);
-  void clearFusedBall();                                     // the world has no ball
+  // An update that left the world without a ball: journalled each time, so that the journal holds
+  // every update of the world ball, with or without one.
+  void clearFusedBall(const Stamp& stamp);
   void publishTrajectory(const BallTrajectory& trajectory);  // replaces that source's last one
   void clearTrajectory(const std::string& source);           // the source lost the ball
   void publishRobotPose(const RobotPose& pose);

@@ -182,13 +182,6 @@ void writeFusedFile(const std::string& path, const std::vector<FusionUpdate>& up
                       {"v_field", vector3(ball->velocity_F)}, {"state", fw::toString(ball->state)},
                       {"sigma_m", ball->sigmaHorizontal_m()}, {"sources", ball->sources}};
     }
-    if (!update.rejected.empty()) {
-      json rejected = json::array();
-      for (const RejectedObservation& r : update.rejected) {
-        rejected.push_back({{"source", r.source}, {"field", vector3(r.position_F)}, {"reason", r.reason}});
-      }
-      line["rejected"] = rejected;
-    }
     lines.push_back(std::move(line));
   }
   writeLines(path, lines);

@@ -106,6 +106,7 @@ DepthSourceTable DepthSourceTable::core() {
   table.add("tum", openTumSequence);
   table.add("freenect", openFreenectDevice);
   table.add("fakenect", openFakenectRecording);
+  table.add("log", openMatchLog);
   return table;
 }
 

@@ -27,7 +27,7 @@ std::vector<fw::RobotPose> readPoseFile(const std::string& path);
 void writePoseFile(const std::string& path, const std::vector<fw::RobotPose>& poses);
 
 // {"t": .., "ball": null | {"field": [x, y, z], "robot": [..], "v_field": [..], "state": "air",
-//  "sigma_m": .., "sources": [..]}, "rejected": [{"source": .., "field": [..], "reason": ..}]}
+//  "sigma_m": .., "sources": [..]}}
 void writeFusedFile(const std::string& path, const std::vector<FusionUpdate>& updates);
 
 }  // namespace fusion

@@ -15,10 +15,8 @@ namespace kinect3d {
 
 // Pinhole intrinsics of the depth camera, in pixels.
 struct Intrinsics {
-  // The image sizes any depth source may claim (a camera.yaml, a match log's frame): a bad file
-  // claiming more is refused before anything that size is allocated.
-  static constexpr int kMinSide_px = 8;
-  static constexpr int kMaxSide_px = 4096;
+  static constexpr int kMinSide_px = fw::DepthImage::kMinSide_px;
+  static constexpr int kMaxSide_px = fw::DepthImage::kMaxSide_px;
 
   int width = 640;
   int height = 480;

@@ -9,6 +9,7 @@
 //   oni:<file>          OpenNI2 recording          <path>.oni             the same
 //   tum:<dir>           TUM RGB-D sequence         <dir with depth.txt>   the same
 //   fakenect:<dir>      fakenect-record folder     <dir with INDEX.txt>   the same
+//   log:<folder>        a match log's depth (framework_api/matchlog)
 // An application adds others to its table, e.g. the simulator's sim:<scene> (kinect3d/sim).
 #pragma once
 
@@ -123,7 +124,7 @@ class DepthSourceTable {
   // Opens the part of the URI after "<scheme>:". Throws DepthSourceError when it cannot.
   using Opener = std::function<std::unique_ptr<DepthSource>(const std::string& rest, const SourceOptions& options)>;
 
-  // openni2:, freenect:, oni:, tum: and fakenect:.
+  // openni2:, freenect:, oni:, tum:, fakenect: and log:.
   static DepthSourceTable core();
 
   // Throws std::invalid_argument when the scheme is already in the table.

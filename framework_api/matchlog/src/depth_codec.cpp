@@ -1,11 +1,11 @@
-#include "kinect3d/depth_codec.h"
+#include "matchlog/depth_codec.h"
 
 #include <zstd.h>
 
 #include <opencv2/imgcodecs.hpp>
 #include <string>
 
-namespace kinect3d {
+namespace fw {
 
 namespace {
 
@@ -111,4 +111,4 @@ void decodeDepth(DepthCodec codec, const std::uint8_t* bytes, std::size_t size, 
   }
 }
 
-}  // namespace kinect3d
+}  // namespace fw

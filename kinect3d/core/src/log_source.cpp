@@ -1,6 +1,5 @@
-#include "kinect3d/log_source.h"
-
-#include "kinect3d/match_log.h"
+#include "matchlog/match_log.h"
+#include "sources.h"
 
 namespace kinect3d {
 
@@ -13,7 +12,7 @@ class LogDepthSource : public DepthSource {
     if (sources.empty()) throw DepthSourceError(folder + ": the match log holds no depth frames");
     source_ = sources.front().first;
     count_ = sources.front().second;
-    frames_ = std::make_unique<MatchLogReader::DepthFrames>(log_, source_);
+    frames_ = std::make_unique<fw::MatchLogReader::DepthFrames>(log_, source_);
   }
 
   std::uint64_t frameCount() const override { return count_; }
@@ -26,7 +25,7 @@ class LogDepthSource : public DepthSource {
     double wall_time_s = 0.0;
     try {
       if (!frames_->next(image_, wall_time_s)) return ReadResult::kEnd;
-    } catch (const MatchLogError& e) {
+    } catch (const fw::MatchLogError& e) {
       throw DepthSourceError(e.what());
     }
     frame = fromDepthImage(std::move(image_));
@@ -34,23 +33,21 @@ class LogDepthSource : public DepthSource {
     return ReadResult::kFrame;
   }
 
-  MatchLogReader log_;
+  fw::MatchLogReader log_;
   std::string source_;
   std::uint64_t count_ = 0;
-  std::unique_ptr<MatchLogReader::DepthFrames> frames_;
+  std::unique_ptr<fw::MatchLogReader::DepthFrames> frames_;
   fw::DepthImage image_;
 };
 
 }  // namespace
 
-void addLogSource(DepthSourceTable& table) {
-  table.add("log", [](const std::string& folder, const SourceOptions& options) -> std::unique_ptr<DepthSource> {
-    try {
-      return std::make_unique<LogDepthSource>(folder, options);
-    } catch (const MatchLogError& e) {
-      throw DepthSourceError(e.what());
-    }
-  });
+std::unique_ptr<DepthSource> openMatchLog(const std::string& folder, const SourceOptions& options) {
+  try {
+    return std::make_unique<LogDepthSource>(folder, options);
+  } catch (const fw::MatchLogError& e) {
+    throw DepthSourceError(e.what());
+  }
 }
 
 }  // namespace kinect3d

@@ -1,4 +1,4 @@
-#include "kinect3d/match_log.h"
+#include "matchlog/match_log.h"
 
 #include <sqlite3.h>
 
@@ -15,9 +15,7 @@
 #include <set>
 #include <variant>
 
-#include "kinect3d/depth_frame.h"
-
-namespace kinect3d {
+namespace fw {
 
 namespace fs = std::filesystem;
 
@@ -49,7 +47,7 @@ CREATE TABLE fused_ball (seq INTEGER PRIMARY KEY, wall_time_s REAL NOT NULL, non
 CREATE TABLE robot_pose (seq INTEGER PRIMARY KEY, wall_time_s REAL NOT NULL, source_time_s REAL NOT NULL,
   receive_time_s REAL NOT NULL, x_m REAL, y_m REAL, theta_rad REAL);
 CREATE TABLE event (seq INTEGER PRIMARY KEY, wall_time_s REAL NOT NULL, source TEXT NOT NULL,
-  kind TEXT NOT NULL, message TEXT NOT NULL, source_time_s REAL, receive_time_s REAL);
+  kind TEXT NOT NULL, message TEXT NOT NULL, source_time_s REAL, receive_time_s REAL, value REAL);
 CREATE TABLE health (seq INTEGER PRIMARY KEY, wall_time_s REAL NOT NULL, plugin TEXT NOT NULL,
   frames INTEGER, rate_hz REAL, processing_p50_s REAL, processing_p99_s REAL, dropped_frames INTEGER,
   errors INTEGER, stuck INTEGER, second_end_wall_time_s REAL, processing_total_s REAL, latency_p50_s REAL,
@@ -370,8 +368,10 @@ void MatchLogWriter::write(const fw::JournalEntry& entry) {
                      b.velocity_F.z(), b.position_R.x(), b.position_R.y(), b.position_R.z(), c(0, 0), c(0, 1), c(0, 2),
                      c(1, 1), c(1, 2), c(2, 2), joined(b.sources), b.age_s);
           },
-          [&](const fw::FusedBallCleared&) {
-            statement("INSERT INTO fused_ball (seq, wall_time_s, none) VALUES (?, ?, 1)").run(seq, wall);
+          [&](const fw::FusedBallCleared& none) {
+            statement(
+                "INSERT INTO fused_ball (seq, wall_time_s, none, source_time_s, receive_time_s) VALUES (?, ?, 1, ?, ?)")
+                .run(seq, wall, none.stamp.source_time_s, none.stamp.receive_time_s);
           },
           [&](const fw::RobotPose& p) {
             statement("INSERT INTO robot_pose VALUES (?, ?, ?, ?, ?, ?, ?)")
@@ -399,8 +399,8 @@ void MatchLogWriter::write(const fw::JournalEntry& entry) {
             }
           },
           [&](const fw::Event& e) {
-            statement("INSERT INTO event VALUES (?, ?, ?, ?, ?, ?, ?)")
-                .run(seq, wall, e.source, e.kind, e.message, e.stamp.source_time_s, e.stamp.receive_time_s);
+            statement("INSERT INTO event VALUES (?, ?, ?, ?, ?, ?, ?, ?)")
+                .run(seq, wall, e.source, e.kind, e.message, e.stamp.source_time_s, e.stamp.receive_time_s, e.value);
           },
           [&](const fw::PluginHealth& h) {
             const auto reported = [](double seconds) {  // NaN: the plugin reports none
@@ -661,7 +661,8 @@ std::vector<fw::JournalEntry> MatchLogReader::entries(std::int64_t after_seq, st
       fw::JournalEntry& entry = by_seq[q.integer(0)];
       entry.wall_time_s = q.real(1);
       if (q.integer(2) != 0) {
-        entry.item = fw::FusedBallCleared{};
+        // Version 5 and older logs keep no time with it, and only the updates after one with a ball.
+        entry.item = fw::FusedBallCleared{{q.isNull(3) ? 0.0 : q.real(3), q.isNull(4) ? 0.0 : q.real(4)}};
         continue;
       }
       fw::FusedBall b;
@@ -685,11 +686,13 @@ std::vector<fw::JournalEntry> MatchLogReader::entries(std::int64_t after_seq, st
       by_seq[q.integer(0)] = {q.real(1), fw::RobotPose{q.real(4), q.real(5), q.real(6), {q.real(2), q.real(3)}}};
   }
   {
-    const auto events =
-        query("SELECT seq, wall_time_s, source, kind, message, source_time_s, receive_time_s FROM event WHERE seq > ?");
+    const auto events = query("SELECT seq, wall_time_s, source, kind, message, source_time_s, receive_time_s" +
+                              std::string(schema_ >= 6 ? ", value" : "") + " FROM event WHERE seq > ?");
     Statement& q = *events;
     while (q.row()) {
-      by_seq[q.integer(0)] = {q.real(1), fw::Event{q.text(2), q.text(3), q.text(4), {q.real(5), q.real(6)}}};
+      fw::Event event{q.text(2), q.text(3), q.text(4), {q.real(5), q.real(6)}, std::nullopt};
+      if (schema_ >= 6 && !q.isNull(7)) event.value = q.real(7);
+      by_seq[q.integer(0)] = {q.real(1), event};
     }
   }
   {
@@ -866,11 +869,11 @@ void MatchLogReader::decodeDepthRow(Statement& q, fw::DepthImage& image, double&
   const int size = sqlite3_column_bytes(q.stmt, 11);
   const std::string frame =
       "depth frame " + std::to_string(image.index) + " (seq " + std::to_string(q.integer(0)) + ")";
-  const auto within = [](int side) { return side >= Intrinsics::kMinSide_px && side <= Intrinsics::kMaxSide_px; };
+  const auto within = [](int side) { return side >= DepthImage::kMinSide_px && side <= DepthImage::kMaxSide_px; };
   if (!within(image.width) || !within(image.height)) {
     fail(frame + ": " + std::to_string(image.width) + "x" + std::to_string(image.height) +
-         " is no depth sensor's size (each side " + std::to_string(Intrinsics::kMinSide_px) + " to " +
-         std::to_string(Intrinsics::kMaxSide_px) + " pixels)");
+         " is no depth sensor's size (each side " + std::to_string(DepthImage::kMinSide_px) + " to " +
+         std::to_string(DepthImage::kMaxSide_px) + " pixels)");
   }
   try {
     decodeDepth(depthCodec(), bytes, static_cast<std::size_t>(size), image.width, image.height, image.depth_mm);
@@ -895,7 +898,7 @@ fw::ColourImage MatchLogReader::decodeColour(Statement& q, const std::string& fr
   colour.offset_S_m = {q.real(22), q.real(23), q.real(24)};
   const auto* bytes = static_cast<const unsigned char*>(sqlite3_column_blob(q.stmt, 25));
   const int size = sqlite3_column_bytes(q.stmt, 25);
-  const auto within = [](int side) { return side >= Intrinsics::kMinSide_px && side <= Intrinsics::kMaxSide_px; };
+  const auto within = [](int side) { return side >= DepthImage::kMinSide_px && side <= DepthImage::kMaxSide_px; };
   const std::string not_jpeg = frame + ": its colour image is not a " + std::to_string(colour.width) + "x" +
                                std::to_string(colour.height) + " colour JPEG";
   if (!within(colour.width) || !within(colour.height) || size <= 0) fail(not_jpeg);
@@ -906,4 +909,4 @@ fw::ColourImage MatchLogReader::decodeColour(Statement& q, const std::string& fr
   return colour;
 }
 
-}  // namespace kinect3d
+}  // namespace fw

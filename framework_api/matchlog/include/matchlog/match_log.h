@@ -18,16 +18,18 @@
 #include <vector>
 
 #include "framework_api/world_state.h"
-#include "kinect3d/depth_codec.h"
+#include "matchlog/depth_codec.h"
 
 struct sqlite3;
 struct sqlite3_stmt;
 
-namespace kinect3d {
+namespace fw {
 
-constexpr int kMatchLogSchemaVersion = 5;
+constexpr int kMatchLogSchemaVersion = 6;
 // Logs back to this version are read (version 2 has no colour verdicts: its balls read as not checked;
-// versions 2 and 3 have no teammates' messages; versions 2 to 4 hold their depth as PNG).
+// versions 2 and 3 have no teammates' messages; versions 2 to 4 hold their depth as PNG; versions 2
+// to 5 keep no value with an event, and no time with the world ball's 'none', which they record
+// only after a ball).
 constexpr int kOldestReadableSchemaVersion = 2;
 constexpr const char* kMatchLogFile = "match.sqlite";
 
@@ -184,4 +186,4 @@ class MatchLogReader {
   int schema_ = kMatchLogSchemaVersion;  // of the log being read
 };
 
-}  // namespace kinect3d
+}  // namespace fw

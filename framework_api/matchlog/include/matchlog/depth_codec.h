@@ -12,7 +12,7 @@
 
 struct ZSTD_CCtx_s;
 
-namespace kinect3d {
+namespace fw {
 
 // Bytes that do not decode to the image they claim to be: says why.
 class DepthCodecError : public std::runtime_error {
@@ -65,4 +65,4 @@ class DepthEncoder {
 void decodeDepth(DepthCodec codec, const std::uint8_t* bytes, std::size_t size, int width, int height,
                  std::vector<std::uint16_t>& depth_mm);
 
-}  // namespace kinect3d
+}  // namespace fw
