@@ -247,6 +247,10 @@ TEST(MatchLog, ColourIsKeptAtTheJpegQualityItIsGiven) {
   } catch (const fw::MatchLogError& e) {
     EXPECT_NE(std::string(e.what()).find("zero: a colour JPEG quality of 0 (1 to 100)"), std::string::npos) << e.what();
   }
+  // The writer's default is the logger's shipped one.
+  const fw::Config shipped = fw::Config::load(std::string(PROJECT_CONFIG_DIR) + "/defaults", "", {});
+  EXPECT_EQ(shipped.block("logger").getInt("colour_jpeg_quality", 1, 100),
+            fw::MatchLogWriter::kDefaultColourJpegQuality);
 }
 
 TEST(MatchLog, NeverWritesOverAnotherLog) {

@@ -72,8 +72,10 @@ struct Statement;
 class MatchLogWriter {
  public:
   // Creates folder (and its parents) and folder/match.sqlite, which must not exist yet. Colour
-  // images are kept as JPEG at colour_jpeg_quality (1-100; the logger's logger.colour_jpeg_quality).
-  MatchLogWriter(const std::string& folder, const RunInfo& run, int colour_jpeg_quality = 90);
+  // images are kept as JPEG at colour_jpeg_quality (1-100; the logger's logger.colour_jpeg_quality,
+  // whose shipped default this is: a test holds them equal).
+  static constexpr int kDefaultColourJpegQuality = 90;
+  MatchLogWriter(const std::string& folder, const RunInfo& run, int colour_jpeg_quality = kDefaultColourJpegQuality);
   ~MatchLogWriter();  // commits what is pending
   MatchLogWriter(const MatchLogWriter&) = delete;
   MatchLogWriter& operator=(const MatchLogWriter&) = delete;

@@ -9,8 +9,10 @@
 namespace kinect3d {
 
 struct DepthNoiseModel {
-  double focal_px = 575.8;    // fx of the depth camera
-  double baseline_m = 0.075;  // projector to IR camera
+  static constexpr double kKinectV1Baseline_m = 0.075;  // its projector to its IR camera
+
+  double focal_px = 575.8;  // fx of the depth camera
+  double baseline_m = kKinectV1Baseline_m;
 
   // Spacing of representable depths: disparity comes in 1/8 pixel steps, so dz = z^2 / (8 f b).
   double quantisationStep_m(double z_m) const { return z_m * z_m / (8.0 * focal_px * baseline_m); }

@@ -29,7 +29,7 @@ class PointProjector {
     double min_range_m = 0.5;           // Kinect v1 returns nothing nearer
     double max_range_m = 9.5;           // steps are 25 cm and more beyond
     double floor_margin_m = 0.05;       // points below this height are the floor (plus its noise)
-    double baseline_m = 0.075;          // projector to camera, sets the quantisation step
+    double baseline_m = DepthNoiseModel::kKinectV1Baseline_m;  // sets the quantisation step
   };
 
   // For frames with these intrinsics (the tolerance and the rays depend on them).
