@@ -45,19 +45,27 @@ Eigen::Vector3d fromHsv(double hue_deg, double saturation, double value) {
 // One colour for a surface of one object, drawn from the scene's stream.
 Eigen::Vector3d drawAlbedo(Surface surface, Random& random) {
   auto uniform = [&](double lo, double hi) { return lo + (hi - lo) * random.uniform(); };
+  // A colour drawn within ranges of hue (deg), saturation and value, one draw a statement, value
+  // first: as fromHsv's arguments their order was the compiler's.
+  auto drawHsv = [&](double h_lo, double h_hi, double s_lo, double s_hi, double v_lo, double v_hi) {
+    const double v = uniform(v_lo, v_hi);
+    const double s = uniform(s_lo, s_hi);
+    return fromHsv(uniform(h_lo, h_hi), s, v);
+  };
   switch (surface) {
     case Surface::kPlain:
     case Surface::kPoster:  // the poster's own ground
-      return fromHsv(uniform(0, 360), uniform(0.0, 0.3), uniform(0.35, 0.85));
+      return drawHsv(0, 360, 0.0, 0.3, 0.35, 0.85);
     case Surface::kShirt:
       // Any colour; one shirt in four orange or yellow, like a match ball.
-      if (random.uniform() < 0.25) return fromHsv(uniform(15, 55), uniform(0.8, 1.0), uniform(0.8, 1.0));
-      return fromHsv(uniform(0, 360), uniform(0.1, 1.0), uniform(0.15, 0.95));
+      if (random.uniform() < 0.25) return drawHsv(15, 55, 0.8, 1.0, 0.8, 1.0);
+      return drawHsv(0, 360, 0.1, 1.0, 0.15, 0.95);
     case Surface::kTrousers:
-      return fromHsv(uniform(0, 360), uniform(0.0, 0.6), uniform(0.08, 0.5));
+      return drawHsv(0, 360, 0.0, 0.6, 0.08, 0.5);
     case Surface::kSkin: {
       const double tone = random.uniform();  // from fair to dark skin
-      return fromHsv(uniform(15, 30), uniform(0.25, 0.5), 0.9 - 0.6 * tone);
+      const double s = uniform(0.25, 0.5);
+      return fromHsv(uniform(15, 30), s, 0.9 - 0.6 * tone);
     }
     case Surface::kHair: {
       const std::array<Eigen::Vector3d, 4> hair = {fromHsv(20, 0.3, 0.08), fromHsv(25, 0.6, 0.3),
@@ -73,8 +81,10 @@ Eigen::Vector3d drawAlbedo(Surface surface, Random& random) {
       return Eigen::Vector3d::Constant(0.03);
     case Surface::kGoal:
       return Eigen::Vector3d::Constant(0.8);
-    case Surface::kLamp:
-      return kLampRadiance * fromHsv(uniform(30, 60), uniform(0.0, 0.15), 1.0);
+    case Surface::kLamp: {
+      const double s = uniform(0.0, 0.15);
+      return kLampRadiance * fromHsv(uniform(30, 60), s, 1.0);
+    }
     case Surface::kLoudspeaker:
       return Eigen::Vector3d::Constant(0.025);
   }

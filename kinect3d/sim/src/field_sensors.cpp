@@ -108,10 +108,16 @@ LocalisationSimulator::LocalisationSimulator(const Scene& scene, const Localisat
   const double a = std::exp(-1.0 / (model_.rate_hz * model_.correlation_s));
   const double b = std::sqrt(1.0 - a * a);
   const Eigen::Vector3d sigma(model_.sigma_xy_m, model_.sigma_xy_m, model_.sigma_theta_rad);
-  Eigen::Vector3d e(normal(random), normal(random), normal(random));
+  // One draw a statement, theta first: as a constructor's arguments their order was the compiler's.
+  const auto draw = [&] {
+    const double theta = normal(random);
+    const double y = normal(random);
+    return Eigen::Vector3d(normal(random), y, theta);
+  };
+  Eigen::Vector3d e = draw();
   for (int i = 0; i < count; ++i) {
     errors_.push_back(e.cwiseProduct(sigma));
-    e = a * e + b * Eigen::Vector3d(normal(random), normal(random), normal(random));
+    e = a * e + b * draw();
   }
 }
 

@@ -250,7 +250,10 @@ Scene crowdScene(int seed, CrowdBall ball) {
     object.shapes = person.shapes();
     if (!(last_stands && i + 1 == crowd.size())) {
       const Eigen::Vector2d start = person.feet_m.head<2>();
-      object.path_m = {start, start + Eigen::Vector2d(uniform(-1.0, 1.0), uniform(-0.5, 0.5))};
+      // One draw a statement: as a constructor's arguments their order was the compiler's.
+      const double dy_m = uniform(-0.5, 0.5);
+      const double dx_m = uniform(-1.0, 1.0);
+      object.path_m = {start, start + Eigen::Vector2d(dx_m, dy_m)};
       object.speed_mps = uniform(0.0, 1.2);
     }
     scene.objects.push_back(object);

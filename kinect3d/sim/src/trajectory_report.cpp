@@ -87,7 +87,9 @@ std::vector<sim::Scene> flights(int lobs, int shots) {
     // Aimed to cross the robot's line in flight, 0.3-1.0 m up, at 7-11 m/s: the lower of the two
     // drag-free launch angles that reach that height there.
     sim::Scene scene = openField("shot_" + std::to_string(i));
-    const Eigen::Vector3d start(between(-1.5, 1.5), between(5.0, 7.0), scene.physics.radius_m);
+    // One draw a statement, y first: as a constructor's arguments their order was the compiler's.
+    const double start_y = between(5.0, 7.0);
+    const Eigen::Vector3d start(between(-1.5, 1.5), start_y, scene.physics.radius_m);
     const Eigen::Vector2d target(between(-0.9, 0.9), 0.0);
     const double height = between(0.3, 1.0), speed = between(7.0, 11.0), g = 9.81;
     const double distance = (target - start.head<2>()).norm();
