@@ -1,7 +1,11 @@
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <chrono>
+#include <cmath>
+#include <random>
 #include <thread>
+#include <vector>
 
 #include "framework_api/host.h"
 #include "host_process.h"
@@ -149,6 +153,34 @@ TEST(Host, APluginThatKeepsFailingBacksOffThenGivesUp) {
   EXPECT_GT(elapsed_s, 0.07) << "10 + 20 + 40 ms of backoff between the failures, plus the steps";
   EXPECT_NE(fw::formatSummary(summary).find(", gave up, last error: frame checksum mismatch"), std::string::npos)
       << fw::formatSummary(summary);
+}
+
+TEST(LatencyHistogram, GivesTheRunsQuantilesToWithinOnePercent) {
+  fw::LatencyHistogram histogram;
+  EXPECT_TRUE(std::isnan(histogram.quantile(0.5))) << "no latency yet";
+  // 1 to 1000 ms, shuffled: the median 501 ms and the 99th percentile 991 ms by nearest rank.
+  std::vector<double> latencies_s;
+  for (int ms = 1; ms <= 1000; ++ms) latencies_s.push_back(ms * 1e-3);
+  std::shuffle(latencies_s.begin(), latencies_s.end(), std::mt19937(7));
+  for (const double latency_s : latencies_s) histogram.add(latency_s);
+  EXPECT_EQ(histogram.count(), 1000u);
+  EXPECT_NEAR(histogram.quantile(0.5), fw::quantile(latencies_s, 0.5), 0.01 * 0.501);
+  EXPECT_NEAR(histogram.quantile(0.99), fw::quantile(latencies_s, 0.99), 0.01 * 0.991);
+  EXPECT_NEAR(histogram.quantile(0.0), 1e-3, 1e-5);
+  EXPECT_NEAR(histogram.quantile(1.0), 1.0, 0.01);
+  // Beyond the bins' range it still counts, in the end bins: nothing is lost or out of bounds.
+  histogram.add(0.0);
+  histogram.add(1e6);
+  EXPECT_EQ(histogram.count(), 1002u);
+  EXPECT_LT(histogram.quantile(0.0), 1e-5);
+  EXPECT_GT(histogram.quantile(1.0), 99.0);
+
+  fw::PluginSummary summary{};
+  summary.name = "fusion";
+  summary.latency_s = histogram;
+  const std::string line = fw::formatSummary(summary);
+  EXPECT_NE(line.find("0 errors, latency p50 "), std::string::npos) << line;
+  EXPECT_NE(line.find(" ms, p99 9"), std::string::npos) << line;
 }
 
 TEST(Host, UnknownPluginIsALoadError) {

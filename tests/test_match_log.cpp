@@ -354,6 +354,14 @@ TEST_F(LoggedDemo, HoldsTheWholeRunInItsOwnFolder) {
     EXPECT_GT(second.latency_p50_s, 0.0);
     EXPECT_GE(second.latency_p99_s, second.latency_p50_s);
   }
+  // Over the whole run, in the host's summary: every depth frame the fusion took, each measured once.
+  const auto fusion =
+      std::find_if(summaries_.begin(), summaries_.end(), [](const auto& s) { return s.name == "fusion"; });
+  ASSERT_NE(fusion, summaries_.end());
+  EXPECT_LE(fusion->latency_s.count(), frames["kinect3d"]);
+  EXPECT_GE(fusion->latency_s.count() + 2, frames["kinect3d"]) << "at most the last frames before the stop unfused";
+  EXPECT_GT(fusion->latency_s.quantile(0.5), 0.0);
+  EXPECT_GE(fusion->latency_s.quantile(0.99), fusion->latency_s.quantile(0.5));
   ASSERT_GE(kinect_p50_s.size(), 2u);
   // A frame comes every 33 ms; the detector's median on the demo is a few ms even under sanitizers.
   EXPECT_LT(*std::min_element(kinect_p50_s.begin(), kinect_p50_s.end()), 0.030);

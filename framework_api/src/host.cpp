@@ -2,7 +2,9 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
+#include <limits>
 #include <map>
 #include <set>
 
@@ -21,7 +23,28 @@ Clock::duration errorBackoff(int consecutive_errors) {
   return std::min<Clock::duration>(std::chrono::milliseconds(10) * (1 << doublings), std::chrono::seconds(1));
 }
 
+constexpr double kHistogramLowest_s = 1e-6;
+constexpr double kHistogramStep = 1.01;  // each bin's upper edge over its lower
+const int kHistogramBins = static_cast<int>(std::ceil(std::log(100.0 / kHistogramLowest_s) / std::log(kHistogramStep)));
+
 }  // namespace
+
+void LatencyHistogram::add(double latency_s) {
+  if (bins_.empty()) bins_.assign(kHistogramBins, 0);
+  const double bin =
+      std::floor(std::log(std::max(latency_s, kHistogramLowest_s) / kHistogramLowest_s) / std::log(kHistogramStep));
+  ++bins_[static_cast<std::size_t>(std::min(bin, kHistogramBins - 1.0))];
+  ++count_;
+}
+
+double LatencyHistogram::quantile(double q) const {
+  if (count_ == 0) return std::numeric_limits<double>::quiet_NaN();
+  const auto rank = std::min(static_cast<std::uint64_t>(q * count_), count_ - 1);
+  std::uint64_t below = 0;
+  std::size_t bin = 0;
+  while (below + bins_[bin] <= rank) below += bins_[bin++];
+  return kHistogramLowest_s * std::pow(kHistogramStep, bin + 0.5);  // the bin's middle
+}
 
 struct Host::Running {
   std::unique_ptr<PluginInstance> instance;
@@ -115,7 +138,14 @@ std::vector<std::string> Host::stop(std::chrono::duration<double> grace) {
     plugin->thread.detach();
     plugin->abandoned = true;
   }
+  // The last part of a second, which no health row took, belongs to the run as well.
+  for (auto& plugin : plugins_) addToRun(*plugin, world_.takeLatencies(plugin->summary.name));
   return stuck;
+}
+
+void Host::addToRun(Running& plugin, const std::vector<double>& latencies_s) {
+  std::lock_guard<std::mutex> lock(plugin.mutex);
+  for (const double latency_s : latencies_s) plugin.summary.latency_s.add(latency_s);
 }
 
 void Host::watch() {
@@ -163,6 +193,7 @@ void Host::publishHealth() {
     if (const std::vector<double> latencies = world_.takeLatencies(h.plugin); !latencies.empty()) {
       h.latency_p50_s = quantile(latencies, 0.5);
       h.latency_p99_s = quantile(latencies, 0.99);
+      addToRun(*plugin, latencies);
     }
     h.dropped_frames = world_.droppedFrames(h.plugin);
     health.push_back(h);
@@ -359,9 +390,14 @@ void Host::replaySource(const std::string& source_name, const std::function<void
 
 std::string formatSummary(const PluginSummary& summary) {
   char line[512];
-  std::snprintf(line, sizeof line, "%s %s: %llu frames in %.1f s (%.1f Hz), %llu errors%s%s%s", summary.name.c_str(),
+  char latency[64] = "";
+  if (summary.latency_s.count() > 0) {
+    std::snprintf(latency, sizeof latency, ", latency p50 %.2f ms, p99 %.2f ms", 1e3 * summary.latency_s.quantile(0.5),
+                  1e3 * summary.latency_s.quantile(0.99));
+  }
+  std::snprintf(line, sizeof line, "%s %s: %llu frames in %.1f s (%.1f Hz), %llu errors%s%s%s%s", summary.name.c_str(),
                 summary.version.c_str(), static_cast<unsigned long long>(summary.frames), summary.elapsed_s,
-                summary.frameRate_hz(), static_cast<unsigned long long>(summary.errors),
+                summary.frameRate_hz(), static_cast<unsigned long long>(summary.errors), latency,
                 summary.end_of_stream ? ", end of stream" : (summary.gave_up ? ", gave up" : ""),
                 summary.stuck == 0 ? "" : (", stuck " + std::to_string(summary.stuck) + " times").c_str(),
                 summary.last_error.empty() ? "" : (", last error: " + summary.last_error).c_str());

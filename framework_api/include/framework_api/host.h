@@ -22,6 +22,20 @@
 
 namespace fw {
 
+// The latencies a plugin reported over a whole run (WorldState::reportLatency), counted in bins 1 %
+// wide from 1 us to 100 s: the run's quantiles to within 1 %, in fixed memory however long the match.
+class LatencyHistogram {
+ public:
+  void add(double latency_s);
+  std::uint64_t count() const { return count_; }
+  // The q-quantile by nearest rank, as fw::quantile, to within 1 %; NaN before the first latency.
+  double quantile(double q) const;
+
+ private:
+  std::vector<std::uint64_t> bins_;  // sized at the first latency: a plugin that reports none keeps none
+  std::uint64_t count_ = 0;
+};
+
 struct PluginSummary {
   std::string name;
   std::string version;
@@ -34,6 +48,7 @@ struct PluginSummary {
   bool gave_up = false;     // stopped after host.max_consecutive_errors failed steps in a row
   std::uint64_t stuck = 0;  // times a step ran longer than host.stuck_after_s
   double elapsed_s = 0.0;
+  LatencyHistogram latency_s;  // over the run: from an input's arrival to its output (the fusion's)
 
   double frameRate_hz() const { return elapsed_s > 0.0 ? frames / elapsed_s : 0.0; }
 };
@@ -94,6 +109,8 @@ class Host {
   // failed host.max_consecutive_errors times in a row.
   bool givesUp(Running& plugin, int consecutive_errors);
   void publishHealth();
+  // Adds latencies taken from the world state to the plugin's figure for the whole run.
+  static void addToRun(Running& plugin, const std::vector<double>& latencies_s);
 
   std::chrono::steady_clock::time_point last_health_ = std::chrono::steady_clock::now();
   // Declared first: plugins hold pointers to them and are destroyed before them.
@@ -108,7 +125,8 @@ class Host {
   std::uint64_t ball_frames_ = 0;  // published so far (under wake_mutex_): wakes wake_on_ball_frame plugins
 };
 
-// One summary line per plugin: "kinect3d 1.0.0: 301 frames in 10.0 s (30.1 Hz), 0 errors".
+// One summary line per plugin: "kinect3d 1.0.0: 301 frames in 10.0 s (30.1 Hz), 0 errors", and for
+// a plugin that reports its latency: ", latency p50 0.81 ms, p99 2.10 ms".
 std::string formatSummary(const PluginSummary& summary);
 
 // For a program that runs a host: blocks every signal that asks a robot's program to end (SIGINT
