@@ -7,6 +7,7 @@
 #include <random>
 
 #include "fusion/alignment_check.h"
+#include "random_draws.h"
 
 namespace {
 
@@ -33,7 +34,7 @@ class Scenario {
  public:
   Scenario(unsigned seed, const Knock& knock, const Play& play) : random_(seed), knock_(knock), play_(play) {
     std::uniform_real_distribution<double> mount(-0.15, 0.15);
-    kinect_xy_ = Eigen::Vector2d(mount(random_), mount(random_));
+    kinect_xy_ = drawVector2(mount, random_);
     std::uniform_real_distribution<double> bearing_sigma(0.5 * kDeg, 2.0 * kDeg), distance_fraction(0.02, 0.08),
         kinect_sigma(0.01, 0.03);
     fusion::OmniConfig& omni = config_.omni;
@@ -145,7 +146,9 @@ TEST(AlignmentCheck, ATurnedAndShiftedKinectIsFoundOnceWithItsCorrection) {
   std::mt19937 random(7);
   std::uniform_real_distribution<double> turn(3.0 * kDeg, 6.0 * kDeg), shift(-0.08, 0.08), sign(-1.0, 1.0);
   for (unsigned seed = 1; seed <= 6; ++seed) {
-    const Knock knock{std::copysign(turn(random), sign(random)), Eigen::Vector2d(shift(random), shift(random))};
+    const double sign_draw = sign(random);
+    const double turn_rad = turn(random);
+    const Knock knock{std::copysign(turn_rad, sign_draw), drawVector2(shift, random)};
     const Outcome outcome = check(seed, knock);
     ASSERT_TRUE(outcome.fit.has_value()) << "seed " << seed;
     EXPECT_EQ(outcome.alarms, 1) << "seed " << seed;  // once per episode, not once per fit

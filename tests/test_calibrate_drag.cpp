@@ -12,6 +12,7 @@
 #include "kinect3d/config_io.h"
 #include "kinect3d/sim/ball_motion.h"
 #include "kinect3d/trajectory.h"
+#include "random_draws.h"
 #include "run_command.h"
 #include "scoped_temp_dir.h"
 
@@ -26,7 +27,7 @@ std::vector<fw::BallFrame> seenLob(const kinect3d::sim::BallPhysics& physics, in
   for (double t = 1.0 / 30; t < 2.5; t += 1.0 / 30) {
     fw::BallFrame frame;
     frame.stamp = {t, t};
-    const Eigen::Vector3d p = motion.positionAt(t) + Eigen::Vector3d(noise(rng), noise(rng), noise(rng));
+    const Eigen::Vector3d p = motion.positionAt(t) + drawVector3(noise, rng);
     const fw::BallState state = p.z() > 0.19 ? fw::BallState::kAir : fw::BallState::kGround;
     frame.balls.push_back(
         fw::BallObservation::inRobotFrame(p, 2.5e-5 * Eigen::Matrix3d::Identity(), state, "kinect3d", frame.stamp));

@@ -13,6 +13,7 @@
 #include "framework_api/pose_history.h"
 #include "fusion/ball_fusion.h"
 #include "fusion/measurements.h"
+#include "random_draws.h"
 
 namespace {
 
@@ -57,8 +58,7 @@ fw::OmniBallObservation omniView(const Eigen::Vector3d& p_F, const fw::RobotPose
 fw::BallObservation kinectView(const Eigen::Vector3d& p_F, const fw::RobotPose& pose, std::mt19937& random,
                                double sigma_m = kKinectSigma_m) {
   std::normal_distribution<double> noise(0.0, sigma_m);
-  const Eigen::Vector3d p_R =
-      pose.T_F_R().inverse() * p_F + Eigen::Vector3d(noise(random), noise(random), noise(random));
+  const Eigen::Vector3d p_R = pose.T_F_R().inverse() * p_F + drawVector3(noise, random);
   const fw::BallState state = p_R.z() > kRadius + 0.08 ? fw::BallState::kAir : fw::BallState::kGround;
   return fw::BallObservation::inRobotFrame(p_R, sigma_m * sigma_m * Eigen::Matrix3d::Identity(), state, "kinect3d", {});
 }

@@ -21,6 +21,7 @@
 #include "kinect3d/sim/sequence_writer.h"
 #include "match_view.h"
 #include "matchlog/match_log.h"
+#include "random_draws.h"
 #include "real_data.h"
 #include "run_command.h"
 #include "scoped_temp_dir.h"
@@ -254,7 +255,9 @@ GravityRun runGravity(unsigned seed, double bias_rad, double knock_at_s, double 
   std::uniform_real_distribution<double> uniform(0.0, 1.0);
   const fw::SensorPose calibrated{0.0, 0.0, 0.7, 0.0, 5.0 * kDeg, 0.0};
   kinect3d::GravityCalibrationCheck check({}, calibrated);
-  const Eigen::Vector3d bias_axis = Eigen::Vector3d(uniform(random) - 0.5, 0.0, uniform(random) - 0.5).normalized();
+  const double bias_axis_z = uniform(random) - 0.5;
+  const double bias_axis_x = uniform(random) - 0.5;
+  const Eigen::Vector3d bias_axis = Eigen::Vector3d(bias_axis_x, 0.0, bias_axis_z).normalized();
   GravityRun run;
   for (int i = 0; i < 30 * 20; ++i) {
     const double t = i / 30.0;
@@ -266,8 +269,7 @@ GravityRun runGravity(unsigned seed, double bias_rad, double knock_at_s, double 
     DepthFrame frame;
     frame.source_time_s = t;
     frame.gravity_S_mps2 =
-        kinect3d::kStandardGravity_mps2 *
-        (Eigen::AngleAxisd(bias_rad, bias_axis) * g_S + Eigen::Vector3d(noise(random), noise(random), noise(random)));
+        kinect3d::kStandardGravity_mps2 * (Eigen::AngleAxisd(bias_rad, bias_axis) * g_S + drawVector3(noise, random));
     if (const auto moved = check.check(frame); moved && !run.alarm) {
       run.alarm = moved;
       run.alarm_t_s = t;

@@ -8,6 +8,7 @@
 #include "kinect3d/sim/ball_motion.h"
 #include "kinect3d/sim/evaluation.h"
 #include "kinect3d/trajectory.h"
+#include "random_draws.h"
 
 namespace {
 
@@ -63,8 +64,7 @@ TEST(BallisticTrajectory, StaysWithinItsUncertaintyWithNoise) {
   std::optional<fw::BallTrajectory> trajectory;
   for (int i = 0; i < 12; ++i) {
     const double t = i * kFrame_s;
-    trajectory = estimator->update(
-        t, {observe(t, flight(p0, v0, t) + Eigen::Vector3d(noise(rng), noise(rng), noise(rng)), 0.01)});
+    trajectory = estimator->update(t, {observe(t, flight(p0, v0, t) + drawVector3(noise, rng), 0.01)});
   }
   ASSERT_TRUE(trajectory && trajectory->touchdown && trajectory->crossing);
   const double t_land = (4.5 + std::sqrt(4.5 * 4.5 + 2 * 9.81 * 0.39)) / 9.81;
@@ -224,7 +224,7 @@ TEST(BallisticTrajectory, DroppedLateAndJitteredFramesNeitherResetNorBiasTheFlig
     std::vector<std::pair<double, Eigen::Vector3d>> frames;
     for (int i = 1; i <= 16; ++i) {
       const double t = i * kFrame_s;
-      const Eigen::Vector3d seen = motion.positionAt(t) + Eigen::Vector3d(noise(rng), noise(rng), noise(rng));
+      const Eigen::Vector3d seen = motion.positionAt(t) + drawVector3(noise, rng);
       if (degraded && unit(rng) < 0.2) continue;
       frames.emplace_back(degraded ? t + jitter(rng) : t, seen);
     }
@@ -267,7 +267,7 @@ TEST(BallisticTrajectory, FollowsACurvingShotAndItsCrossing) {
     std::optional<fw::BallTrajectory> trajectory;
     for (int i = 1; i * kFrame_s <= t_cross - 0.3; ++i) {
       const double t = i * kFrame_s;
-      const Eigen::Vector3d seen = motion.positionAt(t) + Eigen::Vector3d(noise(rng), noise(rng), noise(rng));
+      const Eigen::Vector3d seen = motion.positionAt(t) + drawVector3(noise, rng);
       trajectory = estimator->update(t, {observe(t, seen, 0.01)});
     }
     EXPECT_TRUE(trajectory && trajectory->crossing);
