@@ -746,6 +746,86 @@ TEST(Fusion, AMislocalisedTeammateIsDiscountedAndDoesNotMoveTheBall) {
   }
 }
 
+// The keeper's message with its pose and world ball alone (a robot without a Kinect sends no more),
+// its ball on the floor at p_F rolling at v_F, given by `sources`, at time t.
+fw::TeamMessage worldBallMessage(const Eigen::Vector3d& p_F, const Eigen::Vector3d& v_F, double t,
+                                 const std::vector<std::string>& sources, double age_s = 0.02) {
+  fw::TeamMessage message;
+  message.robot_id = 4;
+  message.robot_name = "keeper";
+  message.pose = poseAt(0.5, 7.0, M_PI, t);
+  message.pose_sigma_xy_m = 0.03;
+  message.pose_sigma_theta_rad = 0.0175;
+  fw::FusedBall ball;
+  ball.position_F = p_F;
+  ball.velocity_F = v_F;
+  ball.covariance_F = 0.03 * 0.03 * Eigen::Matrix3d::Identity();
+  ball.sources = sources;
+  ball.age_s = age_s;
+  ball.stamp.source_time_s = t;
+  message.world_ball = ball;
+  return message;
+}
+
+TEST(Fusion, ATeammatesWorldBallIsTheBallWhileThisRobotSeesNothingUntilItsOwnSensorsDo) {
+  // The ball rolls 3 m in front of this robot, which sees nothing of it for 2 s (turned away, or
+  // the ball hidden), then sees it with its Kinect. The keeper's world ball arrives every 67 ms.
+  const Eigen::Vector3d velocity(0.8, 0.0, 0.0);
+  const Truth rolling = [&](double t) -> Eigen::Vector3d {
+    return Eigen::Vector3d(-0.5, 3.0, kRadius) + (t - kT0) * velocity;
+  };
+  fusion::BallFusion fusion(testConfig());
+  std::mt19937 random(5);
+  int from_keeper = 0, own = 0;
+  for (int i = 0; i < 90; ++i) {
+    const double t = kT0 + i / 30.0;
+    fusion.addPose(standingAtOrigin(t));
+    if (i % 2 == 0)
+      fusion.addTeamMessage(worldBallMessage(rolling(t - 0.05), velocity, t - 0.05, {"kinect3d", "omni"}));
+    std::vector<fw::BallObservation> kinect;
+    if (t >= kT0 + 2.0) kinect.push_back(kinectView(rolling(t), standingAtOrigin(t), random));
+    const fusion::FusionUpdate& update = fusion.addKinectFrame(t, kinect);
+    ASSERT_TRUE(update.ball) << "update " << i << ": the world holds a ball all along";
+    const fw::FusedBall& ball = *update.ball;
+    if (t < kT0 + 2.0) {
+      ++from_keeper;
+      EXPECT_EQ(ball.sources, std::vector<std::string>{"team:keeper:world_ball"}) << "update " << i;
+      EXPECT_LT((ball.position_F - rolling(t)).norm(), 0.01) << "the keeper's ball, carried on to this frame's time";
+      EXPECT_NEAR(ball.position_R.y(), 3.0, 0.01) << "in this robot's frame too";
+      EXPECT_GT(ball.covariance_F(0, 0), 0.03 * 0.03 + std::pow(3.9 * 0.0175, 2)) << "weaker than the keeper's own";
+    } else if (t >= kT0 + 2.25) {
+      ++own;
+      EXPECT_EQ(ball.sources, std::vector<std::string>{"kinect3d"}) << "update " << i << ": its own Kinect's ball";
+      EXPECT_LT((ball.position_F - rolling(t)).norm(), 0.05);
+    }
+  }
+  EXPECT_EQ(from_keeper, 60);
+  EXPECT_EQ(own, 22);
+}
+
+TEST(Fusion, ATeammatesWorldBallIsNotUsedWhenItIsItselfAPriorOrOld) {
+  const Eigen::Vector3d p(1.0, 3.0, kRadius), still = Eigen::Vector3d::Zero();
+  for (const auto& [sources, age_s] :
+       std::vector<std::pair<std::vector<std::string>, double>>{{{"team:striker:world_ball"}, 0.02}, {{"omni"}, 1.2}}) {
+    fusion::BallFusion fusion(testConfig());
+    for (int i = 0; i < 30; ++i) {
+      const double t = kT0 + i / 30.0;
+      fusion.addPose(standingAtOrigin(t));
+      fusion.addTeamMessage(worldBallMessage(p, still, t - 0.05, sources, age_s));
+      EXPECT_FALSE(fusion.addKinectFrame(t, {}).ball) << sources.front() << ", " << age_s << " s old, update " << i;
+    }
+  }
+  // Its age counts on from its time: a ball the keeper's sensors last saw 0.75 s before is held for
+  // a quarter of a second more.
+  fusion::BallFusion fusion(testConfig());
+  fusion.addPose(standingAtOrigin(kT0));
+  fusion.addTeamMessage(worldBallMessage(p, still, kT0, {"omni"}, 0.75));
+  for (int i = 1; i <= 9; ++i) {
+    fusion.addPose(standingAtOrigin(kT0 + i / 30.0));
+    EXPECT_EQ(fusion.addKinectFrame(kT0 + i / 30.0, {}).ball.has_value(), i <= 7) << "frame " << i;
+  }
+}
+
 TEST(Fusion, AWellLocalisedTeammateSeeingTheSameBallIsUsedBesideThisRobotsSensors) {
   const Truth rolling = [](double t) { return Eigen::Vector3d(-0.5 + 0.4 * (t - kT0), 3.0, kRadius); };
   const fw::RobotPose keeper = poseAt(0.5, 7.0, M_PI, kT0);

@@ -52,6 +52,20 @@ Eigen::Matrix3d groundCovariance(const OmniMeasurement& omni, const fw::OmniBall
 
 // The name a teammate's observations go by in the world ball's sources: "team:keeper".
 std::string teammateSource(const std::string& name) { return "team:" + name; }
+// And its world ball, when this robot holds it as a prior: "team:keeper:world_ball".
+constexpr const char* kPriorSuffix = ":world_ball";
+std::string teammatePriorSource(const std::string& name) { return teammateSource(name) + kPriorSuffix; }
+// A world ball that is itself only a teammate's prior (every source one): passing it on would let
+// two robots that see nothing hold each other's ball.
+bool onlyAPrior(const fw::FusedBall& ball) {
+  const std::string suffix = kPriorSuffix;
+  return !ball.sources.empty() && std::all_of(ball.sources.begin(), ball.sources.end(), [&](const std::string& source) {
+    return source.size() > suffix.size() && source.compare(source.size() - suffix.size(), suffix.size(), suffix) == 0;
+  });
+}
+// How fast the place of a ball that nobody sees may drift from its last estimate (it may have been
+// nudged or kicked): what makes a teammate's world ball a weak prior, and weaker as it ages.
+constexpr double kUnseenDrift_mps = 1.0;
 }  // namespace
 
 void LatencyEstimator::add(double residual_rad, double variance_rad2, double bearing_rate_radps, double applied_s) {
@@ -104,7 +118,7 @@ void BallFusion::addPose(const fw::RobotPose& pose) {
 
 const FusionUpdate& BallFusion::addKinectFrame(double stamp_s, const std::vector<fw::BallObservation>& balls_R) {
   if (!onTimeLine(Source::kKinect, stamp_s, stamp_s - config_.kinect.latency_s)) return state_.update;
-  return insert(Frame{Source::kKinect, stamp_s - config_.kinect.latency_s, 0.0, 0.0, balls_R, {}, {}, {}});
+  return insert(Frame{Source::kKinect, stamp_s - config_.kinect.latency_s, 0.0, 0.0, balls_R, {}, {}, {}, {}});
 }
 
 const FusionUpdate& BallFusion::addOmniFrame(double stamp_s, const std::vector<fw::OmniBallObservation>& balls) {
@@ -119,6 +133,7 @@ const FusionUpdate& BallFusion::addOmniFrame(double stamp_s, const std::vector<f
                       {},
                       balls,
                       {},
+                      {},
                       {}});
 }
 
@@ -129,7 +144,7 @@ const FusionUpdate& BallFusion::addTeamMessage(const fw::TeamMessage& message) {
   std::map<double, Frame> frames;
   const PoseConfig pose_error{0.0, message.pose_sigma_xy_m, message.pose_sigma_theta_rad};
   const auto frameAt = [&](double t) -> Frame& {
-    return frames.try_emplace(t, Frame{Source::kTeammate, t, 0.0, 0.0, {}, {}, {}, {}}).first->second;
+    return frames.try_emplace(t, Frame{Source::kTeammate, t, 0.0, 0.0, {}, {}, {}, {}, {}}).first->second;
   };
   for (const fw::BallObservation& ball : message.kinect_balls) {
     frameAt(ball.stamp.source_time_s)
@@ -158,6 +173,11 @@ const FusionUpdate& BallFusion::addTeamMessage(const fw::TeamMessage& message) {
     mate.omni.viewpoint_height_m = ray.origin_F.z();
     mate.omni.max_height_m = std::min(ray.view_top_m, ray.origin_F.z());
     frameAt(ray.time_s).team_rays.push_back(mate);
+  }
+  if (message.world_ball && !onlyAPrior(*message.world_ball) && config_.team.prior_max_age_s > 0.0) {
+    frameAt(message.world_ball->stamp.source_time_s).team_world_ball =
+        TeammateWorldBall{message.robot_id, message.robot_name, *message.world_ball,
+                          Eigen::Vector2d(message.pose->x_m, message.pose->y_m), pose_error};
   }
   for (auto& [t, frame] : frames) {
     // Its clock was moved onto the reference by the team plugin: a time far from the fusion's is a
@@ -298,6 +318,11 @@ void BallFusion::process(const Frame& frame) {
   const fw::RobotPose pose = poses_.at(t);
   State& state = state_;
   state.update = FusionUpdate{t, std::nullopt, {}};
+  if (frame.team_world_ball) {
+    const TeammateWorldBall& prior = *frame.team_world_ball;
+    state.teammates[prior.robot_id].name = prior.name;
+    state.teammate_world_balls[prior.robot_id] = prior;
+  }
   std::vector<Candidate> candidates = candidatesOf(frame, pose);
 
   // Gate every candidate against every track's branches at t, then pair them most likely first.
@@ -580,7 +605,7 @@ void BallFusion::maintainTracks(double t_s) {
 std::optional<fw::FusedBall> BallFusion::worldBall(double t_s) const {
   const auto world = std::find_if(state_.tracks.begin(), state_.tracks.end(),
                                   [&](const Track& track) { return track.id == state_.world_id; });
-  if (world == state_.tracks.end()) return std::nullopt;
+  if (world == state_.tracks.end()) return teammatePrior(t_s);
   BallFilter filter = world->filter;
   filter.predict(t_s);
   const Hypothesis& best = filter.best();
@@ -597,6 +622,46 @@ std::optional<fw::FusedBall> BallFusion::worldBall(double t_s) const {
     if (t_s - last_s <= kSourceRecent_s) ball.sources.push_back(teammateSource(state_.teammates.at(robot_id).name));
   }
   ball.age_s = t_s - world->last_support_s;
+  ball.stamp.source_time_s = t_s;
+  return ball;
+}
+
+std::optional<fw::FusedBall> BallFusion::teammatePrior(double t_s) const {
+  const TeammateWorldBall* freshest = nullptr;
+  double freshest_age_s = config_.team.prior_max_age_s;
+  for (const auto& [robot_id, prior] : state_.teammate_world_balls) {
+    if (state_.teammates.at(robot_id).discounted) continue;
+    const double age_s = prior.ball.age_s + std::abs(t_s - prior.ball.stamp.source_time_s);
+    if (age_s <= freshest_age_s) {
+      freshest = &prior;
+      freshest_age_s = age_s;
+    }
+  }
+  if (freshest == nullptr) return std::nullopt;
+  fw::FusedBall ball = freshest->ball;
+  // On along its velocity (a ball in the air falls, and stops falling at the floor).
+  const double dt_s = t_s - ball.stamp.source_time_s;
+  ball.position_F += dt_s * ball.velocity_F;
+  if (ball.state == fw::BallState::kAir) {
+    ball.position_F.z() -= 0.5 * fw::kGravity_mps2 * dt_s * dt_s;
+    ball.velocity_F.z() -= fw::kGravity_mps2 * dt_s;
+  }
+  if (ball.position_F.z() < config_.motion.radius_m) {
+    ball.position_F.z() = config_.motion.radius_m;
+    ball.velocity_F.z() = 0.0;
+  }
+  // Its uncertainty, with the teammate's localisation error (turning grows with the distance) and
+  // the drift of a ball nobody has seen for its age.
+  const PoseConfig& pose = freshest->pose_error;
+  const double range_m = (ball.position_F.head<2>() - freshest->teammate_xy).norm();
+  const double drift_m = kUnseenDrift_mps * freshest_age_s;
+  ball.covariance_F.topLeftCorner<2, 2>() +=
+      (pose.sigma_xy_m * pose.sigma_xy_m + std::pow(range_m * pose.sigma_theta_rad, 2) + drift_m * drift_m) *
+      Eigen::Matrix2d::Identity();
+  ball.covariance_F(2, 2) += drift_m * drift_m;
+  ball.position_R = poses_.at(t_s).T_F_R().inverse() * ball.position_F;
+  ball.sources = {teammatePriorSource(freshest->name)};
+  ball.age_s = freshest_age_s;
   ball.stamp.source_time_s = t_s;
   return ball;
 }

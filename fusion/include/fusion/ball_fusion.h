@@ -3,6 +3,8 @@
 // a track confirmed before it becomes the world's ball and dropped after a time without support,
 // static floaters refused unless a flight led there, the omni's latency against the Kinect learnt
 // from balls both see rolling, and measurements up to max_delay_s late put back in time order.
+// Teammates' Kinect balls and omni rays are measurements too; their world balls only a weak prior,
+// the world's ball while nothing else gives one.
 //
 // Times: every source's stamps are moved onto the Kinect's clock (the reference) by its configured
 // latency, and the omni's also by the estimated one. Each source's stamps follow the time-line rule
@@ -135,13 +137,22 @@ class BallFusion {
     // A measurement of source (a teammate's: of that robot) supported it at t_s.
     void supportedBy(Source source, int teammate, double t_s);
   };
+  // A teammate's world ball (field frame, times on this robot's clock) and where that teammate stood.
+  struct TeammateWorldBall {
+    int robot_id = 0;
+    std::string name;
+    fw::FusedBall ball;
+    Eigen::Vector2d teammate_xy = Eigen::Vector2d::Zero();
+    PoseConfig pose_error;
+  };
   struct State {
     std::vector<Track> tracks;
     int next_id = 1;
     int world_id = 0;  // 0: no world ball
     LatencyEstimator latency;
     std::map<int, TeammateStanding> teammates;
-    std::map<int, std::deque<Judgement>> judged;  // per teammate, newest last
+    std::map<int, std::deque<Judgement>> judged;            // per teammate, newest last
+    std::map<int, TeammateWorldBall> teammate_world_balls;  // the newest of each teammate
     FusionUpdate update;
   };
   // A teammate's ball with what places it: the teammate's pose and how far its localisation may be off.
@@ -172,6 +183,7 @@ class BallFusion {
     std::vector<fw::OmniBallObservation> omni;
     std::vector<TeammateBall> team;
     std::vector<TeammateRay> team_rays;
+    std::optional<TeammateWorldBall> team_world_ball;
   };
 
   struct Candidate;
@@ -201,6 +213,9 @@ class BallFusion {
   std::string nameOf(const Candidate& candidate) const;  // "team:<name>" for a teammate's
   void maintainTracks(double t_s);
   std::optional<fw::FusedBall> worldBall(double t_s) const;
+  // Without a world ball of its own: the freshest world ball of a teammate that is not discounted,
+  // carried on to t_s with its uncertainty grown (none older than team.prior_max_age_s).
+  std::optional<fw::FusedBall> teammatePrior(double t_s) const;
 
   FusionConfig config_;
   fw::PoseHistory poses_;

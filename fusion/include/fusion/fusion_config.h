@@ -76,6 +76,9 @@ struct TeamConfig {
   double max_delay_s = 0.3;     // they come over Wi-Fi: later than this behind the newest, dropped
   int judge_examples = 10;      // a teammate is judged on this many observations beside this robot's own view ...
   double discount_sigma = 4.0;  // ... and discounted while their median Mahalanobis distance is beyond this
+  // A teammate's world ball is this robot's, as a weak prior, while nothing else gives it one, up to
+  // this long after the last measurement that supported it (0: never).
+  double prior_max_age_s = 1.0;
 };
 
 struct FusionConfig {
