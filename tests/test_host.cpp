@@ -3,7 +3,11 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <filesystem>
+#include <fstream>
 #include <random>
+#include <set>
+#include <string>
 #include <thread>
 #include <vector>
 
@@ -37,7 +41,15 @@ TEST(Host, PluginsExchangeDataThroughWorldState) {
   };
   const auto deadline = Clock::now() + std::chrono::seconds(60);
   while (!enough() && Clock::now() < deadline) std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  // Each plugin's thread goes by its name, so that top -H says who takes the time.
+  std::set<std::string> threads;
+  for (const auto& task : std::filesystem::directory_iterator("/proc/self/task")) {
+    std::string name;
+    std::getline(std::ifstream(task.path() / "comm"), name);
+    threads.insert(name);
+  }
   host.stop();
+  for (const char* plugin : {"tp_producer", "tp_consumer", "tp_faulty"}) EXPECT_EQ(threads.count(plugin), 1u) << plugin;
 
   const auto fused = host.world().fusedBall();
   ASSERT_TRUE(fused.has_value()) << "the consumer never republished the producer's ball";

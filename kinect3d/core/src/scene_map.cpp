@@ -1,6 +1,7 @@
 #include "kinect3d/scene_map.h"
 
 #include <octomap/OcTree.h>
+#include <pthread.h>
 
 #include <algorithm>
 #include <chrono>
@@ -65,6 +66,7 @@ struct SceneMap::Worker {
   }
 
   void run() {
+    pthread_setname_np(pthread_self(), "scene_map");  // beside the host's plugin threads in top -H
     std::unique_lock<std::mutex> lock(mutex);
     for (;;) {
       wake.wait(lock, [this] { return quit || (in_flight && !integrated); });
