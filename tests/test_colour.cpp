@@ -382,14 +382,21 @@ TEST(ColourCheck, TrajectoriesAndFusionDoNotFollowARejectedBall) {
   }
   EXPECT_FALSE(fitted);
 
-  fusion::BallFusion fusion(fusion::readFusionConfig(config.block("fusion")));
-  fw::BallObservation lamp = fw::BallObservation::inRobotFrame({0.0, 3.0, 1.6}, Eigen::Matrix3d::Identity() * 1e-4,
-                                                               fw::BallState::kAir, "kinect3d", {0.0, 0.0});
-  lamp.colour = fw::ColourVerdict::kRejected;
-  const fusion::FusionUpdate& update = fusion.addKinectFrame(0.0, {lamp});
-  EXPECT_FALSE(update.ball);
-  ASSERT_EQ(update.rejected.size(), 1u);
-  EXPECT_EQ(update.rejected[0].reason, "colour");
+  // The same flight: the world's ball while its colour is not judged, never once it is rejected.
+  std::map<fw::ColourVerdict, int> world_balls;
+  for (const fw::ColourVerdict verdict : {fw::ColourVerdict::kNotChecked, fw::ColourVerdict::kRejected}) {
+    fusion::BallFusion fusion(fusion::readFusionConfig(config.block("fusion")));
+    for (int i = 0; i < 20; ++i) {
+      const double t = i / 30.0;
+      fw::BallObservation ball = fw::BallObservation::inRobotFrame({0.5, 4.0 - 5.0 * t, 1.0 + 4.0 * t - 4.905 * t * t},
+                                                                   Eigen::Matrix3d::Identity() * 1e-4,
+                                                                   fw::BallState::kAir, "kinect3d", {t, t});
+      ball.colour = verdict;
+      world_balls[verdict] += fusion.addKinectFrame(t, {ball}).ball ? 1 : 0;
+    }
+  }
+  EXPECT_GT(world_balls[fw::ColourVerdict::kNotChecked], 10);
+  EXPECT_EQ(world_balls[fw::ColourVerdict::kRejected], 0);
 }
 
 TEST(ColourCheck, AnOnCheckWithoutLearntColoursOrColourIsAConfigErrorNamingTheKey) {

@@ -98,6 +98,8 @@ void detect(const fw::Config& config, std::ostream& out, const std::string& out_
   host.replaySource(plugin, [&] {
     std::uint64_t refused = 0;
     for (const fw::JournalEntry& entry : host.world().takeJournal(&refused)) lines.add(entry.item);
+    if (refused > 0)
+      throw std::runtime_error("detect: " + std::to_string(refused) + " detections did not fit the journal");
     const std::vector<double> process_s = host.world().takeProcessingTimes(plugin);
     lines.flush(process_s.empty() ? std::nullopt : std::optional<double>(process_s.back()));
   });

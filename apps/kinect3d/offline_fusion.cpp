@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <limits>
+#include <stdexcept>
 
 #include "framework_api/host.h"
 #include "framework_api/install_layout.h"
@@ -82,13 +83,15 @@ FusionRun fuseRecorded(const fw::Config& config, const RecordedFiles& files) {
   host.replay(steps, [&] {
     for (const fw::JournalEntry& entry : host.world().takeJournal(&refused)) {
       if (const auto* ball = std::get_if<fw::FusedBall>(&entry.item)) {
-        run.updates.push_back({ball->stamp.source_time_s, *ball, {}});
+        run.updates.push_back({ball->stamp.source_time_s, *ball});
       } else if (const auto* none = std::get_if<fw::FusedBallCleared>(&entry.item)) {
-        run.updates.push_back({none->stamp.source_time_s, std::nullopt, {}});
+        run.updates.push_back({none->stamp.source_time_s, std::nullopt});
       } else if (const auto* event = std::get_if<fw::Event>(&entry.item)) {
         if (event->source == "fusion" && event->kind == "omni_latency") run.omni_latency_s = event->value;
       }
     }
+    if (refused > 0)
+      throw std::runtime_error("fuse: " + std::to_string(refused) + " world balls did not fit the journal");
   });
   for (const fw::PluginSummary& summary : host.summaries()) {
     if (summary.errors > 0) fw::logWarn("fuse", fw::formatSummary(summary));

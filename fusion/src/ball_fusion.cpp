@@ -93,7 +93,7 @@ std::optional<double> LatencyEstimator::estimate() const {
 }
 
 // One ball of one frame, ready to associate: its measurement model, where it puts the ball in the
-// field frame (for a new track and for the report of a rejected one) and with what covariance.
+// field frame (for a new track, and to judge a teammate by) and with what covariance.
 struct BallFusion::Candidate {
   Source source;
   std::unique_ptr<MeasurementModel> measurement;
@@ -317,7 +317,7 @@ void BallFusion::process(const Frame& frame) {
   const double t = frame.time_s;
   const fw::RobotPose pose = poses_.at(t);
   State& state = state_;
-  state.update = FusionUpdate{t, std::nullopt, {}};
+  state.update = FusionUpdate{t, std::nullopt};
   if (frame.team_world_ball) {
     const TeammateWorldBall& prior = *frame.team_world_ball;
     state.teammates[prior.robot_id].name = prior.name;
@@ -376,18 +376,11 @@ void BallFusion::process(const Frame& frame) {
           t, [&omni](const Hypothesis& h) { return omni.detection_probability * omniVisibleProbability(h, omni); });
     }
   }
+  // What no track took starts one, but a ball the colour image rejected, a static floater (the match
+  // log has both verdicts in its ball rows) and a discounted teammate's (its event says so).
   for (std::size_t c = 0; c < candidates.size(); ++c) {
-    if (candidate_used[c]) continue;
-    if (candidates[c].colour == fw::ColourVerdict::kRejected) {
-      state.update.rejected.push_back({nameOf(candidates[c]), candidates[c].p_F, "colour"});
-      continue;
-    }
-    if (candidates[c].is_static) {
-      state.update.rejected.push_back({nameOf(candidates[c]), candidates[c].p_F, "static"});
-      continue;
-    }
-    if (discounted[c]) {
-      state.update.rejected.push_back({nameOf(candidates[c]), candidates[c].p_F, "teammate"});
+    if (candidate_used[c] || candidates[c].colour == fw::ColourVerdict::kRejected || candidates[c].is_static ||
+        discounted[c]) {
       continue;
     }
     startTrack(candidates[c], t);
@@ -398,11 +391,6 @@ void BallFusion::process(const Frame& frame) {
 
 const std::string& BallFusion::nameOf(Source source) const {
   return source == Source::kKinect ? config_.kinect.source : config_.omni.source;
-}
-
-std::string BallFusion::nameOf(const Candidate& candidate) const {
-  if (candidate.source != Source::kTeammate) return nameOf(candidate.source);
-  return teammateSource(state_.teammates.at(candidate.teammate).name);
 }
 
 void BallFusion::Track::supportedBy(Source source, int teammate, double t_s) {

@@ -33,14 +33,6 @@
 
 namespace fusion {
 
-// An observation the fusion saw and did not use for the world's ball, and why.
-struct RejectedObservation {
-  std::string source;
-  Eigen::Vector3d position_F = Eigen::Vector3d::Zero();
-  std::string reason;  // "static": in space occupied for seconds, with no flight leading there; "colour": the colour
-                       // image rejected it
-};
-
 // Whether a teammate's Kinect balls agree with what this robot's own sensors see of the ball: a
 // teammate whose localisation is off (a metre, twenty degrees) puts the ball elsewhere.
 struct TeammateStanding {
@@ -55,7 +47,6 @@ struct TeammateStanding {
 struct FusionUpdate {
   double time_s = 0.0;
   std::optional<fw::FusedBall> ball;
-  std::vector<RejectedObservation> rejected;
 };
 
 // How the omni camera's latency relative to the Kinect is learnt: from the bearings of omni balls on
@@ -209,8 +200,7 @@ class BallFusion {
   std::optional<Judgement> judge(const Candidate& candidate, const Track& world,
                                  const std::vector<Hypothesis>& world_branches, double t_s) const;
   void recordJudgement(int teammate, const Judgement& judgement);
-  const std::string& nameOf(Source source) const;        // this robot's own sources
-  std::string nameOf(const Candidate& candidate) const;  // "team:<name>" for a teammate's
+  const std::string& nameOf(Source source) const;  // this robot's own sources
   void maintainTracks(double t_s);
   std::optional<fw::FusedBall> worldBall(double t_s) const;
   // Without a world ball of its own: the freshest world ball of a teammate that is not discounted,
