@@ -15,20 +15,15 @@ set(scenario "^(MatchDay|LoggedDemo|ViewedDemo|ViewedLog|LiveView|Logger|HostPro
 set(heavy "^(OpenNI2Device\\.DeliversTheColourStreamPairedByTimeWithTheBallWhereTheDepthPutsIt|LoggedDemo\\..*|TeamPlugin\\.(ARobotWithoutAKinectHoldsTheLobFromItsTeammatesAndOutsidersAreRefused|ThroughALossyDelayingDuplicatingNetworkTheDefenderStillHoldsTheLob|AKeeperAMetreOffIsDiscountedByTheDefenderAndNotUsed|ThreeRobotsInOneWorldHoldTheLobOnlyTheKeepersKinectSees)|LiveView\\..*|CalibrationAlarm\\..*|ViewedDemo\\.(ThePageShowsTheLobInThreeDimensionsAndInTime|ASecondViewerOnTheSamePortIsRefusedNotShared)|Logger\\.AHostKilledMidRunLeavesALogThatOpensWithEveryCommittedBatch|MatchDay\\.(ALogWhoseClocksJumpReplaysInTheHostAndInReplayWithoutAStall|ADiskThatRefusesWritesMidRunIsSaidWhereRecordingResumes|LogsOpenReadOnlyOnAReadOnlyMountAndAsAnotherUserAndNothingIsWrittenBesideThem)|FusionPlugins\\.(TheDemoRobotFusesTheLobFlyingOverItWhileItDrives|TheAlignmentCheckFindsAKinectTurnedOnTheRobot)|TrajectoryScenario\\.GoalkeeperSeesWhereAShotCrossesItsLine|BallDetector\\.(FindsKicksAndShotsAndNothingElse|NoPhantomsInClutter|PeopleRoundTheRobotAreNotBallsAndABallAmongThemIsFound|KicksOfABallWithDarkPanelsOrBesideAnotherKinectsSpecksAreFound)|SceneMap\\.(WorksInTheFieldFrameAndStartsAfreshWhenAPoseAppears|FlagsABallHungInPlaceAsStaticButNeverAFlyingOne)|ColourCheck\\.(RejectsThePhantomsOfPeopleLampsAndLoudspeakersAndKeepsTheBall|TheDemoRobotsLearntBallIsConfirmedInItsOwnScene|AWhiteBallWithBlackPanelsSmearedInFlightIsNeverRejected)|BallColour\\..*)$")
 
 foreach(test IN LISTS framework_tests_TESTS kinect3d_tests_TESTS fusion_tests_TESTS scene_map_tests_TESTS team_tests_TESTS)
-  # The long tests start first (ctest -j runs them by descending COST, the only order it has on a
-  # clean clone): no minute-long test is left running alone at the end.
-  set(cost 1)
   if(test MATCHES "${browser}")
     set(labels browser)
-    set(cost 10)
   elseif(test MATCHES "${scenario}")
     set(labels scenario)
-    set(cost 10)
   else()
     set(labels unit)
   endif()
   if(NOT test MATCHES "${heavy}")
     list(APPEND labels sanitizer-safe)
   endif()
-  set_tests_properties("${test}" PROPERTIES LABELS "${labels}" COST ${cost})
+  set_tests_properties("${test}" PROPERTIES LABELS "${labels}")
 endforeach()
