@@ -637,11 +637,12 @@ fw::TeamMessage teammateMessage(const fw::RobotPose& true_pose, const fw::RobotP
 
 // This robot at the origin watches `truth` with its Kinect while kinect_sees and with its omni camera
 // while omni_sees (and the ball is in its view); a teammate's Kinect sees it all the time from true_pose and sends what
-// it saw every 50 ms, each message 80-130 ms late and a fifth of them lost (none sent without a believed_pose).
+// it saw every 50 ms, each message 80-130 ms late and a fifth of them lost (none sent without a believed_pose);
+// with_world_ball: each message also carries the teammate's world ball, its newest Kinect ball.
 // Everything reaches the fusion in arrival order.
 FedRun feedWithTeammate(fusion::BallFusion& fusion, const Truth& truth, double duration_s, const Sees& kinect_sees,
                         const Sees& omni_sees, const fw::RobotPose& true_pose,
-                        const std::optional<fw::RobotPose>& believed_pose) {
+                        const std::optional<fw::RobotPose>& believed_pose, bool with_world_ball = false) {
   std::mt19937 random(11);
   std::uniform_real_distribution<double> unit(0.0, 1.0);
   FedRun run;
@@ -665,7 +666,17 @@ FedRun feedWithTeammate(fusion::BallFusion& fusion, const Truth& truth, double d
       if (unit(random) > 0.2 && believed_pose) {
         fw::RobotPose believed = *believed_pose;
         believed.stamp.source_time_s = t;
-        in_flight.emplace_back(t + 0.08 + 0.05 * unit(random), teammateMessage(true_pose, believed, unsent, random));
+        fw::TeamMessage message = teammateMessage(true_pose, believed, unsent, random);
+        if (with_world_ball) {
+          fw::FusedBall world;
+          world.position_F = message.kinect_balls.back().position_m;
+          world.covariance_F = message.kinect_balls.back().covariance_m2;
+          world.sources = {"kinect3d"};
+          world.age_s = 0.0;
+          world.stamp.source_time_s = message.kinect_balls.back().stamp.source_time_s;
+          message.world_ball = world;
+        }
+        in_flight.emplace_back(t + 0.08 + 0.05 * unit(random), message);
       }
       unsent.clear();
     }
@@ -701,8 +712,9 @@ TEST(Fusion, ALobOnlyATeammatesKinectSeesIsHeldInTheAirFromItsMessages) {
 TEST(Fusion, AMislocalisedTeammateIsDiscountedAndDoesNotMoveTheBall) {
   // The ball rolls in front of this robot, which sees it with both sensors for 1.5 s, then a robot
   // hides it; the keeper sees it all the time but believes it stands a metre from where it does, or
-  // turned by twenty degrees. After each of this robot's own frames, its world ball must lie where it
-  // would without the keeper: its balls must not become the world's when this robot's own go.
+  // turned by twenty degrees, and sends its world ball too. After each of this robot's own frames,
+  // its world ball must lie where it would without the keeper: neither its balls nor its world ball
+  // may become the world's when this robot's own go.
   const Truth rolling = [](double t) {
     const double tau = std::min(t - kT0, 2.5);  // 1 m/s, slowing by 0.4 m/s^2 as the fusion expects
     return Eigen::Vector3d(-0.5 + tau - 0.2 * tau * tau, 3.0, kRadius);
@@ -713,7 +725,7 @@ TEST(Fusion, AMislocalisedTeammateIsDiscountedAndDoesNotMoveTheBall) {
   const FedRun without = feedWithTeammate(alone, rolling, 4.0, until_hidden, until_hidden, keeper, std::nullopt);
   for (const fw::RobotPose& believed : {poseAt(1.5, 7.0, M_PI, kT0), poseAt(0.5, 7.0, M_PI + 0.35, kT0)}) {
     fusion::BallFusion fusion(testConfig());
-    const FedRun run = feedWithTeammate(fusion, rolling, 4.0, until_hidden, until_hidden, keeper, believed);
+    const FedRun run = feedWithTeammate(fusion, rolling, 4.0, until_hidden, until_hidden, keeper, believed, true);
     std::vector<const fusion::FusionUpdate*> own;
     for (std::size_t i = 0; i < run.updates.size(); ++i) {
       if (!run.from_teammate[i]) own.push_back(&run.updates[i]);
