@@ -261,6 +261,30 @@ TEST(TeamPlugin, AKeeperAMetreOffIsDiscountedByTheDefenderAndNotUsed) {
   EXPECT_EQ(with_keeper_after, 0);
 }
 
+// The team world's lob in one robot's match log: the error of each world ball in the air while the true
+// ball was 0.5 m up (the log's times on the world's clock from world_start_s), of the keeper's own or,
+// for a teammate, of those that used the keeper's messages; and how many world balls there were then.
+struct LobInTheAir {
+  std::vector<double> errors_m;
+  int world_balls = 0;
+};
+LobInTheAir lobInTheAir(const std::string& log_folder, const kinect3d::sim::BallMotion& truth, double world_start_s,
+                        bool keeper_itself) {
+  LobInTheAir lob;
+  for (const fw::JournalEntry& entry : fw::MatchLogReader(log_folder).entries()) {
+    const auto* ball = std::get_if<fw::FusedBall>(&entry.item);
+    if (ball == nullptr) continue;
+    const Eigen::Vector3d true_F = truth.positionAt(ball->stamp.source_time_s - world_start_s);
+    if (true_F.z() < 0.5) continue;
+    ++lob.world_balls;
+    if (ball->state == fw::BallState::kAir &&
+        (keeper_itself || std::count(ball->sources.begin(), ball->sources.end(), "team:keeper") > 0)) {
+      lob.errors_m.push_back((ball->position_F - true_F).norm());
+    }
+  }
+  return lob;
+}
+
 TEST(TeamPlugin, ThreeRobotsInOneWorldHoldTheLobOnlyTheKeepersKinectSees) {
   // Three hosts simulate one world (tests/data/scenes/team/: the demo's lob kicked over the defender;
   // the keeper 6 m behind it facing the kick, with a Kinect; the striker 3 m to its right), its time
@@ -301,29 +325,47 @@ TEST(TeamPlugin, ThreeRobotsInOneWorldHoldTheLobOnlyTheKeepersKinectSees) {
     }
   }
   for (const char* name : {"keeper", "defender", "striker"}) {
-    std::vector<double> air_errors_m;
-    int in_air = 0;
-    for (const fw::JournalEntry& entry : fw::MatchLogReader(onlySubfolder(dir.path() / name)).entries()) {
-      const auto* ball = std::get_if<fw::FusedBall>(&entry.item);
-      if (ball == nullptr) continue;
-      const Eigen::Vector3d true_F = truth.positionAt(ball->stamp.source_time_s - world_start_s);
-      if (true_F.z() < 0.5) continue;
-      ++in_air;
-      if (ball->state == fw::BallState::kAir &&
-          (std::string(name) == "keeper" ||
-           std::count(ball->sources.begin(), ball->sources.end(), "team:keeper") > 0)) {
-        air_errors_m.push_back((ball->position_F - true_F).norm());
-      }
-    }
-    ASSERT_GE(air_errors_m.size(), 15u) << name << ": " << in_air << " world balls while the lob was 0.5 m up";
-    // The target is 0.15 m. Here the keeper's own Kinect, 4-11 m from the flight, is 0.07-0.12 m
-    // median and its teammates 0.11-0.25 m over runs (docs/team.md): a guard against losing the lob,
-    // not the target.
-    EXPECT_LE(fw::quantile(air_errors_m, 0.5), 0.35) << name;
+    const bool keeper_itself = std::string(name) == "keeper";
+    const LobInTheAir lob = lobInTheAir(onlySubfolder(dir.path() / name), truth, world_start_s, keeper_itself);
+    ASSERT_GE(lob.errors_m.size(), 15u) << name << ": " << lob.world_balls << " world balls while the lob was 0.5 m up";
+    // The target is 0.15 m. Here the keeper's own Kinect, 4-11 m from the flight, is 0.10-0.11 m
+    // median and its teammates 0.08-0.18 m over runs (docs/team.md): a guard against losing the lob,
+    // not the target, which TheDefendersRecordedRunHoldsTheLobFromTheKeepersMessages holds a run to.
+    EXPECT_LE(fw::quantile(lob.errors_m, 0.5), 0.35) << name;
     std::printf("%s: the lob in the air %s, %.3f m median, %.3f m p90 (%zu of %d world balls while it was 0.5 m up)\n",
-                name, std::string(name) == "keeper" ? "from its own Kinect" : "from the keeper's messages",
-                fw::quantile(air_errors_m, 0.5), fw::quantile(air_errors_m, 0.9), air_errors_m.size(), in_air);
+                name, keeper_itself ? "from its own Kinect" : "from the keeper's messages",
+                fw::quantile(lob.errors_m, 0.5), fw::quantile(lob.errors_m, 0.9), lob.errors_m.size(), lob.world_balls);
   }
+  // A run's logs kept for tests/data/team_run/ (its README says how they were made).
+  if (const char* keep = std::getenv("KINECT3D_KEEP_TEAM_LOGS")) {
+    std::filesystem::copy(dir.path(), keep, std::filesystem::copy_options::recursive);
+  }
+}
+
+TEST(TeamPlugin, TheDefendersRecordedRunHoldsTheLobFromTheKeepersMessages) {
+  // tests/data/team_run/defender/: the defender's match log from one run of
+  // ThreeRobotsInOneWorldHoldTheLobOnlyTheKeepersKinectSees (a fifth of the packets lost, up to 200 ms
+  // late), replayed through its own plugins: the teammates' messages arrive as they did then, so the
+  // fusion meets the same network every time, where a live run draws a new one.
+  const ScopedTempDir dir;
+  const std::string replayed = replayInto(std::string(TEST_DATA_DIR) + "/team_run/defender", dir.path());
+  const fw::MatchLogReader log(replayed);
+  const double world_start_s = fw::Config::parseDocument(log.run().config_yaml, "the replay's configuration")
+                                   .root()
+                                   .child("host")
+                                   .getDouble("sim_world_start_wall_s", 1.0, 1e10);
+  const kinect3d::sim::Scene scene =
+      kinect3d::sim::loadScene(std::string(TEST_DATA_DIR) + "/scenes/team/defender.yaml");
+  const kinect3d::sim::BallMotion truth(*scene.ball, scene.physics, scene.duration_s, scene.objects);
+  const LobInTheAir lob = lobInTheAir(replayed, truth, world_start_s, false);
+  ASSERT_GE(lob.errors_m.size(), 30u) << lob.world_balls << " world balls while the lob was 0.5 m up";
+  // A lob only a teammate's Kinect sees, held within the 0.15 m (median). Until a Kinect ball
+  // that finds a lost ball stopped setting the velocity with confidence, this run gave 0.152 m, and
+  // 0.39 m at the 90th percentile.
+  EXPECT_LE(fw::quantile(lob.errors_m, 0.5), 0.15);
+  EXPECT_LE(fw::quantile(lob.errors_m, 0.9), 0.35);
+  std::printf("the recorded defender: the lob in the air %.3f m median, %.3f m p90 (%zu world balls)\n",
+              fw::quantile(lob.errors_m, 0.5), fw::quantile(lob.errors_m, 0.9), lob.errors_m.size());
 }
 
 TEST(TeamPlugin, ARobotFileWithoutItsIdOrKeyIsRefusedNamingTheKey) {

@@ -293,6 +293,15 @@ void BallFilter::update(std::vector<Hypothesis> branches, double t_s, const Meas
   time_s_ = std::max(time_s_, t_s);
 }
 
+void BallFilter::forgetVelocity(double sigma_mps) {
+  for (Hypothesis& h : hypotheses_) {
+    h.P.topRightCorner<3, 3>().setZero();
+    h.P.bottomLeftCorner<3, 3>().setZero();
+    h.P.bottomRightCorner<3, 3>() = sigma_mps * sigma_mps * Eigen::Matrix3d::Identity();
+    if (h.mode == fw::BallState::kGround) keepOnFloor(h);
+  }
+}
+
 void BallFilter::notSeen(double t_s, const std::function<double(const Hypothesis&)>& detection_probability) {
   // Each mode is looked for where it would be now, without branching: a look that found nothing
   // says where the ball is not, and is no reason to widen the state by another step's kicks.
@@ -355,8 +364,10 @@ void BallFilter::mergePerMode(std::vector<Hypothesis>& branches) {
   hypotheses_ = std::move(merged);
 }
 
-const Hypothesis& BallFilter::best() const {
-  return *std::max_element(hypotheses_.begin(), hypotheses_.end(),
+const Hypothesis& BallFilter::best() const { return likeliest(hypotheses_); }
+
+const Hypothesis& BallFilter::likeliest(const std::vector<Hypothesis>& branches) {
+  return *std::max_element(branches.begin(), branches.end(),
                            [](const Hypothesis& a, const Hypothesis& b) { return a.weight < b.weight; });
 }
 

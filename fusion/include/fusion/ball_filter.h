@@ -81,6 +81,9 @@ class BallFilter {
   static MeasurementFit fit(const std::vector<Hypothesis>& branches, const MeasurementModel& measurement);
   // Updates every branch with the measurement, reweights and merges them per mode at t_s.
   void update(std::vector<Hypothesis> branches, double t_s, const MeasurementModel& measurement);
+  // Keeps every mode's velocity but not what it believed of it: sigma_mps in each axis, and no link to
+  // the position (a velocity derived from a position the filter had lost is a guess).
+  void forgetVelocity(double sigma_mps);
   // Moves to t_s without a measurement.
   void predict(double t_s);
   // A sensor looked at t_s and did not see the ball: each mode loses weight by the chance that the
@@ -90,6 +93,8 @@ class BallFilter {
 
   // The more probable mode's hypothesis, and the weight of the air mode.
   const Hypothesis& best() const;
+  // The branch of most weight.
+  static const Hypothesis& likeliest(const std::vector<Hypothesis>& branches);
   // Whether a flying hypothesis rises, now or after its next bounce, higher than kNoticeableHop_m
   // above rest: lower hops are the ball rolling on for any robot, and are reported on the ground.
   bool hopsNoticeably(const Hypothesis& h) const;
