@@ -376,6 +376,7 @@ void BallFusion::process(const Frame& frame) {
     if (reacquired) track.filter.forgetVelocity(config_.track.initial_speed_sigma_mps);
     ++track.updates;
     track.supportedBy(c.source, c.teammate, t);
+    if (c.locates()) track.last_located_s = t;
     if (track.filter.best().mode == fw::BallState::kGround) track.seen_on_ground = true;
   }
   // The omni camera looked all round and did not see these balls: where it should have, the
@@ -554,6 +555,7 @@ void BallFusion::startTrack(const Candidate& candidate, double t_s) {
   track.updates = 1;
   track.born_s = t_s;
   track.supportedBy(candidate.source, candidate.teammate, t_s);
+  if (candidate.locates()) track.last_located_s = t_s;
   track.seen_on_ground = !candidate.in_air;
   track.omni_born = candidate.source == Source::kOmni || candidate.ray_origin_F.has_value();
   track.colour_confirmed = candidate.colour == fw::ColourVerdict::kConfirmed;
@@ -583,17 +585,23 @@ void BallFusion::maintainTracks(double t_s) {
                       best.x.tail<3>().norm() - speed_sigma > config.min_flight_speed_mps;
   }
   // The world's ball is kept while it is supported, and while it flies (a flight above the omni's
-  // view and out of the Kinect's is carried, not swapped for another ball); on the ground without
-  // support for kWorldSwitchAfter_s it gives way to a confirmed track supported since, and it is
-  // dropped when lost.
+  // view and out of the Kinect's is carried, not swapped for another ball) until a Kinect, this
+  // robot's or a teammate's, locates another confirmed ball: then the flight was lost, not hidden.
+  // On the ground without support for kWorldSwitchAfter_s it gives way to a confirmed track supported
+  // since, and it is dropped when lost.
   const auto world =
       std::find_if(tracks.begin(), tracks.end(), [&](const Track& track) { return track.id == state_.world_id; });
-  if (world != tracks.end() && (t_s - world->last_support_s <= kWorldSwitchAfter_s || world->flying())) {
+  const bool carried = world != tracks.end() && world->flying();
+  const auto locatedSince = [&](const Track& track) {
+    return track.confirmed && track.last_located_s > world->last_support_s;
+  };
+  if (world != tracks.end() && (t_s - world->last_support_s <= kWorldSwitchAfter_s ||
+                                (carried && std::none_of(tracks.begin(), tracks.end(), locatedSince)))) {
     return;
   }
   const Track* chosen = world != tracks.end() ? &*world : nullptr;
   for (const Track& track : tracks) {
-    if (!track.confirmed) continue;
+    if (!track.confirmed || (carried && !locatedSince(track))) continue;
     if (!chosen || track.last_support_s > chosen->last_support_s ||
         (track.last_support_s == chosen->last_support_s && track.updates > chosen->updates)) {
       chosen = &track;

@@ -118,6 +118,7 @@ class BallFusion {
     double last_kinect_s = -1e18;
     double last_omni_s = -1e18;
     std::map<int, double> last_teammate_s = {};  // by robot id
+    double last_located_s = -1e18;               // a Kinect, this robot's or a teammate's, placed it in 3D
     bool seen_on_ground = false;                 // a lamp is only ever seen in the air
     bool omni_born = false;                      // started by an omni ball: perhaps the phantom of a ball in the air
     bool colour_confirmed = false;               // the colour image confirmed one of its Kinect balls
