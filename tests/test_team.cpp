@@ -2,11 +2,14 @@
 // window that refuses replayed packets and the clock exchange between two robots.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <functional>
 #include <limits>
 #include <map>
+#include <optional>
 #include <random>
 #include <string>
 #include <vector>
@@ -283,55 +286,112 @@ TEST(ReplayWindow, TakesEachSequenceOnceInAnyOrderWithinTheWindow) {
   EXPECT_TRUE(window.accept(2, 999999));
 }
 
-TEST(TeammateClock, LearnsAClockASecondOffThroughDelayLossAndReordering) {
-  // Robot B's clock runs 1.000 s ahead of A's. Each way takes 1-200 ms (Wi-Fi queues), a fifth of
-  // the packets are lost; A and B each send at 20 Hz and echo the other's newest.
-  std::mt19937 random(7);
+// What robot A knew of robot B's clock each time a packet from B arrived (A's clock).
+struct ClockSeen {
+  double t_s, truth_s;  // B's clock minus A's then
+  std::optional<double> offset_s;
+  double sigma_s;
+};
+// A and B each send every 50 ms, B's echoing the newest of A's to have reached it; each way takes
+// 1-200 ms (Wi-Fi queues, so packets overtake each other) and a fifth of the packets are lost. B's
+// clock reads b_minus_a(t) ahead of A's at A's time t.
+std::vector<ClockSeen> exchangeClocks(double duration_s, const std::function<double(double)>& b_minus_a,
+                                      unsigned seed) {
+  std::mt19937 random(seed);
   std::uniform_real_distribution<double> delay_s(0.001, 0.2), unit(0.0, 1.0);
-  const double b_minus_a_s = 1.0;
-  team::TeammateClock clock_of_b;  // on robot A
-  struct InFlight {
-    double sent_a, arrive_at_b;
+  struct Packet {
+    double sent_s, arrives_s;                       // A's clock
+    std::optional<std::pair<double, double>> echo;  // B's: A's packet it echoes, as sent and arrived
   };
-  std::vector<InFlight> to_b;
-  double newest_from_a_sent = NAN, newest_from_a_received_b = NAN;
-  for (int step = 0; step < 20 * 30; ++step) {
-    const double t_a = 0.05 * step;  // A's clock
-    if (unit(random) > 0.2) to_b.push_back({t_a, t_a + delay_s(random)});
-    // What reached B by now becomes B's newest from A (a reordered older one does not).
+  std::vector<Packet> to_b, to_a;
+  std::optional<Packet> newest_at_b;
+  team::TeammateClock clock_of_b;  // on robot A
+  std::vector<ClockSeen> seen;
+  for (int step = 0; 0.05 * step < duration_s; ++step) {
+    const double t = 0.05 * step;
+    if (unit(random) > 0.2) to_b.push_back({t, t + delay_s(random), std::nullopt});
     for (auto it = to_b.begin(); it != to_b.end();) {
-      if (it->arrive_at_b <= t_a) {
-        if (std::isnan(newest_from_a_sent) || it->sent_a > newest_from_a_sent) {
-          newest_from_a_sent = it->sent_a;
-          newest_from_a_received_b = it->arrive_at_b + b_minus_a_s;
-        }
-        it = to_b.erase(it);
-      } else {
+      if (it->arrives_s > t) {
         ++it;
+        continue;
       }
+      if (!newest_at_b || it->sent_s > newest_at_b->sent_s) newest_at_b = *it;
+      it = to_b.erase(it);
     }
-    // B replies now with its echo of A's newest; A receives it after the way back.
-    if (!std::isnan(newest_from_a_sent) && unit(random) > 0.2) {
-      const double t3_b = t_a + 0.025 + b_minus_a_s;
-      const double t4_a = t_a + 0.025 + delay_s(random);
-      clock_of_b.addExchange(newest_from_a_sent, newest_from_a_received_b, t3_b, t4_a);
+    const double b_sends_s = t + 0.025;
+    if (unit(random) > 0.2) {
+      Packet packet{b_sends_s, b_sends_s + delay_s(random), std::nullopt};
+      if (newest_at_b) packet.echo = std::make_pair(newest_at_b->sent_s, newest_at_b->arrives_s);
+      to_a.push_back(packet);
+    }
+    // What reaches A before its next step, in the order it arrives.
+    std::sort(to_a.begin(), to_a.end(), [](const Packet& a, const Packet& b) { return a.arrives_s < b.arrives_s; });
+    while (!to_a.empty() && to_a.front().arrives_s <= t + 0.05) {
+      const Packet& packet = to_a.front();
+      if (packet.echo) clock_of_b.echoed(packet.echo->first, packet.echo->second + b_minus_a(packet.echo->second));
+      clock_of_b.heard(packet.sent_s + b_minus_a(packet.sent_s), packet.arrives_s);
+      seen.push_back({packet.arrives_s, b_minus_a(packet.arrives_s), clock_of_b.offset_s(), clock_of_b.sigma_s()});
+      to_a.erase(to_a.begin());
     }
   }
-  ASSERT_TRUE(clock_of_b.offset_s());
-  EXPECT_NEAR(*clock_of_b.offset_s(), b_minus_a_s, clock_of_b.sigma_s() + 1e-9);
-  EXPECT_LT(clock_of_b.sigma_s(), 0.03) << "the best of hundreds of exchanges is quick";
-  EXPECT_GT(clock_of_b.exchanges(), 100);
+  return seen;
 }
 
-TEST(TeammateClock, KnowsNothingBeforeAnExchangeAndIgnoresAnImpossibleOne) {
+TEST(TeammateClock, LearnsAClockASecondOffThroughDelayLossAndReorderingWithinABoundThatNarrowsFast) {
+  const std::vector<ClockSeen> seen = exchangeClocks(
+      30.0, [](double) { return 1.0; }, 7);
+  ASSERT_GT(seen.size(), 400u);
+  for (const ClockSeen& s : seen) {
+    if (!s.offset_s) continue;
+    EXPECT_NEAR(*s.offset_s, s.truth_s, s.sigma_s + 1e-9) << "at " << s.t_s << " s: within its own bound";
+  }
+  ASSERT_TRUE(seen[2].offset_s) << "known from the first echo";
+  // Each way's quickest packet bounds the offset, not the quickest pair: within a second (some 16
+  // packets each way) a bound of tens of milliseconds, the best of a few milliseconds.
+  const auto at = [&](double t_s) {
+    return *std::find_if(seen.begin(), seen.end(), [&](const ClockSeen& s) { return s.t_s >= t_s; });
+  };
+  EXPECT_LT(at(1.0).sigma_s, 0.025);
+  EXPECT_LT(seen.back().sigma_s, 0.005);
+}
+
+TEST(TeammateClock, FollowsATeammatesClockThatIsSetDuringTheMatch) {
+  // B's clock is set half a second forward, or back, ten seconds in (NTP stepping it once it reaches
+  // its server): the bounds from before that the new ones contradict are dropped.
+  for (const double step_s : {0.5, -0.5}) {
+    const std::vector<ClockSeen> seen = exchangeClocks(
+        20.0, [&](double t) { return t < 10.0 ? 1.0 : 1.0 + step_s; }, 11);
+    int after = 0;
+    for (const ClockSeen& s : seen) {
+      if (s.t_s < 11.0) continue;
+      ++after;
+      ASSERT_TRUE(s.offset_s);
+      EXPECT_NEAR(*s.offset_s, s.truth_s, s.sigma_s + 1e-9) << step_s << " s set, at " << s.t_s << " s";
+      EXPECT_LT(s.sigma_s, 0.05) << step_s << " s set, at " << s.t_s << " s";
+    }
+    EXPECT_GT(after, 100);
+  }
+}
+
+TEST(TeammateClock, KnowsNothingBeforeABoundEachWayAndDropsWhatNewerPacketsContradict) {
   team::TeammateClock clock;
   EXPECT_FALSE(clock.offset_s());
-  clock.addExchange(10.0, 11.0, 11.5, 10.2);  // the reply came back before it was sent, by B's hold time
-  EXPECT_FALSE(clock.offset_s());
-  clock.addExchange(10.0, 11.05, 11.1, 10.2);
+  clock.heard(11.1, 10.2);  // sent at 11.1 on its clock, here at 10.2: its clock is at least 0.9 ahead
+  EXPECT_FALSE(clock.offset_s()) << "no bound from above yet";
+  clock.echoed(10.0, 11.05);  // ours sent at 10.0 reached it at 11.05: at most 1.05 ahead
   ASSERT_TRUE(clock.offset_s());
-  EXPECT_NEAR(*clock.offset_s(), ((11.05 - 10.0) + (11.1 - 10.2)) / 2, 1e-12);
-  EXPECT_NEAR(clock.sigma_s(), ((10.2 - 10.0) - (11.1 - 11.05)) / 2, 1e-12);
+  EXPECT_NEAR(*clock.offset_s(), (0.9 + 1.05) / 2, 1e-12);
+  EXPECT_NEAR(clock.sigma_s(), (1.05 - 0.9) / 2, 1e-12);
+  clock.heard(12.0, 10.96);  // a quicker one: at least 1.04
+  EXPECT_NEAR(*clock.offset_s(), (1.04 + 1.05) / 2, 1e-12);
+  EXPECT_NEAR(clock.sigma_s(), 0.005, 1e-12);
+  // Its clock was set back by a second: its packets contradict what came before, which is dropped.
+  clock.echoed(12.0, 12.06);  // at most 0.06 ahead: the lower bounds of 0.9 and 1.04 go
+  EXPECT_FALSE(clock.offset_s());
+  clock.heard(12.1, 12.08);  // at least 0.02
+  EXPECT_NEAR(*clock.offset_s(), 0.04, 1e-12);
+  clock.heard(std::nan(""), 12.2);
+  EXPECT_NEAR(*clock.offset_s(), 0.04, 1e-12) << "a time that is not finite bounds nothing";
 }
 
 }  // namespace

@@ -69,6 +69,13 @@ struct Lob {
   }
 };
 
+// KINECT3D_KEEP_TEAM_LOGS=<dir>: a live run's logs copied there, to replay (kinect3d replay) or keep.
+void keepLogsIfAsked(const ScopedTempDir& dir) {
+  if (const char* keep = std::getenv("KINECT3D_KEEP_TEAM_LOGS")) {
+    std::filesystem::copy(dir.path(), keep, std::filesystem::copy_options::recursive);
+  }
+}
+
 // Plays the scene on every host (the receiver first), until those with sources have played it; stops
 // the others, then the receiver once it has taken in everything that reached it: its world state still
 // for a few of its fusion's steps (else its log could hold a message its fusion never read, which its
@@ -220,6 +227,7 @@ TEST(TeamPlugin, ThroughALossyDelayingDuplicatingNetworkTheDefenderStillHoldsThe
   EXPECT_LE(fw::quantile(received.air_offs_m, 0.9), 0.5);
   std::printf("in the air from the keeper's messages: %.3f m median, %.3f m p90 off the true flight\n",
               fw::quantile(received.air_offs_m, 0.5), fw::quantile(received.air_offs_m, 0.9));
+  keepLogsIfAsked(dir);
   std::printf("the keeper sent %.0f bytes/s in %.1f packets/s (%.0f bytes each)\n", from_keeper.bytes_in / played_s,
               from_keeper.packets_in / played_s,
               static_cast<double>(from_keeper.bytes_in) / static_cast<double>(from_keeper.packets_in));
@@ -337,10 +345,7 @@ TEST(TeamPlugin, ThreeRobotsInOneWorldHoldTheLobOnlyTheKeepersKinectSees) {
                 name, keeper_itself ? "from its own Kinect" : "from the keeper's messages",
                 fw::quantile(lob.errors_m, 0.5), fw::quantile(lob.errors_m, 0.9), lob.errors_m.size(), lob.world_balls);
   }
-  // A run's logs kept for tests/data/team_run/ (its README says how they were made).
-  if (const char* keep = std::getenv("KINECT3D_KEEP_TEAM_LOGS")) {
-    std::filesystem::copy(dir.path(), keep, std::filesystem::copy_options::recursive);
-  }
+  keepLogsIfAsked(dir);  // for tests/data/team_run/ (its README says how they were made)
 }
 
 TEST(TeamPlugin, TheDefendersRecordedRunHoldsTheLobFromTheKeepersMessages) {

@@ -183,27 +183,40 @@ bool ReplayWindow::accept(int robot_id, std::uint64_t sequence) {
   return true;
 }
 
-void TeammateClock::addExchange(double t1, double t2, double t3, double t4) {
-  const double round_trip_s = (t4 - t1) - (t3 - t2);
-  if (!(round_trip_s >= 0.0) || !std::isfinite(t1 + t2 + t3 + t4)) return;  // an echo of something else
-  samples_.push_back({((t2 - t1) + (t3 - t4)) / 2.0, round_trip_s, t4});
-  while (samples_.size() > 1 && samples_.front().t4 < t4 - kWindow_s) samples_.pop_front();
+void TeammateClock::heard(double t3_s, double t4_s) { add({t3_s - t4_s, t4_s}, true); }
+
+void TeammateClock::echoed(double t1_s, double t2_s) { add({t2_s - t1_s, t1_s}, false); }
+
+void TeammateClock::add(Bound bound, bool lower) {
+  if (!std::isfinite(bound.offset_s) || !std::isfinite(bound.at_s)) return;
+  std::deque<Bound>& same = lower ? lower_ : upper_;
+  std::deque<Bound>& other = lower ? upper_ : lower_;
+  const auto contradicted = [&](const Bound& b) {
+    return lower ? b.offset_s < bound.offset_s : b.offset_s > bound.offset_s;
+  };
+  other.erase(std::remove_if(other.begin(), other.end(), contradicted), other.end());
+  same.push_back(bound);
+  newest_s_ = std::max(newest_s_, bound.at_s);
+  for (std::deque<Bound>* way : {&lower_, &upper_}) {
+    while (way->size() > 1 && way->front().at_s < newest_s_ - kWindow_s) way->pop_front();  // each keeps its newest
+  }
 }
 
-const TeammateClock::Sample* TeammateClock::best() const {
-  if (samples_.empty()) return nullptr;
-  return &*std::min_element(samples_.begin(), samples_.end(),
-                            [](const Sample& a, const Sample& b) { return a.round_trip_s < b.round_trip_s; });
+std::optional<std::pair<double, double>> TeammateClock::tightest() const {
+  if (lower_.empty() || upper_.empty()) return std::nullopt;
+  const auto byOffset = [](const Bound& a, const Bound& b) { return a.offset_s < b.offset_s; };
+  return std::make_pair(std::max_element(lower_.begin(), lower_.end(), byOffset)->offset_s,
+                        std::min_element(upper_.begin(), upper_.end(), byOffset)->offset_s);
 }
 
 std::optional<double> TeammateClock::offset_s() const {
-  if (const Sample* sample = best()) return sample->offset_s;
+  if (const auto bounds = tightest()) return (bounds->first + bounds->second) / 2.0;
   return std::nullopt;
 }
 
 double TeammateClock::sigma_s() const {
-  const Sample* sample = best();
-  return sample ? sample->round_trip_s / 2.0 : 0.0;
+  const auto bounds = tightest();
+  return bounds ? (bounds->second - bounds->first) / 2.0 : 0.0;
 }
 
 }  // namespace team

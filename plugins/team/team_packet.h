@@ -7,9 +7,11 @@
 #include <array>
 #include <cstdint>
 #include <deque>
+#include <limits>
 #include <map>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace team {
@@ -85,26 +87,35 @@ class ReplayWindow {
   std::map<int, Seen> seen_;
 };
 
-// The offset of a teammate's clock from this robot's, from the NTP exchange (ClockEcho): this robot
-// sent at t1 (its clock), the teammate received it at t2 and sent its reply at t3 (its clock), the
-// reply arrived at t4 (this robot's clock). Each exchange gives the offset ((t2 - t1) + (t3 - t4)) / 2
-// within half its round trip (t4 - t1) - (t3 - t2); the estimate is the exchange with the shortest
-// round trip of the last kWindow_s, since queueing on the network only ever adds delay.
+// The offset of a teammate's clock from this robot's, from the times its packets carry. A message it
+// sent at t3 (its clock) that arrived here at t4 (this robot's) after a delay d >= 0 puts the offset
+// at t3 - t4 + d: at least t3 - t4. Its echo of a message of ours, sent at t1 (ours) and arrived there
+// at t2 (its), puts it at t2 - t1 - d: at most t2 - t1. Queueing only ever adds delay, so the tightest
+// bounds of the last kWindow_s (each way's quickest packet) pin the offset: the estimate is their
+// middle, within half their gap. NTP takes both ways from one exchange; taken apart, a quick packet
+// each way is enough, where a quick exchange needs two quick packets at once.
 class TeammateClock {
  public:
   static constexpr double kWindow_s = 30.0;
-  void addExchange(double t1, double t2, double t3, double t4);
-  // The teammate's clock minus this robot's, once an exchange completed.
+  // A message of the teammate's: sent at t3_s (its clock), arrived at t4_s (this robot's).
+  void heard(double t3_s, double t4_s);
+  // Its echo of a message of ours: sent at t1_s (this robot's clock), arrived there at t2_s (its).
+  void echoed(double t1_s, double t2_s);
+  // The teammate's clock minus this robot's, once there is a bound each way.
   std::optional<double> offset_s() const;
-  double sigma_s() const;  // half the round trip of the exchange the estimate rests on
-  int exchanges() const { return static_cast<int>(samples_.size()); }
+  double sigma_s() const;  // half the gap between the bounds: the offset lies within it
 
  private:
-  struct Sample {
-    double offset_s, round_trip_s, t4;
+  struct Bound {
+    double offset_s, at_s;  // at_s: when, on this robot's clock
   };
-  const Sample* best() const;  // the shortest round trip; nullptr before the first
-  std::deque<Sample> samples_;
+  // Adds a lower or an upper bound; those the other way that it contradicts are dropped (the clocks
+  // moved against each other: a clock was set, or drifted over the window).
+  void add(Bound bound, bool lower);
+  // The highest lower bound and the lowest upper bound, once there is one each way.
+  std::optional<std::pair<double, double>> tightest() const;
+  std::deque<Bound> lower_, upper_;
+  double newest_s_ = -std::numeric_limits<double>::infinity();
 };
 
 }  // namespace team

@@ -30,7 +30,7 @@
 
 namespace {
 
-// Teammates' newest message is echoed for this long (then the exchange has too long a round trip to help).
+// A teammate's newest message is echoed while it is this recent (one gone quiet is not echoed forever).
 constexpr double kEchoFor_s = 2.0;
 // At most this many of each kind of observation go into one message: the newest.
 constexpr std::size_t kMaxObservationsPerMessage = 8;
@@ -131,8 +131,8 @@ class TeamNetwork {
     }
   }
 
-  // A teammate's message: its echo of ours completes a clock exchange; once the offset between the
-  // clocks is known, its times are moved onto the clock this robot's fusion works on (its Kinect's,
+  // A teammate's message: its send time and its echo of ours bound the offset between the clocks;
+  // once there is a bound each way, its times are moved onto the clock this robot's fusion works on (its Kinect's,
   // else its omni camera's) and it is published. Moved here, once, so that a replay of the log hands
   // the fusion exactly what it had.
   void accept(fw::TeamMessage message, double received_s) {
@@ -140,9 +140,9 @@ class TeamNetwork {
     mate.last_sent_s = message.sent_time_s;
     mate.last_received_s = received_s;
     for (const fw::ClockEcho& echo : message.echoes) {
-      if (echo.robot_id == robot_id_)
-        mate.clock.addExchange(echo.their_sent_s, echo.received_s, message.sent_time_s, received_s);
+      if (echo.robot_id == robot_id_) mate.clock.echoed(echo.their_sent_s, echo.received_s);
     }
+    mate.clock.heard(message.sent_time_s, received_s);
     const std::optional<double> offset_s = mate.clock.offset_s();
     if (!offset_s) {
       refuse(team::Refusal::kNoClock, message.robot_name, "the clock exchange has not completed");

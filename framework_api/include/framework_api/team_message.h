@@ -56,8 +56,8 @@ struct TeamMessage {
   std::vector<ClockEcho> echoes;
 
   // Set by the receiver: the sender's clock minus this robot's fusion clock, by which the times were
-  // moved, and the 1-sigma of the two hosts' offset in it (half the best round trip); and when the
-  // packet arrived (this host's clock).
+  // moved, and the 1-sigma of the two hosts' offset in it (half the gap between the clock exchange's
+  // bounds); and when the packet arrived (this host's clock).
   double clock_offset_s = 0.0;
   double clock_offset_sigma_s = 0.0;
   double receive_time_s = 0.0;
