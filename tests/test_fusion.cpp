@@ -232,6 +232,23 @@ TEST(FusionFilter, ABallAboveTheOmniViewNeitherExplainsNorIsMovedByAnOmniBall) {
   EXPECT_EQ(filter.airProbability(), 0.0) << "the omni ball is credited to the ball it can see";
 }
 
+TEST(FusionFilter, AnOmniBallNeverPutsAFlyingBallBelowTheFloor) {
+  // Believed 0.3 m up and falling fast, with its height and speed uncertain, the ball is on the floor
+  // nearer the robot. The ray to it goes on below the floor past the ball: unconstrained, the update
+  // follows it there (a world ball 1.7 m under the floor came so from a live run's omni camera).
+  const fw::RobotPose pose = poseAt(0.0, 0.0, 0.0, kT0);
+  const fusion::FusionConfig config = testConfig();
+  fusion::Hypothesis falling = hypothesis(fw::BallState::kAir, state(0.0, 2.0, 0.3, 0.0, 0.0, -4.0), 0.25);
+  falling.P.bottomRightCorner<3, 3>() = 9.0 * Eigen::Matrix3d::Identity();
+  const fusion::OmniMeasurement on_floor(omniView({0.0, 1.2, kRadius}, pose, 0.75), pose, pose, config.omni,
+                                         config.pose, kRadius, 0.0);
+  fusion::BallFilter filter(config.motion, kT0, {falling});
+  filter.update(filter.branchesAt(kT0 + 0.05), kT0 + 0.05, on_floor);
+  for (const fusion::Hypothesis& h : filter.hypotheses()) {
+    EXPECT_GE(h.x.z(), kRadius - 1e-9) << fw::toString(h.mode) << " at " << h.x.head<3>().transpose();
+  }
+}
+
 TEST(FusionFilter, ABranchWithoutWeightThatExplainsAMeasurementBestLeavesTheBallANumber) {
   // Found by fuzz_stamps: the only branch with weight lies far from the measurement, one without any
   // lies on it. Its likelihood relative to the weighted branch is e^1000: a weight of 0 times that is

@@ -254,7 +254,12 @@ void BallFilter::update(std::vector<Hypothesis> branches, double t_s, const Meas
     // Iterated: linearised again about the updated state until it stays put. An omni phantom's
     // distance bends so steeply with the height that one linearisation about the prior can throw
     // the ball metres away. A step that leaves the ball where the sensor could not have seen it
-    // (the model is only held finite there) is halved until it does not.
+    // (the model is only held finite there), or a ball in the air under the floor (an omni ray goes
+    // on below the floor past the ball), is halved until it does not.
+    const double r = config_.radius_m;
+    const auto possible = [&](const Vector6d& state) {
+      return measurement.canSee(state.head<3>()) && (h.mode != fw::BallState::kAir || state[kZ] >= r);
+    };
     Vector6d x = h.x;
     Innovation in;
     Eigen::MatrixXd K;
@@ -262,10 +267,10 @@ void BallFilter::update(std::vector<Hypothesis> branches, double t_s, const Meas
       const Innovation at_x = innovate(h, measurement, x);
       const Eigen::MatrixXd K_at_x = Eigen::LDLT<Eigen::MatrixXd>(at_x.S).solve(at_x.H * h.P).transpose();  // P H' S^-1
       Vector6d next = h.x + K_at_x * at_x.y;
-      for (int halving = 0; halving < kMaxStepHalvings && !measurement.canSee(next.head<3>()); ++halving) {
+      for (int halving = 0; halving < kMaxStepHalvings && !possible(next); ++halving) {
         next = x + 0.5 * (next - x);
       }
-      if (iteration > 0 && !measurement.canSee(next.head<3>())) break;
+      if (iteration > 0 && !possible(next)) break;
       const bool settled = (next - x).head<3>().norm() < kUpdateSettled_m;
       in = at_x;
       K = K_at_x;
@@ -277,6 +282,7 @@ void BallFilter::update(std::vector<Hypothesis> branches, double t_s, const Meas
     const Matrix6d I_KH = Matrix6d::Identity() - K * in.H;
     h.P = I_KH * h.P * I_KH.transpose() + K * in.R * K.transpose();  // Joseph form: stays symmetric
     if (h.mode == fw::BallState::kGround) keepOnFloor(h);
+    if (h.mode == fw::BallState::kAir) h.x[kZ] = std::max(h.x[kZ], r);  // what halving left under the floor
     const double log_det = S.vectorD().array().log().sum();
     log_likelihood[i] = -0.5 * (in.y.dot(S.solve(in.y)) + log_det + in.y.size() * std::log(2.0 * M_PI));
     if (h.weight > 0.0) best_log = std::max(best_log, log_likelihood[i]);
