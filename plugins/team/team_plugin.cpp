@@ -132,9 +132,9 @@ class TeamNetwork {
   }
 
   // A teammate's message: its send time and its echo of ours bound the offset between the clocks;
-  // once there is a bound each way, its times are moved onto the clock this robot's fusion works on (its Kinect's,
-  // else its omni camera's) and it is published. Moved here, once, so that a replay of the log hands
-  // the fusion exactly what it had.
+  // once there is a bound each way, its times are moved onto the clock this robot's fusion works on
+  // (its Kinect's, else its omni camera's) and it is published. Moved here, once, so that a replay of
+  // the log hands the fusion exactly what it had.
   void accept(fw::TeamMessage message, double received_s) {
     Teammate& mate = teammates_[message.robot_id];
     mate.last_sent_s = message.sent_time_s;

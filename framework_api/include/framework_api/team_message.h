@@ -25,8 +25,9 @@ struct BallRay {
   double time_s = 0.0;
 };
 
-// The clock exchange (NTP's four times): a robot echoes the newest message it received from each
-// teammate, so that teammate learns the offset between the two clocks and the round trip.
+// The clock exchange: a robot echoes the newest message it received from each teammate (when it was
+// sent and when it arrived), which bounds that teammate's clock offset from above; every message's
+// own send time bounds it from below (plugins/team, TeammateClock).
 struct ClockEcho {
   int robot_id = 0;           // the teammate whose message is echoed
   double their_sent_s = 0.0;  // when it sent it (its clock)
