@@ -79,7 +79,8 @@ class HostProcess {
     }
   }
 
-  // Waits for exit up to timeout; returns the exit status or -1 on timeout.
+  // Waits for exit up to timeout, reading its output meanwhile (a host that prints more than the pipe
+  // holds would otherwise block); returns the exit status or -1 on timeout.
   int waitExit(std::chrono::milliseconds timeout) {
     const auto deadline = Clock::now() + timeout;
     while (Clock::now() < deadline) {
@@ -88,6 +89,7 @@ class HostProcess {
         pid_ = -1;
         return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
       }
+      drainOutput();
       std::this_thread::sleep_for(std::chrono::milliseconds(5));
     }
     return -1;

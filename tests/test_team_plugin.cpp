@@ -1,9 +1,9 @@
 // The team plugin between hosts over loopback (one 127.0.0.N address per robot, never a multicast
 // group): a robot without a Kinect holds a lob from its teammate's messages, through a network that
 // loses, delays and duplicates them too; packets from outside the team are refused and said; a
-// mislocalised teammate is discounted; three robots simulating one world hold a lob only one of them
-// sees; recorded runs replayed hold the lob (one of them the run that once lost it); a robot file
-// without its id or key is refused.
+// mislocalised teammate is discounted; three robots, each its own host process, simulating one
+// world hold a lob only one of them sees; recorded runs replayed hold the lob (one of them the run
+// that once lost it); a robot file without its id or key is refused.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "framework_api/host.h"
+#include "host_process.h"
 #include "kinect3d/sim/ball_motion.h"
 #include "kinect3d/sim/scene.h"
 #include "published_log.h"
@@ -34,10 +35,11 @@ std::string writeKey(const ScopedTempDir& dir, const std::string& name, const te
   return path;
 }
 
-// A robot of team 5 on 127.0.0.<address>, talking to the given peers on port.
-fw::Config robotConfig(const std::string& name, int robot_id, int address, const std::vector<int>& peers, int port,
-                       const std::string& key_file, const std::string& plugins,
-                       const std::vector<std::string>& more = {}) {
+// A robot of team 5 on 127.0.0.<address>, talking to the given peers on port: the demo robot's file
+// with these values set (as a host's --set gives them).
+std::vector<std::string> robotOverrides(const std::string& name, int robot_id, int address,
+                                        const std::vector<int>& peers, int port, const std::string& key_file,
+                                        const std::string& plugins, const std::vector<std::string>& more = {}) {
   std::string peer_list;
   for (const int peer : peers) {
     peer_list += (peer_list.empty() ? "" : ", ") + std::string("127.0.0.") + std::to_string(peer);
@@ -51,8 +53,16 @@ fw::Config robotConfig(const std::string& name, int robot_id, int address, const
                                      "team.peers=[" + peer_list + "]",
                                      "team.key_file=" + key_file};
   overrides.insert(overrides.end(), more.begin(), more.end());
-  return fw::Config::load(std::string(PROJECT_CONFIG_DIR) + "/defaults",
-                          std::string(PROJECT_CONFIG_DIR) + "/robots/demo.yaml", overrides);
+  return overrides;
+}
+const std::string kRobotFile = std::string(PROJECT_CONFIG_DIR) + "/robots/demo.yaml";
+const std::string kDefaults = std::string(PROJECT_CONFIG_DIR) + "/defaults";
+
+fw::Config robotConfig(const std::string& name, int robot_id, int address, const std::vector<int>& peers, int port,
+                       const std::string& key_file, const std::string& plugins,
+                       const std::vector<std::string>& more = {}) {
+  return fw::Config::load(kDefaults, kRobotFile,
+                          robotOverrides(name, robot_id, address, peers, port, key_file, plugins, more));
 }
 
 // The demo's lob, and how far a point lies from its true flight within 0.1 s of t (a receiver's
@@ -307,11 +317,11 @@ InTheAir lobInTheAir(const std::string& log_folder, const kinect3d::sim::BallMot
 }
 
 TEST(TeamPlugin, ThreeRobotsInOneWorldHoldTheLobOnlyTheKeepersKinectSees) {
-  // Three hosts simulate one world (tests/data/scenes/team/: the demo's lob kicked over the defender;
+  // Three robots simulate one world (tests/data/scenes/team/: the demo's lob kicked over the defender;
   // the keeper 6 m behind it facing the kick, with a Kinect; the striker 3 m to its right), its time
-  // 0 three seconds from now on every host. Neither the defender nor the striker has a Kinect. Each
-  // robot sends to the other two through a link that loses a fifth of the packets and delays each
-  // by up to 200 ms.
+  // 0 three seconds from now on every robot. Each robot is its own vision_host process, as on the
+  // field. Neither the defender nor the striker has a Kinect. Each robot sends to the other two
+  // through a link that loses a fifth of the packets and delays each by up to 200 ms.
   const ScopedTempDir dir;
   const std::string team_key = writeKey(dir, "team.key", team::TeamKey::random());
   constexpr int kPort = 50434;
@@ -320,20 +330,31 @@ TEST(TeamPlugin, ThreeRobotsInOneWorldHoldTheLobOnlyTheKeepersKinectSees) {
       {0.2, 0.2, 0.0});
   const std::string world = std::string(TEST_DATA_DIR) + "/scenes/team/";
   const double world_start_s = fw::wallClockNow_s() + 3.0;
-  const auto robot = [&](const std::string& name, int id, const std::vector<int>& peers, const std::string& plugins,
-                         std::vector<std::string> more) {
+  const auto robot = [&](const std::string& name, int id, const std::vector<int>& peers, const std::string& plugins) {
     const std::string scene = "sim:" + world + name + ".yaml";
-    more.insert(more.end(), {"kinect3d.source=" + scene, "omni.source=" + scene, "localisation.source=" + scene,
-                             "host.sim_world_start_wall_s=" + std::to_string(world_start_s),
-                             "logger.folder=" + (dir.path() / name).string()});
-    return std::make_unique<fw::Host>(robotConfig(name, id, 60 + id, peers, kPort, team_key, plugins, more),
-                                      PRODUCT_PLUGIN_DIR);
+    std::vector<std::string> args{"--robot",      kRobotFile,         "--defaults", kDefaults,
+                                  "--plugin-dir", PRODUCT_PLUGIN_DIR, "--set"};
+    for (const std::string& value :
+         robotOverrides(name, id, 60 + id, peers, kPort, team_key, plugins,
+                        {"kinect3d.source=" + scene, "omni.source=" + scene, "localisation.source=" + scene,
+                         "host.sim_world_start_wall_s=" + std::to_string(world_start_s),
+                         "logger.folder=" + (dir.path() / name).string()})) {
+      args.push_back(value);
+    }
+    return std::make_unique<HostProcess>(args);
   };
-  const auto keeper = robot("keeper", 1, {72, 73}, "[localisation, kinect3d, omni, fusion, team, logger]", {});
-  const auto defender = robot("defender", 2, {71, 73}, "[localisation, omni, fusion, team, logger]", {});
-  const auto striker = robot("striker", 3, {71, 72}, "[localisation, omni, fusion, team, logger]", {});
-  playTogether(*defender, {keeper.get(), striker.get()});
-  ASSERT_TRUE(keeper->sourcesFinished() && defender->sourcesFinished() && striker->sourcesFinished());
+  const std::vector<std::string> names{"keeper", "defender", "striker"};
+  std::vector<std::unique_ptr<HostProcess>> hosts;
+  hosts.push_back(robot("keeper", 1, {72, 73}, "[localisation, kinect3d, omni, fusion, team, logger]"));
+  hosts.push_back(robot("defender", 2, {71, 73}, "[localisation, omni, fusion, team, logger]"));
+  hosts.push_back(robot("striker", 3, {71, 72}, "[localisation, omni, fusion, team, logger]"));
+  // Each host stops by itself once its simulated sensors have played the scene.
+  for (std::size_t i = 0; i < hosts.size(); ++i) {
+    ASSERT_EQ(hosts[i]->waitExit(std::chrono::seconds(90)), 0) << names[i] << ":\n" << hosts[i]->readAll();
+    const std::string output = hosts[i]->readAll();
+    EXPECT_NE(output.find("Summary (every source ended)"), std::string::npos) << names[i] << ":\n" << output;
+    EXPECT_NE(output.find("\n  team "), std::string::npos) << names[i] << ":\n" << output;
+  }
 
   // The world's truth, the same in every robot's scene, on the shared clock.
   const kinect3d::sim::Scene scene = kinect3d::sim::loadScene(world + "defender.yaml");
