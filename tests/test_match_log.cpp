@@ -63,6 +63,7 @@ TEST(MatchLog, RoundTripsEveryKindOfPublication) {
   fused.position_F = {1.0, 2.0, 0.5};
   fused.sources = {"kinect3d", "omni"};
   fused.covariance_F(2, 0) = fused.covariance_F(0, 2) = 0.25;
+  fused.goal_crossing = fw::GoalCrossing{1, -0.3, 0.6, 100.9, 0.08, 0.03};
   fw::PluginHealth health;
   health.plugin = "kinect3d";
   health.frames = 30;
@@ -126,6 +127,14 @@ TEST(MatchLog, RoundTripsEveryKindOfPublication) {
   EXPECT_EQ(std::get<fw::TrajectoryCleared>(read[4].item).source, "kinect3d");
   EXPECT_EQ(std::get<fw::FusedBall>(read[5].item).sources, fused.sources);
   EXPECT_EQ(std::get<fw::FusedBall>(read[5].item).covariance_F, fused.covariance_F);
+  const auto& goal_crossing = std::get<fw::FusedBall>(read[5].item).goal_crossing;
+  ASSERT_TRUE(goal_crossing);
+  EXPECT_EQ(goal_crossing->goal, 1);
+  EXPECT_DOUBLE_EQ(goal_crossing->x_m, -0.3);
+  EXPECT_DOUBLE_EQ(goal_crossing->z_m, 0.6);
+  EXPECT_DOUBLE_EQ(goal_crossing->time_s, 100.9);
+  EXPECT_DOUBLE_EQ(goal_crossing->sigma_m, 0.08);
+  EXPECT_DOUBLE_EQ(goal_crossing->time_sigma_s, 0.03);
   EXPECT_DOUBLE_EQ(std::get<fw::RobotPose>(read[7].item).theta_rad, 0.3);
   EXPECT_DOUBLE_EQ(std::get<fw::FusedBallCleared>(read[6].item).stamp.source_time_s, 100.1);
   EXPECT_DOUBLE_EQ(std::get<fw::FusedBallCleared>(read[6].item).stamp.receive_time_s, 2000.04);
@@ -175,6 +184,33 @@ TEST(MatchLog, AVersion3LogFromBeforeTheTeamStillReads) {
   ASSERT_EQ(read.size(), 1u);
   EXPECT_DOUBLE_EQ(std::get<fw::RobotPose>(read[0].item).y_m, -2.0);
   EXPECT_GT(last_seq, 0);
+}
+
+TEST(MatchLog, AVersion6LogFromBeforeTheGoalLineCrossingStillReads) {
+  ScopedTempDir dir;
+  {
+    fw::MatchLogWriter writer(dir.path().string(), {});
+    fw::FusedBall ball;
+    ball.position_F = {1.0, 2.0, 0.5};
+    ball.goal_crossing = fw::GoalCrossing{1, -0.3, 0.6, 100.9, 0.08};
+    writer.write({1.0, ball});
+  }
+  // Made as version 6 wrote it: the world ball's rows without the crossing's columns.
+  sqlite3* db = nullptr;
+  ASSERT_EQ(sqlite3_open((dir.path() / fw::kMatchLogFile).c_str(), &db), SQLITE_OK);
+  for (const char* column : {"goal_line", "goal_crossing_x_m", "goal_crossing_z_m", "goal_crossing_time_s",
+                             "goal_crossing_sigma_m", "goal_crossing_time_sigma_s"}) {
+    ASSERT_EQ(sqlite3_exec(db, (std::string("ALTER TABLE fused_ball DROP COLUMN ") + column).c_str(), nullptr, nullptr,
+                           nullptr),
+              SQLITE_OK);
+  }
+  ASSERT_EQ(sqlite3_exec(db, "PRAGMA user_version=6", nullptr, nullptr, nullptr), SQLITE_OK);
+  sqlite3_close(db);
+  const std::vector<fw::JournalEntry> read = fw::MatchLogReader(dir.path().string()).entries();
+  ASSERT_EQ(read.size(), 1u);
+  const auto& ball = std::get<fw::FusedBall>(read[0].item);
+  EXPECT_DOUBLE_EQ(ball.position_F.y(), 2.0);
+  EXPECT_FALSE(ball.goal_crossing);
 }
 
 TEST(MatchLog, AVersion4LogWithItsDepthAsPngStillReads) {
@@ -289,7 +325,7 @@ TEST(MatchLog, ABadLogIsNamedWithItsFileAndWhatIsWrong) {
   sqlite3_exec(db, "PRAGMA user_version=99", nullptr, nullptr, nullptr);
   sqlite3_close(db);
   EXPECT_NE(
-      errorOf(dir.path().string()).find(file.string() + ": schema version 99, this program reads versions 2 to 6"),
+      errorOf(dir.path().string()).find(file.string() + ": schema version 99, this program reads versions 2 to 7"),
       std::string::npos)
       << errorOf(dir.path().string());
 }

@@ -58,6 +58,7 @@ fw::TeamMessage fullMessage() {
   world.age_s = 0.03;
   world.sources = {"kinect3d", "omni"};
   world.stamp.source_time_s = 1700000000.23;
+  world.goal_crossing = fw::GoalCrossing{-1, 0.4, 0.8, 1700000000.9, 0.07, 0.02};
   m.world_ball = world;
   m.touchdown = fw::Touchdown{{1.0, 5.5}, 1700000001.1, 0.12};
   m.echoes = {{2, 1699999999.9, 1700000000.1}, {4, 1700000003.0, 1700000000.2}};
@@ -121,6 +122,13 @@ TEST(TeamMessage, EveryFieldSurvivesTheWire) {
   EXPECT_TRUE(got.world_ball->covariance_F.isApprox(sent.world_ball->covariance_F));
   EXPECT_EQ(got.world_ball->sources, sent.world_ball->sources);
   EXPECT_EQ(got.world_ball->state, fw::BallState::kAir);
+  ASSERT_TRUE(got.world_ball->goal_crossing);
+  EXPECT_EQ(got.world_ball->goal_crossing->goal, -1);
+  EXPECT_DOUBLE_EQ(got.world_ball->goal_crossing->x_m, 0.4);
+  EXPECT_DOUBLE_EQ(got.world_ball->goal_crossing->z_m, 0.8);
+  EXPECT_DOUBLE_EQ(got.world_ball->goal_crossing->time_s, 1700000000.9);
+  EXPECT_DOUBLE_EQ(got.world_ball->goal_crossing->sigma_m, 0.07);
+  EXPECT_DOUBLE_EQ(got.world_ball->goal_crossing->time_sigma_s, 0.02);
   ASSERT_TRUE(got.touchdown);
   EXPECT_TRUE(got.touchdown->point_m.isApprox(sent.touchdown->point_m));
   ASSERT_EQ(got.echoes.size(), 2u);
@@ -174,6 +182,10 @@ TEST(TeamMessage, ABadBodyIsRefusedNamingTheField) {
   fw::TeamMessage far = fullMessage();
   far.world_ball->position_F.x() = 1e9;
   EXPECT_NE(errorOf(fw::packTeamMessage(far)).find("'world_ball.p': expected a vector"), std::string::npos);
+  fw::TeamMessage no_goal = fullMessage();
+  no_goal.world_ball->goal_crossing->goal = 0;
+  EXPECT_NE(errorOf(fw::packTeamMessage(no_goal)).find("'world_ball.goal_crossing.goal': expected -1 or 1"),
+            std::string::npos);
   fw::TeamMessage careless = fullMessage();
   careless.pose_sigma_xy_m = -0.03;
   EXPECT_NE(errorOf(fw::packTeamMessage(careless)).find("'pose.sigma_xy': expected a number in"), std::string::npos);
@@ -193,6 +205,7 @@ TEST(TeamMessage, ShiftingTimesMovesEveryTimeButTheEchoedSendersOwn) {
   EXPECT_DOUBLE_EQ(m.kinect_balls[0].stamp.source_time_s, original.kinect_balls[0].stamp.source_time_s - 2.0);
   EXPECT_DOUBLE_EQ(m.omni_rays[0].time_s, original.omni_rays[0].time_s - 2.0);
   EXPECT_DOUBLE_EQ(m.world_ball->stamp.source_time_s, original.world_ball->stamp.source_time_s - 2.0);
+  EXPECT_DOUBLE_EQ(m.world_ball->goal_crossing->time_s, original.world_ball->goal_crossing->time_s - 2.0);
   EXPECT_DOUBLE_EQ(m.touchdown->time_s, original.touchdown->time_s - 2.0);
   EXPECT_DOUBLE_EQ(m.echoes[0].received_s, original.echoes[0].received_s - 2.0);
   EXPECT_DOUBLE_EQ(m.echoes[0].their_sent_s, original.echoes[0].their_sent_s);

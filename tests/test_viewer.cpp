@@ -268,6 +268,7 @@ TEST(ViewedLog, TheFusedBallIsHeldUntilTheFusionClearsIt) {
       ball.state = fw::BallState::kAir;
       ball.sources = {"kinect3d"};
       ball.stamp = image.stamp;
+      ball.goal_crossing = fw::GoalCrossing{-1, 0.4, 0.7, image.stamp.source_time_s + 0.5, 0.1, 0.02};
       writer.write({image.stamp.receive_time_s, ball});
     }
     if (image.index == 20) writer.write({image.stamp.receive_time_s, fw::FusedBallCleared{}});
@@ -279,6 +280,9 @@ TEST(ViewedLog, TheFusedBallIsHeldUntilTheFusionClearsIt) {
     ASSERT_TRUE(fused.is_object()) << "frame " << frame;
     EXPECT_EQ(fused["p_m"], nlohmann::json({0.2, 1.5, 1.1})) << "frame " << frame;
     EXPECT_NEAR(fused["published_ago_s"].get<double>(), (frame - 3) / 30.0, 1e-3) << "frame " << frame;
+    EXPECT_EQ(fused["goal_crossing"]["goal"], "own");
+    EXPECT_NEAR(fused["goal_crossing"]["x_m"].get<double>(), 0.4, 1e-9);
+    EXPECT_NEAR(fused["goal_crossing"]["in_s"].get<double>(), 0.5 - (frame - 3) / 30.0, 1e-3) << "frame " << frame;
   }
   EXPECT_TRUE(servedFrame(view, 21)["fused"].is_null()) << "after the fusion cleared it";
   EXPECT_EQ(view.stop(), 0);

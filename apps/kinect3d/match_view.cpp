@@ -307,7 +307,16 @@ std::optional<json> MatchView::frame(std::size_t frame) {
     scene["fused"] = {{"p_m", xyz((*fused)->position_R)},
                       {"state", fw::toString((*fused)->state)},
                       {"sources", (*fused)->sources},
-                      {"published_ago_s", rounded(t - (*fused)->stamp.source_time_s)}};
+                      {"published_ago_s", rounded(t - (*fused)->stamp.source_time_s)},
+                      {"goal_crossing", nullptr}};
+    // Where it was to cross a goal line (field frame: the line is the field's), and how soon from t.
+    if (const auto& crossing = (*fused)->goal_crossing) {
+      scene["fused"]["goal_crossing"] = {{"goal", crossing->goal > 0 ? "opponent's" : "own"},
+                                         {"x_m", rounded(crossing->x_m)},
+                                         {"z_m", rounded(crossing->z_m)},
+                                         {"sigma_m", rounded(crossing->sigma_m)},
+                                         {"in_s", rounded(crossing->time_s - t)}};
+    }
   }
   scene["pose"] = nullptr;
   const fw::RobotPose* pose = latestAt(p.pose, t, 0.5);

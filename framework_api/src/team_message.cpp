@@ -17,7 +17,10 @@ void TeamMessage::shiftTimes(double delta_s) {
   if (pose) pose->stamp.source_time_s += delta_s;
   for (BallObservation& ball : kinect_balls) ball.stamp.source_time_s += delta_s;
   for (BallRay& ray : omni_rays) ray.time_s += delta_s;
-  if (world_ball) world_ball->stamp.source_time_s += delta_s;
+  if (world_ball) {
+    world_ball->stamp.source_time_s += delta_s;
+    if (world_ball->goal_crossing) world_ball->goal_crossing->time_s += delta_s;
+  }
   if (touchdown) touchdown->time_s += delta_s;
   for (ClockEcho& echo : echoes) echo.received_s += delta_s;  // their_sent_s is on the echoed robot's clock
 }
@@ -82,7 +85,7 @@ void packRay(Packer& pk, const BallRay& r) {
 }
 
 void packWorldBall(Packer& pk, const FusedBall& b) {
-  pk.pack_map(8);
+  pk.pack_map(8 + (b.goal_crossing ? 1 : 0));
   packKey(pk, "p");
   packVector(pk, b.position_F);
   packKey(pk, "v");
@@ -96,6 +99,17 @@ void packWorldBall(Packer& pk, const FusedBall& b) {
   packEntry(pk, "age", b.age_s);
   packKey(pk, "sources");
   pk.pack(b.sources);
+  if (const auto& c = b.goal_crossing) {
+    packKey(pk, "goal_crossing");
+    pk.pack_map(6);
+    packKey(pk, "goal");
+    pk.pack(c->goal);
+    packEntry(pk, "x", c->x_m);
+    packEntry(pk, "z", c->z_m);
+    packEntry(pk, "t", c->time_s);
+    packEntry(pk, "sigma", c->sigma_m);
+    packEntry(pk, "t_sigma", c->time_sigma_s);
+  }
 }
 
 // The league's MixedTeamProtocol ball, for a teammate that reads only that: field frame, and a
@@ -356,6 +370,17 @@ TeamMessage unpackTeamMessage(const std::uint8_t* data, std::size_t size) {
     b.air_probability = e["air_probability"].number(0.0, 1.0);
     b.age_s = e["age"].number(0.0, 1e9);
     for (const Reader& s : e["sources"].items()) b.sources.push_back(s.text());
+    e.ifPresent("goal_crossing", [&](const Reader& c) {
+      const auto f = c.entries();
+      const int goal = f["goal"].integer(-1, 1);
+      if (goal == 0) f["goal"].fail("-1 or 1");
+      b.goal_crossing = GoalCrossing{goal,
+                                     f["x"].number(-Reader::kMaxCoordinate, Reader::kMaxCoordinate),
+                                     f["z"].number(-Reader::kMaxCoordinate, Reader::kMaxCoordinate),
+                                     f["t"].number(),
+                                     f["sigma"].number(0.0, 1e3),
+                                     f["t_sigma"].number(0.0, 1e3)};
+    });
     m.world_ball = b;
   });
   root.ifPresent("touchdown", [&](const Reader& r) {

@@ -188,18 +188,13 @@ std::vector<Hypothesis> BallFilter::branchesAt(double t_s) const {
     // At the floor: a bounce (restitution and friction uncertain) or the end of the hops, by the
     // chance that this bounce's restitution leaves the ball too slow to hop noticeably.
     const double vz_in = flying.x[kVz];
-    const double vz_out = -config_.restitution * vz_in;
     const double landing_speed_mps = std::sqrt(2.0 * fw::kGravity_mps2 * kNoticeableHop_m);
     const double restitution_to_land = landing_speed_mps / std::max(std::abs(vz_in), 1e-6);
     const double sigma = std::max(config_.restitution_sigma, 1e-3);
     const double land =
         std::clamp(0.5 * std::erfc((config_.restitution - restitution_to_land) / (sigma * std::sqrt(2.0))),
                    kLandingProbabilityFloor, 1.0 - kLandingProbabilityFloor);
-    Hypothesis bounce = flying;
-    bounce.x[kVz] = vz_out;
-    bounce.x.segment<2>(3) *= 1.0 - config_.bounce_friction;
-    bounce.P(kVz, kVz) += std::pow(sigma * vz_in, 2);
-    for (int i = 3; i < 5; ++i) bounce.P(i, i) += std::pow(config_.bounce_friction_sigma * flying.x[i], 2);
+    Hypothesis bounce = bounced(flying);
     bounce.weight = h.weight * (1.0 - land);
     Hypothesis landed = bounce;
     landed.mode = fw::BallState::kGround;
@@ -212,6 +207,40 @@ std::vector<Hypothesis> BallFilter::branchesAt(double t_s) const {
     branches.push_back(landed);
   }
   return branches;
+}
+
+Hypothesis BallFilter::bounced(const Hypothesis& flying) const {
+  const double vz_in = flying.x[kVz];
+  Hypothesis bounce = flying;
+  bounce.x[kVz] = -config_.restitution * vz_in;
+  bounce.x.segment<2>(3) *= 1.0 - config_.bounce_friction;
+  bounce.P(kVz, kVz) += std::pow(std::max(config_.restitution_sigma, 1e-3) * vz_in, 2);
+  for (int i = 3; i < 5; ++i) bounce.P(i, i) += std::pow(config_.bounce_friction_sigma * flying.x[i], 2);
+  return bounce;
+}
+
+Hypothesis BallFilter::untouched(Hypothesis h, double dt) const {
+  // Each hop is lower than the last by the restitution: a few dozen end any flight on a field.
+  constexpr int kMaxBounces = 50;
+  for (int bounce = 0; dt > 0.0; ++bounce) {
+    if (h.mode == fw::BallState::kGround || bounce == kMaxBounces) {
+      if (h.mode != fw::BallState::kGround) {
+        h.mode = fw::BallState::kGround;
+        keepOnFloor(h);
+      }
+      roll(h, dt);
+      break;
+    }
+    double dt_left = 0.0;
+    if (flyUntilFloor(h, dt, dt_left)) break;
+    h = bounced(h);
+    if (!hopsNoticeably(h)) {
+      h.mode = fw::BallState::kGround;
+      keepOnFloor(h);
+    }
+    dt = dt_left;
+  }
+  return h;
 }
 
 Eigen::VectorXd BallFilter::predictionRate(const Hypothesis& h, const MeasurementModel& measurement) {

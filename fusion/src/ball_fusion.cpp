@@ -2,6 +2,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
+
+#include <Eigen/Eigenvalues>
 
 #include "framework_api/log.h"
 
@@ -54,6 +57,65 @@ Eigen::Matrix3d groundCovariance(const OmniMeasurement& omni, const fw::OmniBall
   Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();
   covariance.topLeftCorner<2, 2>() = turn * J * R * J.transpose() * turn.transpose();
   return covariance;
+}
+
+// Goal-line crossings are predicted this far ahead, the ball carried on by kGoalStep_s at a time.
+constexpr double kGoalHorizon_s = 3.0;
+constexpr double kGoalStep_s = 0.1;
+// A ball slower than this towards a goal line is not heading for it (a ball at rest jitters).
+constexpr double kMinGoalwardSpeed_mps = 0.5;
+
+// Where now's ball, if nothing touches it, crosses the goal line it heads for (y = +-field_length_m
+// / 2) within kGoalHorizon_s, carried on with the filter's own motion (flight, drag, bounces,
+// rolling) step by step until it passes the line; within that step, Newton's steps find the
+// crossing (the speed along y only falls, so they approach it from before). The crossing's spread
+// is the ball's there, along the line and up: the position's error moved along the ball's path to
+// the line; its time's, the error along y over the speed.
+std::optional<fw::GoalCrossing> goalCrossing(const BallFilter& filter, const Hypothesis& now, double t_s,
+                                             double field_length_m) {
+  constexpr int kY = 1, kVy = 4;
+  constexpr double kAtTheLine_m = 1e-3;
+  const double vy = now.x[kVy];
+  if (std::abs(vy) < kMinGoalwardSpeed_mps) return std::nullopt;
+  const int goal = vy > 0.0 ? 1 : -1;
+  const double line_y = goal * field_length_m / 2.0;
+  const double to_line_m = goal * (line_y - now.x[kY]);
+  // Drag, bounces and rolling only slow it: at its speed now it would arrive soonest.
+  if (to_line_m <= 0.0 || to_line_m / std::abs(vy) > kGoalHorizon_s) return std::nullopt;
+  Hypothesis before = now;
+  double before_s = 0.0;  // after now
+  for (;;) {
+    if (before_s >= kGoalHorizon_s) return std::nullopt;
+    const Hypothesis after = filter.untouched(before, kGoalStep_s);
+    if (goal * (line_y - after.x[kY]) <= 0.0) break;
+    if (goal * after.x[kVy] <= 0.0) return std::nullopt;  // stopped short of it
+    before = after;
+    before_s += kGoalStep_s;
+  }
+  double dt = 0.0;  // after before
+  Hypothesis at = before;
+  for (int step = 0; step < 8 && std::abs(line_y - at.x[kY]) >= kAtTheLine_m; ++step) {
+    dt = std::min(dt + (line_y - at.x[kY]) / at.x[kVy], kGoalStep_s);
+    at = filter.untouched(before, dt);
+  }
+  const double vy_at = at.x[kVy];
+  if (goal * vy_at <= 0.0) return std::nullopt;
+  Eigen::Matrix<double, 2, 6> J = Eigen::Matrix<double, 2, 6>::Zero();  // d(x, z) = dp_(x, z) - v_(x, z) / v_y dp_y
+  J(0, 0) = 1.0;
+  J(0, kY) = -at.x[3] / vy_at;
+  J(1, 2) = 1.0;
+  J(1, kY) = -at.x[5] / vy_at;
+  const Eigen::Matrix2d spread = J * at.P * J.transpose();
+  const double rest_s = (line_y - at.x[kY]) / vy_at;  // under a millimetre
+  fw::GoalCrossing crossing;
+  crossing.goal = goal;
+  crossing.x_m = at.x[0] + rest_s * at.x[3];
+  crossing.z_m = at.x[2] + rest_s * at.x[5];
+  crossing.time_s = t_s + before_s + dt + rest_s;
+  crossing.sigma_m =
+      std::sqrt(std::max(0.0, Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(spread).eigenvalues().maxCoeff()));
+  crossing.time_sigma_s = std::sqrt(at.P(kY, kY)) / std::abs(vy_at);
+  return crossing;
 }
 
 // The name a teammate's observations go by in the world ball's sources: "team:keeper".
@@ -631,6 +693,7 @@ std::optional<fw::FusedBall> BallFusion::worldBall(double t_s) const {
   }
   ball.age_s = t_s - world->last_support_s;
   ball.stamp.source_time_s = t_s;
+  ball.goal_crossing = goalCrossing(filter, best, t_s, config_.field_length_m);
   return ball;
 }
 

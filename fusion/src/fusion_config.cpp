@@ -6,6 +6,8 @@ FusionConfig readFusionConfig(const fw::ConfigView& block) {
   FusionConfig config;
   config.max_delay_s = block.getDouble("max_delay_s", 0.0, 2.0);
 
+  config.field_length_m = block.block("field").getDouble("length_m", 8.0, 40.0);
+
   const fw::ConfigView ball = block.block("ball");
   MotionConfig& motion = config.motion;
   motion.radius_m = ball.getDouble("radius_m", 0.02, 0.5);

@@ -32,14 +32,23 @@ std::string describe(const fw::BallTrajectory& trajectory) {
   return result;
 }
 
-// " world: air, field (+1.20, +3.40, +0.95) m, robot (...) m, 5.1 m/s +-0.04 m, from kinect3d+omni".
+// " world: air, field (+1.20, +3.40, +0.95) m, robot (...) m, 5.1 m/s +-0.04 m, from kinect3d+omni"
+// and ", crosses the own goal line at x -0.40 z +0.60 (+-0.08 m) in 0.52 s (+-0.03 s)".
 std::string describe(const fw::FusedBall& ball) {
   std::string sources;
   for (const std::string& source : ball.sources) sources += (sources.empty() ? "" : "+") + source;
   char text[96];
   std::snprintf(text, sizeof text, ", %.1f m/s +-%.2f m, from ", ball.velocity_F.norm(), ball.sigmaHorizontal_m());
+  std::string crossing;
+  if (const auto& c = ball.goal_crossing) {
+    char more[128];
+    std::snprintf(more, sizeof more, ", crosses the %s goal line at x %+.2f z %+.2f (+-%.2f m) in %.2f s (+-%.2f s)",
+                  c->goal > 0 ? "opponent's" : "own", c->x_m, c->z_m, c->sigma_m, c->time_s - ball.stamp.source_time_s,
+                  c->time_sigma_s);
+    crossing = more;
+  }
   return " world: " + std::string(fw::toString(ball.state)) + ", field " + formatPosition(ball.position_F) +
-         ", robot " + formatPosition(ball.position_R) + text + sources;
+         ", robot " + formatPosition(ball.position_R) + text + sources + crossing;
 }
 
 class Console : public fw::Plugin {

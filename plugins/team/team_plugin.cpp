@@ -289,10 +289,11 @@ class TeamNetwork {
     }
     message.kinect_balls.swap(kinect_balls_);
     message.omni_rays.swap(omni_rays_);
-    // The world ball is on the fusion's clock (the Kinect's, else the omni camera's), the touchdown
-    // on the Kinect's.
+    // The world ball and its goal-line crossing are on the fusion's clock (the Kinect's, else the omni
+    // camera's), the touchdown on the Kinect's.
     if (std::optional<fw::FusedBall> ball = world_.fusedBall(); ball && fusionClock() != nullptr) {
       ball->stamp.source_time_s = fusionClock()->toHost(ball->stamp.source_time_s);
+      if (ball->goal_crossing) ball->goal_crossing->time_s = fusionClock()->toHost(ball->goal_crossing->time_s);
       message.world_ball = ball;
     }
     if (kinect_clock_.known()) {

@@ -183,6 +183,18 @@ struct BallTrajectory {
 // The world's ball: one estimate from every source (fusion/), kept in the field frame, where a ball's
 // physics lives, and reported in the robot frame too. stamp.source_time_s is on the reference
 // source's clock (the depth sensor's); other sources' times are corrected onto it.
+// Where and when a ball that nothing touches crosses a goal line (the field frame's y = +-half the
+// field's length), flying, bouncing or rolling: the line's x and the ball centre's height there, with
+// a 1-sigma radius of (x, z) and a 1-sigma of the time from the ball's uncertainty.
+struct GoalCrossing {
+  int goal = 0;  // +1 the opponent's goal line (y > 0), -1 this team's own
+  double x_m = 0.0;
+  double z_m = 0.0;
+  double time_s = 0.0;  // source clock
+  double sigma_m = 0.0;
+  double time_sigma_s = 0.0;
+};
+
 struct FusedBall {
   Eigen::Vector3d position_F = Eigen::Vector3d::Zero();
   Eigen::Vector3d position_R = Eigen::Vector3d::Zero();  // with the robot pose at the same time
@@ -194,6 +206,7 @@ struct FusedBall {
   std::vector<std::string> sources;  // those that supported it during the last second, e.g. {"kinect3d", "omni"}
   double age_s = 0.0;                // since the last measurement that supported it
   Stamp stamp;
+  std::optional<GoalCrossing> goal_crossing;  // while it heads for a goal line it reaches within 3 s
 
   // 1-sigma radius of the horizontal position (the larger axis of its error ellipse).
   double sigmaHorizontal_m() const;

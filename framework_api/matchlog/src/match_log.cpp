@@ -43,7 +43,9 @@ CREATE TABLE fused_ball (seq INTEGER PRIMARY KEY, wall_time_s REAL NOT NULL, non
   source_time_s REAL, receive_time_s REAL, state TEXT, air_probability REAL,
   x_field_m REAL, y_field_m REAL, z_field_m REAL, vx_field_mps REAL, vy_field_mps REAL, vz_field_mps REAL,
   x_robot_m REAL, y_robot_m REAL, z_robot_m REAL, cov_xx_m2 REAL, cov_xy_m2 REAL, cov_xz_m2 REAL,
-  cov_yy_m2 REAL, cov_yz_m2 REAL, cov_zz_m2 REAL, sources TEXT, age_s REAL);
+  cov_yy_m2 REAL, cov_yz_m2 REAL, cov_zz_m2 REAL, sources TEXT, age_s REAL, goal_line INTEGER,
+  goal_crossing_x_m REAL, goal_crossing_z_m REAL, goal_crossing_time_s REAL, goal_crossing_sigma_m REAL,
+  goal_crossing_time_sigma_s REAL);
 CREATE TABLE robot_pose (seq INTEGER PRIMARY KEY, wall_time_s REAL NOT NULL, source_time_s REAL NOT NULL,
   receive_time_s REAL NOT NULL, x_m REAL, y_m REAL, theta_rad REAL);
 CREATE TABLE event (seq INTEGER PRIMARY KEY, wall_time_s REAL NOT NULL, source TEXT NOT NULL,
@@ -360,13 +362,17 @@ void MatchLogWriter::write(const fw::JournalEntry& entry) {
           },
           [&](const fw::FusedBall& b) {
             const Eigen::Matrix3d& c = b.covariance_F;
+            using Maybe = std::optional<double>;
+            const auto& g = b.goal_crossing;
             statement(
                 "INSERT INTO fused_ball VALUES (?, ?, 0, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, "
-                "?)")
+                "?, ?, ?, ?, ?, ?, ?)")
                 .run(seq, wall, b.stamp.source_time_s, b.stamp.receive_time_s, fw::toString(b.state), b.air_probability,
                      b.position_F.x(), b.position_F.y(), b.position_F.z(), b.velocity_F.x(), b.velocity_F.y(),
                      b.velocity_F.z(), b.position_R.x(), b.position_R.y(), b.position_R.z(), c(0, 0), c(0, 1), c(0, 2),
-                     c(1, 1), c(1, 2), c(2, 2), joined(b.sources), b.age_s);
+                     c(1, 1), c(1, 2), c(2, 2), joined(b.sources), b.age_s, g ? Maybe(g->goal) : Maybe(),
+                     g ? Maybe(g->x_m) : Maybe(), g ? Maybe(g->z_m) : Maybe(), g ? Maybe(g->time_s) : Maybe(),
+                     g ? Maybe(g->sigma_m) : Maybe(), g ? Maybe(g->time_sigma_s) : Maybe());
           },
           [&](const fw::FusedBallCleared& none) {
             statement(
@@ -654,8 +660,11 @@ std::vector<fw::JournalEntry> MatchLogReader::entries(std::int64_t after_seq, st
     const auto fused = query(
         "SELECT seq, wall_time_s, none, source_time_s, receive_time_s, state, air_probability, x_field_m, "
         "y_field_m, z_field_m, vx_field_mps, vy_field_mps, vz_field_mps, x_robot_m, y_robot_m, z_robot_m, "
-        "cov_xx_m2, cov_xy_m2, cov_xz_m2, cov_yy_m2, cov_yz_m2, cov_zz_m2, sources, age_s FROM fused_ball "
-        "WHERE seq > ?");
+        "cov_xx_m2, cov_xy_m2, cov_xz_m2, cov_yy_m2, cov_yz_m2, cov_zz_m2, sources, age_s" +
+        std::string(schema_ >= 7 ? ", goal_line, goal_crossing_x_m, goal_crossing_z_m, goal_crossing_time_s, "
+                                   "goal_crossing_sigma_m, goal_crossing_time_sigma_s"
+                                 : "") +
+        " FROM fused_ball WHERE seq > ?");
     Statement& q = *fused;
     while (q.row()) {
       fw::JournalEntry& entry = by_seq[q.integer(0)];
@@ -675,6 +684,10 @@ std::vector<fw::JournalEntry> MatchLogReader::entries(std::int64_t after_seq, st
       b.covariance_F = symmetric(q, 16);
       b.sources = split(q.text(22));
       b.age_s = q.real(23);
+      if (schema_ >= 7 && !q.isNull(24)) {  // version 7 added the goal-line crossing
+        b.goal_crossing = fw::GoalCrossing{
+            static_cast<int>(q.integer(24)), q.real(25), q.real(26), q.real(27), q.real(28), q.real(29)};
+      }
       entry.item = b;
     }
   }

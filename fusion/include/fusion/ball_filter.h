@@ -72,6 +72,7 @@ class BallFilter {
   BallFilter(const MotionConfig& config, double time_s, std::vector<Hypothesis> hypotheses);
 
   double time() const { return time_s_; }
+  double radius_m() const { return config_.radius_m; }
   // Every mode's successors at t_s, weighted by how likely each transition is (not yet merged).
   std::vector<Hypothesis> branchesAt(double t_s) const;
   // How fast the measurement's prediction for the hypothesis changes: the ball's motion and the
@@ -86,6 +87,9 @@ class BallFilter {
   void forgetVelocity(double sigma_mps);
   // Moves to t_s without a measurement.
   void predict(double t_s);
+  // Where h's ball is dt later if nothing touches it: flying, bouncing with the ball's mean
+  // restitution and friction until its hops die out, then rolling (no kick, no deflection).
+  Hypothesis untouched(Hypothesis h, double dt) const;
   // A sensor looked at t_s and did not see the ball: each mode loses weight by the chance that the
   // sensor would have seen the ball where that mode puts it now (a ball rolling in the omni
   // camera's view is seldom missed; one above its view always is).
@@ -108,6 +112,8 @@ class BallFilter {
   void roll(Hypothesis& h, double dt) const;
   void fly(Hypothesis& h, double dt) const;
   void keepOnFloor(Hypothesis& h) const;
+  // A flight at the floor after a bounce: the mean restitution and friction, their spread added.
+  Hypothesis bounced(const Hypothesis& flying) const;
   void mergePerMode(std::vector<Hypothesis>& branches);
 
   MotionConfig config_;

@@ -89,7 +89,8 @@ struct FusionConfig {
   TrackConfig track;
   AlignmentCheckConfig alignment_check;
   TeamConfig team;
-  double max_delay_s = 0.15;  // this robot's measurements later than this behind the newest are dropped
+  double max_delay_s = 0.15;     // this robot's measurements later than this behind the newest are dropped
+  double field_length_m = 22.0;  // between the goal lines (the shared `field` block)
 };
 
 // Reads the `fusion` block; throws fw::ConfigError naming file, line and key.
