@@ -65,12 +65,17 @@ fw::Config robotConfig(const std::string& name, int robot_id, int address, const
                           robotOverrides(name, robot_id, address, peers, port, key_file, plugins, more));
 }
 
+// A scene's true ball, as the simulator moves it among the scene's objects.
+kinect3d::sim::BallMotion trueBallOf(const kinect3d::sim::Scene& scene) {
+  return {*scene.ball, scene.physics, scene.duration_s, scene.objects};
+}
+
 // The demo's lob, and how far a point lies from its true flight within 0.1 s of t (a receiver's
 // clock): two robots' simulated worlds start when their hosts' threads first read them, tens of
 // milliseconds apart.
 struct Lob {
   kinect3d::sim::Scene scene = kinect3d::sim::loadScene("lob_over_robot");
-  kinect3d::sim::BallMotion truth{*scene.ball, scene.physics, scene.duration_s, scene.objects};
+  kinect3d::sim::BallMotion truth = trueBallOf(scene);
 
   double offTheFlight_m(const Eigen::Vector3d& p, double t) const {
     double off_m = 1e9;
@@ -358,10 +363,9 @@ TEST(TeamPlugin, ThreeRobotsInOneWorldHoldTheLobOnlyTheKeepersKinectSees) {
 
   // The world's truth, the same in every robot's scene, on the shared clock.
   const kinect3d::sim::Scene scene = kinect3d::sim::loadScene(world + "defender.yaml");
-  const kinect3d::sim::BallMotion truth(*scene.ball, scene.physics, scene.duration_s, scene.objects);
+  const kinect3d::sim::BallMotion truth = trueBallOf(scene);
   for (const char* other : {"keeper.yaml", "striker.yaml"}) {
-    const kinect3d::sim::Scene seen = kinect3d::sim::loadScene(world + other);
-    const kinect3d::sim::BallMotion same(*seen.ball, seen.physics, seen.duration_s, seen.objects);
+    const kinect3d::sim::BallMotion same = trueBallOf(kinect3d::sim::loadScene(world + other));
     for (double t = 0.0; t < scene.duration_s; t += 0.1) {
       ASSERT_LT((same.positionAt(t) - truth.positionAt(t)).norm(), 0.01) << other << " at " << t << " s";
     }
@@ -412,7 +416,7 @@ TEST(TeamPlugin, TwoRobotsOmniCamerasAlonePlaceAHopInTheAirThroughALossyNetwork)
   // Every world ball of the defender while the true ball was 10 cm above its resting height, with
   // the striker's rays and, replayed from the same log, without them.
   const kinect3d::sim::Scene scene = kinect3d::sim::loadScene(world + "defender.yaml");
-  const kinect3d::sim::BallMotion truth(*scene.ball, scene.physics, scene.duration_s, scene.objects);
+  const kinect3d::sim::BallMotion truth = trueBallOf(scene);
   const double hop_m = scene.physics.radius_m + 0.1;
   const std::string run = onlySubfolder(dir.path() / "defender");
   const auto any = [](const fw::FusedBall&) { return true; };
@@ -448,7 +452,7 @@ TEST(TeamPlugin, TheDefendersRecordedRunHoldsTheLobFromTheKeepersMessages) {
                                    .getDouble("sim_world_start_wall_s", 1.0, 1e10);
   const kinect3d::sim::Scene scene =
       kinect3d::sim::loadScene(std::string(TEST_DATA_DIR) + "/scenes/team/defender.yaml");
-  const kinect3d::sim::BallMotion truth(*scene.ball, scene.physics, scene.duration_s, scene.objects);
+  const kinect3d::sim::BallMotion truth = trueBallOf(scene);
   const InTheAir lob = lobInTheAir(replayed, truth, world_start_s, false);
   ASSERT_GE(lob.errors_m.size(), 30u) << lob.world_balls << " world balls while the lob was 0.5 m up";
   // A lob only a teammate's Kinect sees, held within the 0.15 m (median). Until a Kinect ball

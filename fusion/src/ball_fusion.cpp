@@ -437,8 +437,7 @@ void BallFusion::process(const Frame& frame) {
     const bool reacquired = c.locates() && (track.filter.best().x.head<3>() - before_F).norm() > kReacquireJump_m;
     if (reacquired) track.filter.forgetVelocity(config_.track.initial_speed_sigma_mps);
     ++track.updates;
-    track.supportedBy(c.source, c.teammate, t);
-    if (c.locates()) track.last_located_s = t;
+    track.supportedBy(c, t);
     if (track.filter.best().mode == fw::BallState::kGround) track.seen_on_ground = true;
   }
   // The omni camera looked all round and did not see these balls: where it should have, the
@@ -468,9 +467,10 @@ const std::string& BallFusion::nameOf(Source source) const {
   return source == Source::kKinect ? config_.kinect.source : config_.omni.source;
 }
 
-void BallFusion::Track::supportedBy(Source source, int teammate, double t_s) {
+void BallFusion::Track::supportedBy(const Candidate& candidate, double t_s) {
   last_support_s = t_s;
-  switch (source) {
+  if (candidate.locates()) last_located_s = t_s;
+  switch (candidate.source) {
     case Source::kKinect:
       last_kinect_s = t_s;
       break;
@@ -478,7 +478,7 @@ void BallFusion::Track::supportedBy(Source source, int teammate, double t_s) {
       last_omni_s = t_s;
       break;
     case Source::kTeammate:
-      last_teammate_s[teammate] = t_s;
+      last_teammate_s[candidate.teammate] = t_s;
       break;
   }
 }
@@ -616,8 +616,7 @@ void BallFusion::startTrack(const Candidate& candidate, double t_s) {
   Track track{state_.next_id++, BallFilter(config_.motion, t_s, hypotheses)};
   track.updates = 1;
   track.born_s = t_s;
-  track.supportedBy(candidate.source, candidate.teammate, t_s);
-  if (candidate.locates()) track.last_located_s = t_s;
+  track.supportedBy(candidate, t_s);
   track.seen_on_ground = !candidate.in_air;
   track.omni_born = candidate.source == Source::kOmni || candidate.ray_origin_F.has_value();
   track.colour_confirmed = candidate.colour == fw::ColourVerdict::kConfirmed;

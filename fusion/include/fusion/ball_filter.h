@@ -72,7 +72,6 @@ class BallFilter {
   BallFilter(const MotionConfig& config, double time_s, std::vector<Hypothesis> hypotheses);
 
   double time() const { return time_s_; }
-  double radius_m() const { return config_.radius_m; }
   // Every mode's successors at t_s, weighted by how likely each transition is (not yet merged).
   std::vector<Hypothesis> branchesAt(double t_s) const;
   // How fast the measurement's prediction for the hypothesis changes: the ball's motion and the

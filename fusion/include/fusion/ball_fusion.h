@@ -109,6 +109,7 @@ class BallFusion {
     double mahalanobis = 0.0;
     double gap_m = 0.0;
   };
+  struct Candidate;
   struct Track {
     int id = 0;
     BallFilter filter;
@@ -126,8 +127,9 @@ class BallFusion {
 
     // The air mode explains more of the data than the ground mode.
     bool flying() const { return filter.airProbability() > 0.5; }
-    // A measurement of source (a teammate's: of that robot) supported it at t_s.
-    void supportedBy(Source source, int teammate, double t_s);
+    // The candidate's measurement (a teammate's: of that robot) supported it at t_s; a Kinect's also
+    // located it.
+    void supportedBy(const Candidate& candidate, double t_s);
   };
   // A teammate's world ball (field frame, times on this robot's clock) and where that teammate stood.
   struct TeammateWorldBall {
@@ -177,8 +179,6 @@ class BallFusion {
     std::vector<TeammateRay> team_rays;
     std::optional<TeammateWorldBall> team_world_ball;
   };
-
-  struct Candidate;
 
   // Teaches the latency estimator from an omni ball (at corrected time t, corrected by applied_s) on
   // the world's track.
