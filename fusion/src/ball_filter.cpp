@@ -222,19 +222,15 @@ Hypothesis BallFilter::bounced(const Hypothesis& flying) const {
 Hypothesis BallFilter::untouched(Hypothesis h, double dt) const {
   // Each hop is lower than the last by the restitution: a few dozen end any flight on a field.
   constexpr int kMaxBounces = 50;
-  for (int bounce = 0; dt > 0.0; ++bounce) {
-    if (h.mode == fw::BallState::kGround || bounce == kMaxBounces) {
-      if (h.mode != fw::BallState::kGround) {
-        h.mode = fw::BallState::kGround;
-        keepOnFloor(h);
-      }
+  for (int bounce = 1; dt > 0.0; ++bounce) {
+    if (h.mode == fw::BallState::kGround) {
       roll(h, dt);
       break;
     }
     double dt_left = 0.0;
     if (flyUntilFloor(h, dt, dt_left)) break;
     h = bounced(h);
-    if (!hopsNoticeably(h)) {
+    if (!hopsNoticeably(h) || bounce == kMaxBounces) {
       h.mode = fw::BallState::kGround;
       keepOnFloor(h);
     }

@@ -95,7 +95,7 @@ std::optional<fw::GoalCrossing> goalCrossing(const BallFilter& filter, const Hyp
   double dt = 0.0;  // after before
   Hypothesis at = before;
   for (int step = 0; step < 8 && std::abs(line_y - at.x[kY]) >= kAtTheLine_m; ++step) {
-    dt = std::min(dt + (line_y - at.x[kY]) / at.x[kVy], kGoalStep_s);
+    dt = std::clamp(dt + (line_y - at.x[kY]) / at.x[kVy], 0.0, kGoalStep_s);
     at = filter.untouched(before, dt);
   }
   const double vy_at = at.x[kVy];
