@@ -5,10 +5,12 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <random>
 #include <set>
 #include <string>
 #include <thread>
+#include <variant>
 #include <vector>
 
 #include "framework_api/host.h"
@@ -73,6 +75,7 @@ TEST(Host, APluginThatWakesOnBallFramesStepsOnEachArrivalNotOnlyOnItsTicks) {
   fw::Host host(exchangeConfig({"host.plugins=[tp_producer, tp_consumer]", "tp_producer.frames=200",
                                 "tp_consumer.rate_hz=0.1", "tp_consumer.wake_on_ball_frame=true"}),
                 TEST_PLUGIN_DIR);
+  host.world().openJournal(false);  // for the consumer's "stepped_on" events
   host.start();
   const auto consumer_steps = [&] { return summaryOf(host.summaries(), "tp_consumer").frames; };
   const auto deadline = Clock::now() + std::chrono::seconds(60);
@@ -81,6 +84,18 @@ TEST(Host, APluginThatWakesOnBallFramesStepsOnEachArrivalNotOnlyOnItsTicks) {
   // The producer published 200 balls 5 ms apart; however the threads fell, most woke the consumer.
   EXPECT_GE(consumer_steps(), 20u);
   EXPECT_TRUE(host.world().fusedBall().has_value());
+  // Each ball's step is taken by whichever comes first: the consumer's woken thread or the
+  // producer's, right after the step that published the ball. The producer's needs no wake-up, so
+  // it wins often (on a loaded core a wake-up costs milliseconds).
+  std::uint64_t refused = 0;
+  std::map<std::string, int> steps_on_thread;
+  for (const fw::JournalEntry& entry : host.world().takeJournal(&refused)) {
+    if (const auto* event = std::get_if<fw::Event>(&entry.item); event && event->kind == "stepped_on") {
+      ++steps_on_thread[event->message];
+    }
+  }
+  EXPECT_GE(steps_on_thread["tp_producer"], 1)
+      << "no step on the producer's thread; on the consumer's: " << steps_on_thread["tp_consumer"];
 }
 
 TEST(Host, ReportsEndOfStream) {

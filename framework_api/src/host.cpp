@@ -51,7 +51,13 @@ double LatencyHistogram::quantile(double q) const {
 struct Host::Running {
   std::unique_ptr<PluginInstance> instance;
   double rate_hz = 0.0;
-  bool wake_on_ball_frame = false;  // with a rate: also step as soon as a depth frame's balls arrive
+  // With a rate: also step as soon as a depth frame's balls arrive, on the thread of the plugin that
+  // published them, right after its step (a woken thread of its own waited milliseconds for a core
+  // under load). The thread of its own still steps at the rate and when the inline step found it busy.
+  bool wake_on_ball_frame = false;
+  std::uint64_t ball_frames_seen = 0;  // under the host's wake_mutex_
+  std::mutex stepping;                 // one step at a time, on whichever thread takes it
+  Clock::time_point started;           // when start() launched the plugins (its summary's elapsed time)
   std::thread thread;
   std::atomic<bool> finished{false};        // the thread has left run()
   std::atomic<Clock::rep> step_started{0};  // steady clock ticks; 0 = not in a step
@@ -68,6 +74,8 @@ Host::Host(const Config& config, const std::string& plugin_dir) : config_(config
       std::lock_guard<std::mutex> lock(wake_mutex_);
       ++ball_frames_;
     }
+    // Their own threads wake; whichever comes first, that or the end of the publishing plugin's step
+    // (stepAfterBallFrame), takes the step.
     wake_.notify_all();
   });
   const ConfigView host = config.block("host");
@@ -107,6 +115,8 @@ Host::~Host() {
 }
 
 void Host::start() {
+  const Clock::time_point now = Clock::now();
+  for (auto& plugin : plugins_) plugin->started = now;
   for (auto& plugin : plugins_) {
     Running& running = *plugin;
     running.thread = std::thread([this, &running] { run(running); });
@@ -226,7 +236,7 @@ std::vector<PluginSummary> Host::summaries() const {
 void Host::run(Running& plugin) {
   // The thread goes by its plugin's name (top -H, perf, gdb; Linux allows 15 characters).
   pthread_setname_np(pthread_self(), plugin.summary.name.substr(0, 15).c_str());
-  const Clock::time_point start = Clock::now();
+  const Clock::time_point start = plugin.started;
   const auto period =
       plugin.rate_hz > 0.0
           ? std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / plugin.rate_hz))
@@ -234,22 +244,26 @@ void Host::run(Running& plugin) {
   Clock::time_point next_tick = start;
   int consecutive_errors = 0;
   bool gave_up = false;
-  std::uint64_t ball_frames_seen = 0;
   while (!stop_requested_) {
     if (period > Clock::duration::zero()) {
       std::unique_lock<std::mutex> lock(wake_mutex_);
       const bool woken = wake_.wait_until(lock, next_tick, [&] {
-        return stop_requested_.load() || (plugin.wake_on_ball_frame && ball_frames_ != ball_frames_seen);
+        return stop_requested_.load() || (plugin.wake_on_ball_frame && ball_frames_ != plugin.ball_frames_seen);
       });
       if (stop_requested_) break;
-      ball_frames_seen = ball_frames_;
+      plugin.ball_frames_seen = ball_frames_;
       if (!woken) {
         next_tick += period;
         // After a long stall, skip the missed ticks instead of bursting to catch up.
         if (next_tick < Clock::now()) next_tick = Clock::now() + period;
       }
     }
-    const std::optional<StepResult> result = stepOnce(plugin, start);
+    std::optional<StepResult> result;
+    {
+      const std::lock_guard<std::mutex> stepping(plugin.stepping);
+      result = stepOnce(plugin, start);
+    }
+    stepAfterBallFrame(plugin);
     if (result) {
       consecutive_errors = 0;
       if (*result == StepResult::kEndOfStream) break;
@@ -268,16 +282,34 @@ void Host::run(Running& plugin) {
   // Asked to stop, a plugin with a rate takes one last step, so that what the sources published
   // last is processed (after a normal end they have all finished): the fusion's last world ball is
   // the one a replay of the log ends with.
-  if (period > Clock::duration::zero() && stop_requested_ && !gave_up) stepOnce(plugin, start);
   {
-    std::lock_guard<std::mutex> lock(plugin.mutex);
-    plugin.summary.elapsed_s = secondsSince(start);
-  }
-  {
+    const std::lock_guard<std::mutex> stepping(plugin.stepping);
+    if (period > Clock::duration::zero() && stop_requested_ && !gave_up) stepOnce(plugin, start);
+    {
+      std::lock_guard<std::mutex> lock(plugin.mutex);
+      plugin.summary.elapsed_s = secondsSince(start);
+    }
     std::lock_guard<std::mutex> lock(wake_mutex_);
-    plugin.finished = true;
+    plugin.finished = true;  // under `stepping` too: no step on another thread after this
   }
   wake_.notify_all();
+}
+
+void Host::stepAfterBallFrame(const Running& publisher) {
+  for (auto& plugin : plugins_) {
+    if (!plugin->wake_on_ball_frame || plugin.get() == &publisher) continue;
+    // Busy: its own thread is inside a step and takes the frame right after it.
+    const std::unique_lock<std::mutex> stepping(plugin->stepping, std::try_to_lock);
+    if (!stepping.owns_lock()) continue;
+    {
+      std::lock_guard<std::mutex> lock(wake_mutex_);
+      if (stop_requested_ || plugin->finished || plugin->ball_frames_seen == ball_frames_) continue;
+      plugin->ball_frames_seen = ball_frames_;
+    }
+    // A failed step is counted and logged as on its own thread, whose next step decides whether
+    // the plugin gives up.
+    stepOnce(*plugin, plugin->started);
+  }
 }
 
 bool Host::givesUp(Running& plugin, int consecutive_errors) {

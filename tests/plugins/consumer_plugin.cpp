@@ -1,4 +1,7 @@
-// Reads the producer's newest ball from the world state and republishes it as the fused ball.
+// Reads the producer's newest ball from the world state and republishes it as the fused ball, and
+// says on which thread it did (an event "stepped_on" naming the thread, when the journal is open).
+#include <pthread.h>
+
 #include "framework_api/plugin.h"
 
 namespace {
@@ -15,6 +18,9 @@ class Consumer : public fw::Plugin {
     fused.stamp = balls.front().stamp;
     fused.sources = {"tp_producer"};
     world_.publishFusedBall(fused);
+    char thread[16] = "";
+    pthread_getname_np(pthread_self(), thread, sizeof thread);
+    world_.publishEvent({"tp_consumer", "stepped_on", thread, fused.stamp});
     return fw::StepResult::kProcessed;
   }
 

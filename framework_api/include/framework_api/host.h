@@ -103,6 +103,9 @@ class Host {
  private:
   struct Running;
   void run(Running& plugin);
+  // After a step of `publisher` on its own thread: every wake_on_ball_frame plugin with a depth
+  // frame's balls it has not seen steps here, unless it is stepping now or has stopped.
+  void stepAfterBallFrame(const Running& publisher);
   // One step, counted in the plugin's summary (an error logged too); nothing when it failed.
   std::optional<StepResult> stepOnce(Running& plugin, std::chrono::steady_clock::time_point start);
   // After a failed step: true (the plugin's summary says it gave up, and the log why) once it has
@@ -122,7 +125,7 @@ class Host {
   double stuck_after_s_ = 0.0;
   std::mutex wake_mutex_;
   std::condition_variable wake_;
-  std::uint64_t ball_frames_ = 0;  // published so far (under wake_mutex_): wakes wake_on_ball_frame plugins
+  std::uint64_t ball_frames_ = 0;  // published so far (under wake_mutex_): steps wake_on_ball_frame plugins
 };
 
 // One summary line per plugin: "kinect3d 1.0.0: 301 frames in 10.0 s (30.1 Hz), 0 errors", and for
