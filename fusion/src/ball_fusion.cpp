@@ -106,7 +106,8 @@ std::optional<fw::GoalCrossing> goalCrossing(const BallFilter& filter, const Hyp
   J(1, 2) = 1.0;
   J(1, kY) = -at.x[5] / vy_at;
   const Eigen::Matrix2d spread = J * at.P * J.transpose();
-  const double rest_s = (line_y - at.x[kY]) / vy_at;  // under a millimetre
+  // What Newton's steps left: under a millimetre once they converge, covered by one straight step.
+  const double rest_s = (line_y - at.x[kY]) / vy_at;
   fw::GoalCrossing crossing;
   crossing.goal = goal;
   crossing.x_m = at.x[0] + rest_s * at.x[3];
