@@ -1,7 +1,10 @@
 #include <gtest/gtest.h>
 
+#include <Eigen/Eigenvalues>
 #include <chrono>
+#include <random>
 #include <thread>
+#include <vector>
 
 #include "framework_api/world_state.h"
 
@@ -92,6 +95,23 @@ TEST(Types, RobotToFieldAndOmniGroundPoint) {
   omni.bearing_rad = M_PI / 2;  // to the robot's left
   omni.distance_m = 2.0;
   EXPECT_TRUE(omni.groundPoint_R().isApprox(Eigen::Vector3d(-2.0, 0.0, 0.0), 1e-12));
+}
+
+TEST(Types, TheLargestEigenvalueOfASymmetric2x2MatrixIsEigensOwn) {
+  std::mt19937 random(7);
+  std::uniform_real_distribution<double> entry(-2.0, 2.0);
+  std::vector<Eigen::Matrix2d> matrices = {Eigen::Matrix2d::Zero(), Eigen::Matrix2d::Identity() * 0.04,
+                                           (Eigen::Matrix2d() << 0.01, 0.0, 0.0, 0.09).finished(),
+                                           (Eigen::Matrix2d() << 1.0, 1.0, 1.0, 1.0).finished()};  // singular
+  for (int i = 0; i < 100; ++i) {
+    const Eigen::Matrix2d a = Eigen::Matrix2d::NullaryExpr([&] { return entry(random); });
+    matrices.push_back(a * a.transpose());  // a covariance
+    matrices.push_back(a + a.transpose());  // symmetric, possibly indefinite
+  }
+  for (const Eigen::Matrix2d& m : matrices) {
+    const double eigen = Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(m).eigenvalues().maxCoeff();
+    EXPECT_NEAR(fw::largestEigenvalue(m), eigen, 1e-12 * std::max(1.0, m.norm())) << m;
+  }
 }
 
 TEST(Types, ObservationIsApprox) {

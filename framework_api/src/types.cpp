@@ -7,8 +7,6 @@
 #include <limits>
 #include <stdexcept>
 
-#include <Eigen/Eigenvalues>
-
 namespace fw {
 
 namespace {
@@ -31,6 +29,11 @@ double quantile(std::vector<double> values, double q) {
   const std::size_t rank = std::min(values.size() - 1, static_cast<std::size_t>(std::max(0.0, q) * values.size()));
   std::nth_element(values.begin(), values.begin() + static_cast<std::ptrdiff_t>(rank), values.end());
   return values[rank];
+}
+
+double largestEigenvalue(const Eigen::Matrix2d& symmetric) {
+  const double mean = 0.5 * (symmetric(0, 0) + symmetric(1, 1));
+  return mean + std::hypot(0.5 * (symmetric(0, 0) - symmetric(1, 1)), symmetric(0, 1));
 }
 
 double wrapAngle(double a_rad) { return a_rad - 2.0 * M_PI * std::floor((a_rad + M_PI) / (2.0 * M_PI)); }
@@ -175,8 +178,7 @@ BallTrajectory BallTrajectory::movedTo(double t_s) const {
 }
 
 double FusedBall::sigmaHorizontal_m() const {
-  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> solver(covariance_F.topLeftCorner<2, 2>());
-  return std::sqrt(std::max(0.0, solver.eigenvalues().maxCoeff()));
+  return std::sqrt(std::max(0.0, largestEigenvalue(covariance_F.topLeftCorner<2, 2>())));
 }
 
 }  // namespace fw

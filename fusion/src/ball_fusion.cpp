@@ -4,8 +4,6 @@
 #include <cmath>
 #include <optional>
 
-#include <Eigen/Eigenvalues>
-
 #include "framework_api/log.h"
 
 #include "fusion/measurements.h"
@@ -113,8 +111,7 @@ std::optional<fw::GoalCrossing> goalCrossing(const BallFilter& filter, const Hyp
   crossing.x_m = at.x[0] + rest_s * at.x[3];
   crossing.z_m = at.x[2] + rest_s * at.x[5];
   crossing.time_s = t_s + before_s + dt + rest_s;
-  crossing.sigma_m =
-      std::sqrt(std::max(0.0, Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(spread).eigenvalues().maxCoeff()));
+  crossing.sigma_m = std::sqrt(std::max(0.0, fw::largestEigenvalue(spread)));
   crossing.time_sigma_s = std::sqrt(at.P(kY, kY)) / std::abs(vy_at);
   return crossing;
 }

@@ -26,6 +26,10 @@ void setReplayedWallClock(std::optional<double> wall_time_s);
 // Wraps an angle into [-pi, pi).
 double wrapAngle(double a_rad);
 
+// The larger eigenvalue of a symmetric 2x2 matrix (a covariance's long axis, squared), in closed
+// form: Eigen's iterative solver for it was a third of the compile time of each file that used it.
+double largestEigenvalue(const Eigen::Matrix2d& symmetric);
+
 // The q-quantile of values by nearest rank: the value at index floor(q * n) of the sorted values
 // (the last for q = 1); NaN for no values. The one rank rule of every report and health figure.
 double quantile(std::vector<double> values, double q);

@@ -1,5 +1,4 @@
 #include <Eigen/Dense>
-#include <Eigen/Eigenvalues>
 
 #include <algorithm>
 #include <array>
@@ -385,8 +384,7 @@ class BallisticEstimator : public TrajectoryEstimator {
       const Matrix22d cross = J * physics_cross_;
       spread += slope * physics_covariance_ * slope.transpose() + cross * slope.transpose() + slope * cross.transpose();
     }
-    result.sigma_m =
-        std::sqrt(std::max(0.0, Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(spread).eigenvalues().maxCoeff()));
+    result.sigma_m = std::sqrt(std::max(0.0, fw::largestEigenvalue(spread)));
     return result;
   }
 
