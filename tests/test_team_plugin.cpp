@@ -87,11 +87,26 @@ struct Lob {
 };
 
 // KINECT3D_KEEP_TEAM_LOGS=<dir>: a live run's logs copied there, to replay (kinect3d replay) or keep.
-void keepLogsIfAsked(const ScopedTempDir& dir) {
-  if (const char* keep = std::getenv("KINECT3D_KEEP_TEAM_LOGS")) {
-    std::filesystem::copy(dir.path(), keep, std::filesystem::copy_options::recursive);
+// Declared right after the run's folder, it copies when the test ends, however it ends: after the
+// hosts declared below it have closed their logs, and also when an assertion failed, the run most
+// worth replaying.
+class KeepLogsIfAsked {
+ public:
+  explicit KeepLogsIfAsked(const ScopedTempDir& dir) : dir_(dir) {}
+  KeepLogsIfAsked(const KeepLogsIfAsked&) = delete;
+  KeepLogsIfAsked& operator=(const KeepLogsIfAsked&) = delete;
+  ~KeepLogsIfAsked() {
+    const char* keep = std::getenv("KINECT3D_KEEP_TEAM_LOGS");
+    if (keep == nullptr) return;
+    std::error_code error;
+    std::filesystem::copy(dir_.path(), keep, std::filesystem::copy_options::recursive, error);
+    std::printf("KINECT3D_KEEP_TEAM_LOGS: %s %s %s\n", error ? "could not copy" : "copied", dir_.path().c_str(),
+                error ? error.message().c_str() : (std::string("to ") + keep).c_str());
   }
-}
+
+ private:
+  const ScopedTempDir& dir_;
+};
 
 // Plays the scene on every host (the receiver first), until those with sources have played it; stops
 // the others, then the receiver once it has taken in everything that reached it: its world state still
@@ -217,6 +232,7 @@ TEST(TeamPlugin, ARobotWithoutAKinectHoldsTheLobFromItsTeammatesAndOutsidersAreR
 
 TEST(TeamPlugin, ThroughALossyDelayingDuplicatingNetworkTheDefenderStillHoldsTheLob) {
   const ScopedTempDir dir;
+  const KeepLogsIfAsked keep_logs(dir);
   const std::string team_key = writeKey(dir, "team.key", team::TeamKey::random());
   constexpr int kPort = 50432;
   // Each robot sends to its teammate through a link that loses a fifth of the packets, delays each by
@@ -244,7 +260,6 @@ TEST(TeamPlugin, ThroughALossyDelayingDuplicatingNetworkTheDefenderStillHoldsThe
   EXPECT_LE(fw::quantile(received.air_offs_m, 0.9), 0.5);
   std::printf("in the air from the keeper's messages: %.3f m median, %.3f m p90 off the true flight\n",
               fw::quantile(received.air_offs_m, 0.5), fw::quantile(received.air_offs_m, 0.9));
-  keepLogsIfAsked(dir);
   std::printf("the keeper sent %.0f bytes/s in %.1f packets/s (%.0f bytes each)\n", from_keeper.bytes_in / played_s,
               from_keeper.packets_in / played_s,
               static_cast<double>(from_keeper.bytes_in) / static_cast<double>(from_keeper.packets_in));
@@ -328,6 +343,7 @@ TEST(TeamPlugin, ThreeRobotsInOneWorldHoldTheLobOnlyTheKeepersKinectSees) {
   // field. Neither the defender nor the striker has a Kinect. Each robot sends to the other two
   // through a link that loses a fifth of the packets and delays each by up to 200 ms.
   const ScopedTempDir dir;
+  const KeepLogsIfAsked keep_logs(dir);  // for tests/data/team_run/ (its README says how they were made)
   const std::string team_key = writeKey(dir, "team.key", team::TeamKey::random());
   constexpr int kPort = 50434;
   const UdpImpairment network(
@@ -383,7 +399,6 @@ TEST(TeamPlugin, ThreeRobotsInOneWorldHoldTheLobOnlyTheKeepersKinectSees) {
                 name, keeper_itself ? "from its own Kinect" : "from the keeper's messages",
                 fw::quantile(lob.errors_m, 0.5), fw::quantile(lob.errors_m, 0.9), lob.errors_m.size(), lob.world_balls);
   }
-  keepLogsIfAsked(dir);  // for tests/data/team_run/ (its README says how they were made)
 }
 
 TEST(TeamPlugin, TwoRobotsOmniCamerasAlonePlaceAHopInTheAirThroughALossyNetwork) {
@@ -393,6 +408,7 @@ TEST(TeamPlugin, TwoRobotsOmniCamerasAlonePlaceAHopInTheAirThroughALossyNetwork)
   // 200 ms. One camera gives a bearing to a ball in the air; two rays meet at it. The anchor:
   // two robots' omni cameras placed a static ball in the air within 0.13 m (Tech United, Aveiro).
   const ScopedTempDir dir;
+  const KeepLogsIfAsked keep_logs(dir);
   const std::string team_key = writeKey(dir, "team.key", team::TeamKey::random());
   constexpr int kPort = 50435;
   const UdpImpairment network({{"127.0.0.92", "127.0.0.82"}, {"127.0.0.93", "127.0.0.83"}}, kPort, {0.2, 0.2, 0.0});
@@ -411,7 +427,6 @@ TEST(TeamPlugin, TwoRobotsOmniCamerasAlonePlaceAHopInTheAirThroughALossyNetwork)
   const auto striker = robot("striker", 3, 92);
   playTogether(*defender, {striker.get()});
   ASSERT_TRUE(defender->sourcesFinished() && striker->sourcesFinished());
-  keepLogsIfAsked(dir);
 
   // Every world ball of the defender while the true ball was 10 cm above its resting height, with
   // the striker's rays and, replayed from the same log, without them.
