@@ -597,6 +597,38 @@ TEST(MatchLog, StampsThatAreNotFiniteAreRefusedOneByOneOrSkippedByTheLogSource) 
   EXPECT_EQ(source->counters().skipped, 2u);
 }
 
+TEST(MatchLog, AnImageWhosePixelsDoNotFillItsSizeIsRefusedAndTheNextIsKept) {
+  ScopedTempDir dir;
+  const std::string folder = (dir.path() / "run").string();
+  {
+    fw::MatchLogWriter writer(folder, {});
+    fw::DepthImage short_depth = smallDepthImage(0);
+    short_depth.depth_mm.pop_back();
+    fw::DepthImage short_colour = smallDepthImage(1);
+    fw::ColourImage colour;
+    colour.width = short_colour.width;
+    colour.height = short_colour.height;
+    colour.rgb.assign(static_cast<std::size_t>(colour.width) * colour.height * 3 - 1, 128);
+    short_colour.colour = colour;
+    for (const fw::DepthImage* image : {&short_depth, &short_colour}) {
+      try {
+        writer.write({1.0, *image});
+        ADD_FAILURE() << "frame " << image->index << " was taken";
+      } catch (const fw::MatchLogRefused& e) {
+        EXPECT_NE(std::string(e.what()).find("(frame " + std::to_string(image->index) +
+                                             ") not recorded: its pixels do not fill its size"),
+                  std::string::npos)
+            << e.what();
+      }
+    }
+    writer.write({1.0, smallDepthImage(2)});
+  }
+  const fw::MatchLogReader log(folder);
+  const auto stamps = log.depthFrameStamps("kinect3d");
+  ASSERT_EQ(stamps.size(), 1u);
+  EXPECT_EQ(log.depthFrame(stamps.at(0).seq).depth_mm, smallDepthImage(2).depth_mm);
+}
+
 TEST(Logger, StopsAtItsBudgetLoudlyAndDetectionGoesOn) {
   ScopedTempDir dir;
   const auto summaries = runDemo(dir.path().string(), {"logger.budget_mb=1"});

@@ -24,6 +24,7 @@ PACKAGES=(
   libcpp-httplib-dev            # the viewer's web server
   libmsgpack-cxx-dev            # the team message (plugins/team, the match log)
   libzstd-dev                   # the match log's depth and the team packets' compression
+  libturbojpeg0-dev             # the match log's colour (libjpeg-turbo's TurboJPEG API)
   libsodium-dev                 # the team packets' authentication with the team key
 )
 if [ "${1:-}" = "--tests" ]; then

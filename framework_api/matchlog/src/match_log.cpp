@@ -9,8 +9,6 @@
 #include <ctime>
 #include <filesystem>
 #include <map>
-#include <opencv2/imgcodecs.hpp>
-#include <opencv2/imgproc.hpp>
 #include <optional>
 #include <set>
 #include <variant>
@@ -122,8 +120,12 @@ struct Statement {
   void bindOne(int index, const std::vector<unsigned char>& blob) {
     sqlite3_bind_blob(stmt, index, blob.data(), static_cast<int>(blob.size()), SQLITE_TRANSIENT);
   }
+  // The encoders' bytes stay valid until run() ends: bound, not copied.
   void bindOne(int index, const DepthEncoder::Bytes& blob) {
-    sqlite3_bind_blob(stmt, index, blob.data, static_cast<int>(blob.size), SQLITE_STATIC);  // valid until run() ends
+    sqlite3_bind_blob(stmt, index, blob.data, static_cast<int>(blob.size), SQLITE_STATIC);
+  }
+  void bindOne(int index, const JpegEncoder::Bytes& blob) {
+    sqlite3_bind_blob(stmt, index, blob.data, static_cast<int>(blob.size), SQLITE_STATIC);
   }
   void bindOne(int index, const std::optional<double>& value) {
     if (value) {
@@ -222,10 +224,13 @@ std::string claimRunFolder(const std::string& base, const std::string& robot, do
 // ---------------------------------------------------------------------------------------------
 
 MatchLogWriter::MatchLogWriter(const std::string& folder, const RunInfo& run, int colour_jpeg_quality)
-    : folder_(folder), path_((fs::path(folder) / kMatchLogFile).string()), colour_jpeg_quality_(colour_jpeg_quality) {
-  if (colour_jpeg_quality < 1 || colour_jpeg_quality > 100) {
-    throw MatchLogError(folder + ": a colour JPEG quality of " + std::to_string(colour_jpeg_quality) + " (1 to 100)");
-  }
+    : folder_(folder), path_((fs::path(folder) / kMatchLogFile).string()), colour_encoder_([&] {
+        if (colour_jpeg_quality < 1 || colour_jpeg_quality > 100) {
+          throw MatchLogError(folder + ": a colour JPEG quality of " + std::to_string(colour_jpeg_quality) +
+                              " (1 to 100)");
+        }
+        return colour_jpeg_quality;
+      }()) {
   std::error_code error;
   fs::create_directories(folder, error);
   if (error) throw MatchLogError(folder + ": cannot create the log folder: " + error.message());
@@ -384,6 +389,15 @@ void MatchLogWriter::write(const fw::JournalEntry& entry) {
                 .run(seq, wall, p.stamp.source_time_s, p.stamp.receive_time_s, p.x_m, p.y_m, p.theta_rad);
           },
           [&](const fw::DepthImage& image) {
+            // The codecs read width x height pixels: an image that holds fewer is refused whole.
+            const auto holds = [](std::size_t values, int width, int height, std::size_t per_pixel) {
+              return width > 0 && height > 0 && values == static_cast<std::size_t>(width) * height * per_pixel;
+            };
+            if (!holds(image.depth_mm.size(), image.width, image.height, 1) ||
+                (image.colour && !holds(image.colour->rgb.size(), image.colour->width, image.colour->height, 3))) {
+              throw MatchLogRefused(path_ + ": a depth image of " + image.source + " (frame " +
+                                    std::to_string(image.index) + ") not recorded: its pixels do not fill its size");
+            }
             const DepthEncoder::Bytes depth = depth_encoder_.encode(image.depth_mm.data(), image.width, image.height);
             const auto gravity = [&](int axis) {
               return image.gravity_S_mps2 ? std::optional<double>((*image.gravity_S_mps2)[axis]) : std::nullopt;
@@ -394,11 +408,7 @@ void MatchLogWriter::write(const fw::JournalEntry& entry) {
                      gravity(2));
             if (image.colour) {
               const fw::ColourImage& colour = *image.colour;
-              cv::Mat bgr;
-              cv::cvtColor(cv::Mat(colour.height, colour.width, CV_8UC3, const_cast<std::uint8_t*>(colour.rgb.data())),
-                           bgr, cv::COLOR_RGB2BGR);
-              std::vector<unsigned char> jpeg;
-              cv::imencode(".jpg", bgr, jpeg, {cv::IMWRITE_JPEG_QUALITY, colour_jpeg_quality_});
+              const JpegEncoder::Bytes jpeg = colour_encoder_.encode(colour.rgb.data(), colour.width, colour.height);
               statement("INSERT INTO colour_frame VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)")
                   .run(seq, colour.source_time_s, colour.width, colour.height, colour.fx, colour.fy, colour.cx,
                        colour.cy, colour.offset_S_m.x(), colour.offset_S_m.y(), colour.offset_S_m.z(), jpeg);
@@ -915,10 +925,11 @@ fw::ColourImage MatchLogReader::decodeColour(Statement& q, const std::string& fr
   const std::string not_jpeg = frame + ": its colour image is not a " + std::to_string(colour.width) + "x" +
                                std::to_string(colour.height) + " colour JPEG";
   if (!within(colour.width) || !within(colour.height) || size <= 0) fail(not_jpeg);
-  const cv::Mat bgr = cv::imdecode(cv::Mat(1, size, CV_8UC1, const_cast<unsigned char*>(bytes)), cv::IMREAD_COLOR);
-  if (bgr.empty() || bgr.cols != colour.width || bgr.rows != colour.height) fail(not_jpeg);
-  colour.rgb.resize(static_cast<std::size_t>(colour.width) * colour.height * 3);
-  cv::cvtColor(bgr, cv::Mat(colour.height, colour.width, CV_8UC3, colour.rgb.data()), cv::COLOR_BGR2RGB);
+  try {
+    decodeJpeg(bytes, static_cast<std::size_t>(size), colour.width, colour.height, colour.rgb);
+  } catch (const ColourCodecError& e) {
+    fail(frame + ": its colour image is " + e.what());
+  }
   return colour;
 }
 

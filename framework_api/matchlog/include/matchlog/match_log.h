@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "framework_api/world_state.h"
+#include "matchlog/colour_codec.h"
 #include "matchlog/depth_codec.h"
 
 struct sqlite3;
@@ -104,7 +105,7 @@ class MatchLogWriter {
   std::map<std::string, std::unique_ptr<Statement>> statements_;  // prepared once, by their SQL
   bool in_batch_ = false;
   std::int64_t next_seq_ = 1;
-  int colour_jpeg_quality_;
+  JpegEncoder colour_encoder_;
   DepthEncoder depth_encoder_;
 };
 
