@@ -380,10 +380,9 @@ std::optional<Eigen::Vector3d> BallRefiner::centreFromOutline(const Eigen::Vecto
       const Eigen::Vector2d d = px.cast<double>() - mean_px;
       spread += d * d.transpose();
     }
-    // The eigenvalues of a symmetric 2x2 matrix, in closed form.
-    const double half_trace = spread.trace() / 2;
-    const double gap = std::sqrt(std::pow((spread(0, 0) - spread(1, 1)) / 2, 2) + spread(0, 1) * spread(0, 1));
-    const bool round = std::sqrt((half_trace + gap) / std::max(half_trace - gap, 1e-9)) <= kMaxNotchedElongation;
+    const double longest = fw::largestEigenvalue(spread);
+    const double shortest = spread.trace() - longest;
+    const bool round = std::sqrt(longest / std::max(shortest, 1e-9)) <= kMaxNotchedElongation;
     if (kept >= kMinLimbEnds && sectors >= kMinSectors && round && at.norm() <= kMaxWholeMove * config_.radius_m &&
         residualAt(at, 0.8) <= kMaxNotchedResidualP80) {
       ab = at;
