@@ -398,6 +398,17 @@ void MatchLogWriter::write(const fw::JournalEntry& entry) {
               throw MatchLogRefused(path_ + ": a depth image of " + image.source + " (frame " +
                                     std::to_string(image.index) + ") not recorded: its pixels do not fill its size");
             }
+            // The colour is encoded before anything is inserted, so that a frame is recorded whole or
+            // not at all; a failure (out of memory) refuses this frame, not the rest of the batch.
+            JpegEncoder::Bytes jpeg{nullptr, 0};
+            if (image.colour) {
+              try {
+                jpeg = colour_encoder_.encode(image.colour->rgb.data(), image.colour->width, image.colour->height);
+              } catch (const ColourCodecError& e) {
+                throw MatchLogRefused(path_ + ": a depth image of " + image.source + " (frame " +
+                                      std::to_string(image.index) + ") not recorded: " + e.what());
+              }
+            }
             const DepthEncoder::Bytes depth = depth_encoder_.encode(image.depth_mm.data(), image.width, image.height);
             const auto gravity = [&](int axis) {
               return image.gravity_S_mps2 ? std::optional<double>((*image.gravity_S_mps2)[axis]) : std::nullopt;
@@ -408,7 +419,6 @@ void MatchLogWriter::write(const fw::JournalEntry& entry) {
                      gravity(2));
             if (image.colour) {
               const fw::ColourImage& colour = *image.colour;
-              const JpegEncoder::Bytes jpeg = colour_encoder_.encode(colour.rgb.data(), colour.width, colour.height);
               statement("INSERT INTO colour_frame VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)")
                   .run(seq, colour.source_time_s, colour.width, colour.height, colour.fx, colour.fy, colour.cx,
                        colour.cy, colour.offset_S_m.x(), colour.offset_S_m.y(), colour.offset_S_m.z(), jpeg);
