@@ -389,14 +389,17 @@ void MatchLogWriter::write(const fw::JournalEntry& entry) {
                 .run(seq, wall, p.stamp.source_time_s, p.stamp.receive_time_s, p.x_m, p.y_m, p.theta_rad);
           },
           [&](const fw::DepthImage& image) {
+            const auto refused = [&](const std::string& why) {
+              return MatchLogRefused(path_ + ": a depth image of " + image.source + " (frame " +
+                                     std::to_string(image.index) + ") not recorded: " + why);
+            };
             // The codecs read width x height pixels: an image that holds fewer is refused whole.
             const auto holds = [](std::size_t values, int width, int height, std::size_t per_pixel) {
               return width > 0 && height > 0 && values == static_cast<std::size_t>(width) * height * per_pixel;
             };
             if (!holds(image.depth_mm.size(), image.width, image.height, 1) ||
                 (image.colour && !holds(image.colour->rgb.size(), image.colour->width, image.colour->height, 3))) {
-              throw MatchLogRefused(path_ + ": a depth image of " + image.source + " (frame " +
-                                    std::to_string(image.index) + ") not recorded: its pixels do not fill its size");
+              throw refused("its pixels do not fill its size");
             }
             // The colour is encoded before anything is inserted, so that a frame is recorded whole or
             // not at all; a failure (out of memory) refuses this frame, not the rest of the batch.
@@ -405,8 +408,7 @@ void MatchLogWriter::write(const fw::JournalEntry& entry) {
               try {
                 jpeg = colour_encoder_.encode(image.colour->rgb.data(), image.colour->width, image.colour->height);
               } catch (const ColourCodecError& e) {
-                throw MatchLogRefused(path_ + ": a depth image of " + image.source + " (frame " +
-                                      std::to_string(image.index) + ") not recorded: " + e.what());
+                throw refused(e.what());
               }
             }
             const DepthEncoder::Bytes depth = depth_encoder_.encode(image.depth_mm.data(), image.width, image.height);
