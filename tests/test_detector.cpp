@@ -68,6 +68,7 @@ TEST(DetectorConfig, ShippedDefaultsAreTheStructDefaults) {
   EXPECT_EQ(read.ball.min_visible_fraction, code.ball.min_visible_fraction);
   EXPECT_EQ(read.ball.max_size_ratio, code.ball.max_size_ratio);
   EXPECT_EQ(read.ball.air_min_height_m, code.ball.air_min_height_m);
+  EXPECT_EQ(read.second_sight_beyond_m, code.second_sight_beyond_m);
 }
 
 // ---- Surface filter ----------------------------------------------------------------------------
@@ -206,7 +207,11 @@ TEST(BallDetector, HungBallMeetsThePaperTable1Targets) {
     SCOPED_TRACE("hung at " + std::to_string(d) + " m");
     sim::Scene scene = sim::loadScene("hung_" + std::to_string(d) + "m");
     scene.duration_s = 1.0;
-    const auto frames = sim::runDetectorOnScene(scene, shippedDetector(scene));
+    auto frames = sim::runDetectorOnScene(scene, shippedDetector(scene));
+    // At 4 m and 6 m the ball lies beyond ball.second_sight_beyond_m from the sensor: it is
+    // reported from its second frame on.
+    EXPECT_EQ(frames.front().balls.size(), d == 2 ? 1u : 0u);
+    frames.erase(frames.begin());
     Eigen::Vector3d sum = Eigen::Vector3d::Zero(), square = Eigen::Vector3d::Zero();
     double error_sum = 0.0;
     for (const auto& f : frames) {
@@ -223,6 +228,39 @@ TEST(BallDetector, HungBallMeetsThePaperTable1Targets) {
     EXPECT_LE(error_sum / n, d <= 4 ? 0.03 : 0.06);
     EXPECT_LE(std_dev.maxCoeff(), 0.02);
   }
+}
+
+TEST(BallDetector, AFarBallIsReportedOnlyWhenALastFrameCouldHaveHeldIt) {
+  // Beyond 4 m a hand or a foot looks like a ball for a frame; a free ball is seen more than once.
+  // The 6 m ball, shown in a pattern of frames (its place per frame, none when it is absent), to a
+  // detector that sees every frame in turn.
+  sim::Scene hung = sim::loadScene("hung_6m");
+  hung.duration_s = 0.5;
+  sim::Scene moved = hung, empty = hung;
+  moved.ball->position_m.x() += 2.5;  // 37 m/s away in two frames: no ball moves so fast
+  empty.ball.reset();
+  auto ballsPerFrame = [&](const std::vector<const sim::Scene*>& pattern) {
+    kinect3d::BallDetector detector(shippedDetector(hung), "kinect3d");
+    kinect3d::DepthFrame frame;
+    sim::GroundTruth truth;
+    kinect3d::Detections detections;
+    std::vector<std::size_t> balls;
+    for (int i = 0; i < 12; ++i) {
+      sim::KinectSimulator(*pattern[i % pattern.size()]).render(i, frame, truth);
+      detector.detect(frame, detections);
+      balls.push_back(detections.balls.size());
+    }
+    return balls;
+  };
+  using Counts = std::vector<std::size_t>;
+  const Counts from_the_second = {0, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1};
+  EXPECT_EQ(ballsPerFrame({&hung}), from_the_second);
+  EXPECT_EQ(ballsPerFrame({&moved}), from_the_second);
+  // One frame missed between two sights is bridged; two are not.
+  EXPECT_EQ(ballsPerFrame({&hung, &empty}), (Counts{0, 0, 1, 0, 1, 0, 1, 0, 1, 0, 1, 0}));
+  EXPECT_EQ(ballsPerFrame({&hung, &empty, &empty}), Counts(12, 0));
+  // A ball in one place, 2.5 m away the next frame, then gone: never the same ball.
+  EXPECT_EQ(ballsPerFrame({&hung, &moved, &empty}), Counts(12, 0));
 }
 
 TEST(BallDetector, SeesAHungBallAtItsFieldPlaceFromADrivingTurningRobot) {
@@ -359,8 +397,10 @@ TEST(BallDetector, PeopleRoundTheRobotAreNotBallsAndABallAmongThemIsFound) {
     const sim::Scene scene = sim::crowdScene(seed, sim::CrowdBall::kOverAHead);
     lobs.add(sim::scoreFrames(sim::runDetectorOnScene(scene, shippedDetector(scene)), scene, {}));
   }
+  // Most of these lobs are beyond 4 m and seen for 3-8 frames: the first, never reported (second
+  // sight), costs them 5-25 % of their frames.
   EXPECT_GT(lobs.eligible, 30);
-  EXPECT_GE(lobs.recall(), 0.9);
+  EXPECT_GE(lobs.recall(), 0.8);
   EXPECT_EQ(lobs.off_truth, 0);
 }
 
@@ -427,7 +467,7 @@ TEST(BallDetector, CovarianceGrowsWithRangeAlongTheRay) {
     sim::Scene scene = sim::loadScene("hung_" + std::to_string(d) + "m");
     scene.duration_s = 0.1;
     const auto frames = sim::runDetectorOnScene(scene, shippedDetector(scene));
-    return frames.at(0).balls.at(0).covariance_m2;
+    return frames.at(1).balls.at(0).covariance_m2;  // at 6 m the ball is reported from its second frame
   };
   const Eigen::Matrix3d near = covarianceAt(2), far = covarianceAt(6);
   // Straight ahead the ray is the robot's y axis.

@@ -18,6 +18,13 @@ double minGroupPointsAt1m(const DetectorConfig& config, double focal_px) {
   const double stride = config.points.pixel_stride;
   return 0.5 * config.ball.min_visible_fraction * M_PI * std::pow(focal_px * config.ball.radius_m / stride, 2);
 }
+
+// A ball seen twice moved at most this fast in between (MSL shots reach 12-15 m/s), give or take
+// its fit's spread at range. A sight confirms one at most kMaxSightGap_s later: one frame missed at
+// 30 Hz is bridged (a dark panel, another Kinect's pattern), two are not.
+constexpr double kMaxBallSpeed_mps = 20.0;
+constexpr double kSightSpread_m = 0.3;
+constexpr double kMaxSightGap_s = 0.07;
 }  // namespace
 
 const char* StageTimes::name(int stage) {
@@ -63,7 +70,8 @@ void BallDetector::detect(const DepthFrame& frame, Detections& out, const std::o
   }
   if (!map_) map_ = std::make_unique<SceneMap>(config_.map, config_.points.min_range_m, config_.points.max_range_m);
   if (T_F_R.has_value() != map_in_field_) {
-    map_->clear();  // what it holds is in the other frame
+    map_->clear();  // what it and the last sights hold is in the other frame
+    recent_sights_.clear();
     map_in_field_ = T_F_R.has_value();
   }
   const Eigen::Isometry3d T_M_R = T_F_R.value_or(Eigen::Isometry3d::Identity());
@@ -99,6 +107,7 @@ void BallDetector::detect(const DepthFrame& frame, Detections& out, const std::o
     ball.is_static = insideStaticSpace(candidate, T_M_R);
     out.balls.push_back(ball);
   }
+  keepSecondSights(out.balls, T_M_R, frame.source_time_s);
   // The paper looks for flying balls first: report those before balls on the ground. An
   // insertion pass keeps the order otherwise and, unlike std::stable_sort, allocates nothing.
   for (std::size_t i = 1; i < out.balls.size(); ++i) {
@@ -124,6 +133,31 @@ void BallDetector::detect(const DepthFrame& frame, Detections& out, const std::o
 
   map_->update(frame, T_M_R * *T_R_S_, frame.source_time_s);
   out.times.seconds[StageTimes::kMap] = secondsBetween(t6, Clock::now());
+}
+
+void BallDetector::keepSecondSights(std::vector<fw::BallObservation>& balls, const Eigen::Isometry3d& T_M_R,
+                                    double time_s) {
+  // Sights from later frames (a recording played again) or too long ago cannot confirm this one.
+  recent_sights_.erase(std::remove_if(recent_sights_.begin(), recent_sights_.end(),
+                                      [&](const Sight& sight) {
+                                        return !(sight.time_s < time_s && time_s - sight.time_s <= kMaxSightGap_s);
+                                      }),
+                       recent_sights_.end());
+  const std::size_t earlier = recent_sights_.size();
+  for (const fw::BallObservation& ball : balls) recent_sights_.push_back({time_s, T_M_R * ball.position_m});
+  std::size_t kept = 0;
+  for (std::size_t i = 0; i < balls.size(); ++i) {
+    const Eigen::Vector3d& position_M = recent_sights_[earlier + i].position_M;
+    const bool near = (balls[i].position_m - T_R_S_->translation()).norm() < config_.second_sight_beyond_m;
+    const bool seen_before =
+        std::any_of(recent_sights_.begin(), recent_sights_.begin() + earlier, [&](const Sight& sight) {
+          return (sight.position_M - position_M).norm() <= kMaxBallSpeed_mps * (time_s - sight.time_s) + kSightSpread_m;
+        });
+    if (!near && !seen_before) continue;
+    if (kept != i) balls[kept] = std::move(balls[i]);
+    ++kept;
+  }
+  balls.resize(kept);
 }
 
 bool BallDetector::insideStaticSpace(const BallCandidate& candidate, const Eigen::Isometry3d& T_M_R) const {

@@ -91,6 +91,7 @@ DetectorConfig readDetectorConfig(const fw::ConfigView& kinect3d) {
   config.ball.min_visible_fraction = ball.getDouble("min_visible_fraction", 0.0, 1.0);
   config.ball.max_size_ratio = ball.getDouble("max_size_ratio", 1.0, 10.0);
   config.ball.air_min_height_m = ball.getDouble("air_min_height_m", 0.0, 2.0);
+  config.second_sight_beyond_m = ball.getDouble("second_sight_beyond_m", 0.0, 100.0);
   config.colour = readColourCheckConfig(kinect3d);
   return config;
 }

@@ -31,6 +31,9 @@ struct DetectorConfig {
   BallRefiner::Config ball;
   SceneMap::Config map;
   ColourCheckConfig colour;
+  // A ball farther than this is reported from its second frame in a row: beyond it a hand, a fist or
+  // a foot has a ball's size, outline and depth for a frame, and a free ball is never seen only once.
+  double second_sight_beyond_m = 4.0;
 };
 
 // Wall time of each stage for one frame, for benchmarks and the detect log.
@@ -67,6 +70,9 @@ class BallDetector {
  private:
   // Whether most of the candidate's occupied voxels have been occupied for seconds in the map.
   bool insideStaticSpace(const BallCandidate& candidate, const Eigen::Isometry3d& T_M_R) const;
+  // Drops the balls beyond second_sight_beyond_m that no ball of the last frames could have become,
+  // and remembers this frame's for the next.
+  void keepSecondSights(std::vector<fw::BallObservation>& balls, const Eigen::Isometry3d& T_M_R, double time_s);
 
   DetectorConfig config_;
   std::string source_;
@@ -84,6 +90,12 @@ class BallDetector {
   std::optional<Eigen::Isometry3d> T_R_S_;
   PointSet points_;
   std::vector<BallCandidate> candidates_;
+  // Every ball of the last frames (map frame, before keepSecondSights drops any), with its frame's time.
+  struct Sight {
+    double time_s;
+    Eigen::Vector3d position_M;
+  };
+  std::vector<Sight> recent_sights_;
 };
 
 }  // namespace kinect3d
