@@ -1,6 +1,7 @@
 // The whole per-frame path of the paper, stage by stage:
 //   depth frame -> surface points (robot frame) -> occupancy grid -> mask candidates (with a shell
-//   the sensor saw) -> balls -> the colour image's verdict on each (when the check is on),
+//   the sensor saw) -> balls (beyond 4 m, those the last frames saw too) -> the colour image's
+//   verdict on each (when the check is on),
 // with the scene map (OctoMap) remembering across frames which space is static.
 #pragma once
 
@@ -31,8 +32,9 @@ struct DetectorConfig {
   BallRefiner::Config ball;
   SceneMap::Config map;
   ColourCheckConfig colour;
-  // A ball farther than this is reported from its second frame in a row: beyond it a hand, a fist or
-  // a foot has a ball's size, outline and depth for a frame, and a free ball is never seen only once.
+  // A ball farther than this is reported only when a ball of the last two frames could have become
+  // it: beyond it a hand, a fist or a foot has a ball's size, outline and depth for a frame, and a
+  // free ball is never seen only once.
   double second_sight_beyond_m = 4.0;
 };
 
