@@ -122,6 +122,25 @@ TEST(ColourCheck, RejectsThePhantomsOfPeopleLampsAndLoudspeakersAndKeepsTheBall)
   EXPECT_GE(on.recall(), off.recall() - 0.01);
 }
 
+TEST(ColourCheck, AFarBallTheColourConfirmsIsReportedFromItsFirstFrame) {
+  // Beyond 4 m the depth alone reports a ball from its second frame; the colour image can tell it
+  // from a hand in the first.
+  kinect3d::sim::Scene scene = kinect3d::sim::loadScene("hung_6m");
+  scene.duration_s = 0.1;
+  kinect3d::DetectorConfig detector = kinect3d::readDetectorConfig(shipped().block("kinect3d"));
+  detector.ground.pose = scene.sensor_pose;
+  const auto depth_only = kinect3d::sim::runDetectorOnScene(scene, detector);
+  ASSERT_EQ(depth_only.size(), 3u);
+  EXPECT_TRUE(depth_only[0].balls.empty());
+  detector.colour.mode = ColourCheckConfig::Mode::kOn;
+  detector.colour.ball_colours = learnt("orange");
+  const auto with_colour = kinect3d::sim::runDetectorOnScene(scene, detector);
+  ASSERT_EQ(with_colour.size(), 3u);
+  ASSERT_EQ(with_colour[0].balls.size(), 1u);
+  EXPECT_EQ(with_colour[0].balls[0].colour, fw::ColourVerdict::kConfirmed);
+  EXPECT_LT((with_colour[0].balls[0].position_m - with_colour[0].truth.ball_center_R).norm(), 0.06);
+}
+
 TEST(ColourCheck, AWhiteBallWithBlackPanelsSmearedInFlightIsNeverRejected) {
   const fw::Config config = shipped();
   const kinect3d::sim::ColourLook look = kinect3d::sim::ColourLook::withBall("white_black");

@@ -107,17 +107,7 @@ void BallDetector::detect(const DepthFrame& frame, Detections& out, const std::o
     ball.is_static = insideStaticSpace(candidate, T_M_R);
     out.balls.push_back(ball);
   }
-  keepSecondSights(out.balls, T_M_R, frame.source_time_s);
-  // The paper looks for flying balls first: report those before balls on the ground. An
-  // insertion pass keeps the order otherwise and, unlike std::stable_sort, allocates nothing.
-  for (std::size_t i = 1; i < out.balls.size(); ++i) {
-    for (std::size_t j = i;
-         j > 0 && out.balls[j].state == fw::BallState::kAir && out.balls[j - 1].state != fw::BallState::kAir; --j) {
-      std::swap(out.balls[j], out.balls[j - 1]);
-    }
-  }
   Clock::time_point t5 = Clock::now();
-  out.times.seconds[StageTimes::kRefine] = secondsBetween(t4, t5);
 
   if (config_.colour.mode != ColourCheckConfig::Mode::kOff) {
     const Eigen::Isometry3d T_S_R_d = T_R_S_->inverse();
@@ -131,8 +121,22 @@ void BallDetector::detect(const DepthFrame& frame, Detections& out, const std::o
   Clock::time_point t6 = Clock::now();
   out.times.seconds[StageTimes::kColour] = secondsBetween(t5, t6);
 
+  keepSecondSights(out.balls, T_M_R, frame.source_time_s);
+  // The paper looks for flying balls first: report those before balls on the ground. An
+  // insertion pass keeps the order otherwise and, unlike std::stable_sort, allocates nothing.
+  for (std::size_t i = 1; i < out.balls.size(); ++i) {
+    for (std::size_t j = i;
+         j > 0 && out.balls[j].state == fw::BallState::kAir && out.balls[j - 1].state != fw::BallState::kAir; --j) {
+      std::swap(out.balls[j], out.balls[j - 1]);
+    }
+  }
+  Clock::time_point t7 = Clock::now();
+  // Refining the candidates, and choosing which balls to report (after the colour verdict, which
+  // the second sight reads).
+  out.times.seconds[StageTimes::kRefine] = secondsBetween(t4, t5) + secondsBetween(t6, t7);
+
   map_->update(frame, T_M_R * *T_R_S_, frame.source_time_s);
-  out.times.seconds[StageTimes::kMap] = secondsBetween(t6, Clock::now());
+  out.times.seconds[StageTimes::kMap] = secondsBetween(t7, Clock::now());
 }
 
 void BallDetector::keepSecondSights(std::vector<fw::BallObservation>& balls, const Eigen::Isometry3d& T_M_R,
@@ -149,11 +153,14 @@ void BallDetector::keepSecondSights(std::vector<fw::BallObservation>& balls, con
   for (std::size_t i = 0; i < balls.size(); ++i) {
     const Eigen::Vector3d& position_M = recent_sights_[earlier + i].position_M;
     const bool near = (balls[i].position_m - T_R_S_->translation()).norm() < config_.second_sight_beyond_m;
+    // The colour image tells a ball from a hand in one frame: it has confirmed none of the phantoms
+    // it judged (docs/accuracy.md, "The colour check").
+    const bool confirmed_by_colour = balls[i].colour == fw::ColourVerdict::kConfirmed;
     const bool seen_before =
         std::any_of(recent_sights_.begin(), recent_sights_.begin() + earlier, [&](const Sight& sight) {
           return (sight.position_M - position_M).norm() <= kMaxBallSpeed_mps * (time_s - sight.time_s) + kSightSpread_m;
         });
-    if (!near && !seen_before) continue;
+    if (!near && !confirmed_by_colour && !seen_before) continue;
     if (kept != i) balls[kept] = std::move(balls[i]);
     ++kept;
   }

@@ -1,7 +1,7 @@
 // The whole per-frame path of the paper, stage by stage:
 //   depth frame -> surface points (robot frame) -> occupancy grid -> mask candidates (with a shell
-//   the sensor saw) -> balls (beyond 4 m, those the last frames saw too) -> the colour image's
-//   verdict on each (when the check is on),
+//   the sensor saw) -> balls -> the colour image's verdict on each (when the check is on) -> beyond
+//   4 m, only the balls the last frames saw too or the colour confirms,
 // with the scene map (OctoMap) remembering across frames which space is static.
 #pragma once
 
@@ -33,8 +33,8 @@ struct DetectorConfig {
   SceneMap::Config map;
   ColourCheckConfig colour;
   // A ball farther than this is reported only when a ball of the last two frames could have become
-  // it: beyond it a hand, a fist or a foot has a ball's size, outline and depth for a frame, and a
-  // free ball is never seen only once.
+  // it, or the colour image confirms it: beyond it a hand, a fist or a foot has a ball's size,
+  // outline and depth for a frame, and a free ball is never seen only once.
   double second_sight_beyond_m = 4.0;
 };
 
@@ -72,8 +72,8 @@ class BallDetector {
  private:
   // Whether most of the candidate's occupied voxels have been occupied for seconds in the map.
   bool insideStaticSpace(const BallCandidate& candidate, const Eigen::Isometry3d& T_M_R) const;
-  // Drops the balls beyond second_sight_beyond_m that no ball of the last frames could have become,
-  // and remembers this frame's for the next.
+  // Drops the balls beyond second_sight_beyond_m that no ball of the last frames could have become
+  // and the colour did not confirm, and remembers this frame's for the next.
   void keepSecondSights(std::vector<fw::BallObservation>& balls, const Eigen::Isometry3d& T_M_R, double time_s);
 
   DetectorConfig config_;
