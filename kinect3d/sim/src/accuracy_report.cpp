@@ -430,10 +430,11 @@ void colourCheck(const fw::Config& config, const ReportOptions& options, std::os
   md << "\n### Colour off and on\n\n"
         "Frames counted and found as for the kicks; *off the truth* counts reported balls farther than 0.3 m from "
         "the true ball (phantoms), with colour on only those not rejected. Both come from one run with the check "
-        "on: *off* counts every reported ball, the rejected ones too, and beyond 4 m a ball the colour confirms is "
-        "reported from its first frame (second sight, docs/architecture.md) in both. *Verdicts* are those on the "
-        "true ball: confirmed / no evidence (blurred, weak, too dark ...) / rejected. People: the four kinds of the "
-        "people section, "
+        "on: *off* counts every reported ball, the rejected ones too, and beyond "
+     << format("%.0f m", readDetectorConfig(config.block("kinect3d")).second_sight_beyond_m)
+     << " a ball the colour confirms is reported from its first frame (second sight, docs/architecture.md) in both. "
+        "*Verdicts* are those on the true ball: confirmed / no evidence (blurred, weak, too dark ...) / rejected. "
+        "People: the four kinds of the people section, "
      << options.colour_seeds
      << " seeds each. Confusers: `colour_confusers` (ball-sized lamps, a loudspeaker, posters with a ball printed "
         "on them, a person in orange) and `lamp_in_view`.\n\n"

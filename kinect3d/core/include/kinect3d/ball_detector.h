@@ -1,7 +1,7 @@
 // The whole per-frame path of the paper, stage by stage:
 //   depth frame -> surface points (robot frame) -> occupancy grid -> mask candidates (with a shell
-//   the sensor saw) -> balls -> the colour image's verdict on each (when the check is on) -> beyond
-//   4 m, only the balls the last frames saw too or the colour confirms,
+//   the sensor saw) -> balls -> the colour image's verdict on each (when the check is on) -> far
+//   away, only the balls the last frames saw too or the colour confirms (second_sight_beyond_m),
 // with the scene map (OctoMap) remembering across frames which space is static.
 #pragma once
 
