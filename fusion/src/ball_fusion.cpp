@@ -11,14 +11,18 @@
 namespace fusion {
 
 namespace {
-// What a track must show before its omni balls teach the latency: the Kinect saw it this recently
-// (it anchors the ball in the field frame), and its bearing from the robot turns at least this fast
-// (the ball crossing the view, or the robot turning). On the floor or in the air: a phantom lies on
-// the ball's own bearing. A bearing further off than this is a misassociation, not a time offset.
+// What teaches the omni camera's latency: an omni ball on the world's track while this robot's Kinect
+// saw that track this recently (a phantom lies on the ball's own bearing, so in the air too). The
+// Kinect's bearing is carried to the omni's time at its rate over its frames of the last
+// kLatencyRateBaseline_s. An omni bearing further off than kLatencyMaxBearingResidual_rad is a
+// misassociation, not a time offset; so is one further than kLatencyMaxOffset_s of turn would put it
+// (and three sigma). No omni camera's stamps are kLatencyMaxOffset_s off its configured latency: an
+// estimate beyond is a Kinect turned on its mount (the alignment check's alarm), not time, and unused.
 constexpr double kLatencyKinectWithin_s = 0.1;
-constexpr double kLatencyMinBearingRate_radps = 0.1;
+constexpr double kLatencyMaxOffset_s = 0.2;
+constexpr double kLatencyRateBaseline_s = 0.1;
+constexpr std::size_t kKinectBearingsKept = 4;  // a tenth of a second at 30 Hz
 constexpr double kLatencyMaxBearingResidual_rad = 0.2;
-constexpr double kLatencyMaxOffset_s = 0.2;  // no camera's stamps are this far off what was learnt
 // Learnt latency is never trusted to better than this (the omni's exposure and the examples' spread).
 constexpr double kMinTimingSigma_s = 0.005;
 // The world's ball moves to another confirmed track when its own has had no support this long.
@@ -135,27 +139,17 @@ constexpr double kUnseenDrift_mps = 1.0;
 }  // namespace
 
 void LatencyEstimator::add(double residual_rad, double variance_rad2, double bearing_rate_radps, double applied_s) {
-  // The omni saw the bearing of L - applied earlier: residual = -rate (L - applied).
-  examples_.push_back(
-      {applied_s - residual_rad / bearing_rate_radps, bearing_rate_radps * bearing_rate_radps / variance_rad2});
-  if (examples_.size() > kWindow) examples_.pop_front();
+  const double keep = 1.0 - 1.0 / kMemoryExamples;
+  const double w = 1.0 / variance_rad2, x = bearing_rate_radps, y = residual_rad - bearing_rate_radps * applied_s;
+  wxx_ = keep * wxx_ + w * x * x;
+  wxy_ = keep * wxy_ + w * x * y;
+  ++examples_;
 }
 
-std::optional<double> LatencyEstimator::standardError() const {
-  if (examples_.size() < static_cast<std::size_t>(kMinExamples)) return std::nullopt;
-  double weights = 0.0;
-  for (const Example& e : examples_) weights += e.weight;
-  return 1.0 / std::sqrt(weights);
-}
-
-std::optional<double> LatencyEstimator::estimate() const {
-  if (examples_.size() < static_cast<std::size_t>(kMinExamples)) return std::nullopt;
-  double sum = 0.0, weights = 0.0;
-  for (const Example& e : examples_) {
-    sum += e.weight * e.latency_s;
-    weights += e.weight;
-  }
-  return sum / weights;
+std::optional<LatencyEstimator::Fit> LatencyEstimator::fit(double prior_sigma_s) const {
+  if (examples_ < kMinExamples) return std::nullopt;
+  const double information = wxx_ + 1.0 / (prior_sigma_s * prior_sigma_s);
+  return Fit{-wxy_ / information, 1.0 / std::sqrt(information)};
 }
 
 // One ball of one frame, ready to associate: its measurement model, where it puts the ball in the
@@ -168,8 +162,9 @@ struct BallFusion::Candidate {
   bool in_air = false;
   bool is_static = false;  // an air ball in space occupied for seconds
   fw::ColourVerdict colour = fw::ColourVerdict::kNotChecked;
-  const fw::OmniBallObservation* omni = nullptr;               // the omni's ball, in the frame being processed
-  int teammate = 0;                                            // the teammate's robot id, for Source::kTeammate
+  const fw::OmniBallObservation* omni = nullptr;  // the omni's ball, in the frame being processed
+  const fw::BallObservation* kinect = nullptr;    // this robot's Kinect's ball, in the frame being processed
+  int teammate = 0;                               // the teammate's robot id, for Source::kTeammate
   std::optional<Eigen::Vector3d> ray_origin_F = std::nullopt;  // a teammate's omni ray: its camera's viewpoint
 
   // A Kinect's ball, this robot's or a teammate's: the centre in 3D, not a bearing.
@@ -178,6 +173,13 @@ struct BallFusion::Candidate {
 
 BallFusion::BallFusion(const FusionConfig& config)
     : config_(config), kinect_time_line_(config.track.lost_after_s), omni_time_line_(config.track.lost_after_s) {}
+
+std::optional<LatencyEstimator::Fit> BallFusion::omniLatency() const {
+  if (!config_.omni.estimate_latency) return std::nullopt;
+  const std::optional<LatencyEstimator::Fit> fit = state_.latency.fit(config_.omni.timing_sigma_s);
+  if (!fit || std::abs(fit->latency_s) > kLatencyMaxOffset_s) return std::nullopt;
+  return fit;
+}
 
 void BallFusion::addPose(const fw::RobotPose& pose) {
   fw::RobotPose corrected = pose;
@@ -192,18 +194,11 @@ const FusionUpdate& BallFusion::addKinectFrame(double stamp_s, const std::vector
 
 const FusionUpdate& BallFusion::addOmniFrame(double stamp_s, const std::vector<fw::OmniBallObservation>& balls) {
   if (!onTimeLine(Source::kOmni, stamp_s, stamp_s - config_.omni.latency_s)) return state_.update;
-  const std::optional<double> learnt = config_.omni.estimate_latency ? state_.latency.estimate() : std::nullopt;
-  const double timing_sigma_s =
-      learnt ? std::max(*state_.latency.standardError(), kMinTimingSigma_s) : config_.omni.timing_sigma_s;
-  return insert(Frame{Source::kOmni,
-                      stamp_s - config_.omni.latency_s - learnt.value_or(0.0),
-                      learnt.value_or(0.0),
-                      timing_sigma_s,
-                      {},
-                      balls,
-                      {},
-                      {},
-                      {}});
+  const std::optional<LatencyEstimator::Fit> learnt = omniLatency();
+  const double learnt_s = learnt ? learnt->latency_s : 0.0;
+  const double timing_sigma_s = learnt ? std::max(learnt->sigma_s, kMinTimingSigma_s) : config_.omni.timing_sigma_s;
+  return insert(Frame{
+      Source::kOmni, stamp_s - config_.omni.latency_s - learnt_s, learnt_s, timing_sigma_s, {}, balls, {}, {}, {}});
 }
 
 const FusionUpdate& BallFusion::addTeamMessage(const fw::TeamMessage& message) {
@@ -342,6 +337,7 @@ std::vector<BallFusion::Candidate> BallFusion::candidatesOf(const Frame& frame, 
     c.in_air = ball.state == fw::BallState::kAir;
     c.is_static = ball.is_static && c.in_air;  // a ball lying still for seconds is still the ball
     c.colour = ball.colour;
+    c.kinect = &ball;
     candidates.push_back(std::move(c));
   }
   for (const TeammateBall& mate : frame.team) {
@@ -428,8 +424,10 @@ void BallFusion::process(const Frame& frame) {
     Track& track = state.tracks[pair.track];
     track.colour_confirmed |= c.colour == fw::ColourVerdict::kConfirmed;
     if (c.source == Source::kOmni && track.id == state.world_id && t - track.last_kinect_s < kLatencyKinectWithin_s) {
-      learnLatency(track, c, t, frame.omni_latency_s, pose);
+      learnLatency(track, c, t, frame.omni_latency_s);
     }
+    if (c.kinect) track.kinect_bearings.push_back(bearingOf(*c.kinect, t));
+    if (track.kinect_bearings.size() > kKinectBearingsKept) track.kinect_bearings.pop_front();
     const Eigen::Vector3d before_F = BallFilter::likeliest(branches[pair.track]).x.head<3>();
     track.filter.update(branches[pair.track], t, *c.measurement);
     const bool reacquired = c.locates() && (track.filter.best().x.head<3>() - before_F).norm() > kReacquireJump_m;
@@ -567,24 +565,36 @@ void BallFusion::recordJudgement(int teammate, const Judgement& judgement) {
   if (standing.median_mahalanobis < kTrustAgainShare * config_.team.discount_sigma) standing.discounted = false;
 }
 
-void BallFusion::learnLatency(const Track& track, const Candidate& candidate, double t, double applied_s,
-                              const fw::RobotPose& pose) {
-  BallFilter predicted = track.filter;
-  predicted.predict(t);
-  const Hypothesis& ball = predicted.best();
-  // The ball's bearing turns as it crosses the view and as the robot turns.
-  const MeasurementModel& measurement = *candidate.measurement;
-  const double rate = BallFilter::predictionRate(ball, measurement)[0];
-  if (std::abs(rate) < kLatencyMinBearingRate_radps) return;
-  const double residual = measurement.residual(measurement.value(), measurement.predict(ball.x.head<3>()))[0];
-  if (std::abs(residual) > kLatencyMaxBearingResidual_rad || std::abs(residual / rate) > kLatencyMaxOffset_s) return;
-  // The bearing's variance: the omni's own, and the track's across the line of sight.
-  const Eigen::Vector3d p_R = pose.T_F_R().inverse() * ball.x.head<3>();
-  const Eigen::Vector2d across_R = Eigen::Vector2d(-p_R.y(), p_R.x()) / p_R.head<2>().squaredNorm();
-  const Eigen::Vector2d across_F = Eigen::Rotation2Dd(pose.theta_rad).toRotationMatrix() * across_R;
+// As the omni camera gives a bearing: from the robot's +y, counter-clockwise.
+BallFusion::KinectBearing BallFusion::bearingOf(const fw::BallObservation& ball_R, double t_s) {
+  const Eigen::Vector2d p = ball_R.position_m.head<2>();
+  const Eigen::Vector2d gradient = Eigen::Vector2d(-p.y(), p.x()) / std::max(p.squaredNorm(), 1e-6);
+  return {t_s, std::atan2(-p.x(), p.y()),
+          std::sqrt(gradient.dot(ball_R.covariance_m2.topLeftCorner<2, 2>() * gradient))};
+}
+
+void BallFusion::learnLatency(const Track& track, const Candidate& candidate, double t, double applied_s) {
+  // The Kinect's bearing at t: its newest, carried on at the rate over its frames of the baseline.
+  const std::deque<KinectBearing>& seen = track.kinect_bearings;
+  if (seen.empty()) return;
+  const KinectBearing& newest = seen.back();
+  const KinectBearing& oldest = *std::find_if(seen.begin(), seen.end(), [&newest](const KinectBearing& b) {
+    return newest.time_s - b.time_s <= kLatencyRateBaseline_s;
+  });
+  const double baseline_s = newest.time_s - oldest.time_s;
+  if (baseline_s <= 0.0) return;
+  const double rate = fw::wrapAngle(newest.bearing_rad - oldest.bearing_rad) / baseline_s;
+  const double ahead = (t - newest.time_s) / baseline_s;  // in baselines
+  const double residual =
+      fw::wrapAngle(candidate.omni->bearing_rad - (newest.bearing_rad + rate * (t - newest.time_s)));
   const double sigma_b = omniBearingSigma_rad(*candidate.omni, config_.omni);
-  state_.latency.add(residual, sigma_b * sigma_b + across_F.dot(ball.P.topLeftCorner<2, 2>() * across_F), rate,
-                     applied_s);
+  const double variance =
+      sigma_b * sigma_b + std::pow((1.0 + ahead) * newest.sigma_rad, 2) + std::pow(ahead * oldest.sigma_rad, 2);
+  if (std::abs(residual) > kLatencyMaxBearingResidual_rad ||
+      std::abs(residual) > kLatencyMaxOffset_s * std::abs(rate) + 3.0 * std::sqrt(variance)) {
+    return;
+  }
+  state_.latency.add(residual, variance, rate, applied_s);
 }
 
 void BallFusion::startTrack(const Candidate& candidate, double t_s) {

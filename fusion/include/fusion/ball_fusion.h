@@ -49,30 +49,39 @@ struct FusionUpdate {
   std::optional<fw::FusedBall> ball;
 };
 
-// How the omni camera's latency relative to the Kinect is learnt: from the bearings of omni balls on
-// a track the Kinect anchors, while that bearing turns (the ball crossing the view, or the robot
-// turning): an offset L shows as the bearing of L earlier, off by -rate L.
+// How the omni camera's latency relative to the Kinect is learnt: from the bearings in the robot frame
+// of one ball that both of this robot's sensors see. Both sensors are on the robot, so the pose and its
+// error play no part. The omni's bearing minus the Kinect's, at the omni's corrected time, is
+//   residual = -rate (L - applied)
+// where rate is how fast the bearing turns (the ball crossing the view or flying past, the robot
+// turning), L the latency and applied the estimate that corrected that time: a line through the
+// origin in the rate, whose slope is the time. A bearing that stands still says nothing of it. A
+// Kinect turned on its mount adds its turn to every residual, which this reads as time while the
+// bearing turns one way (docs/calibration.md: the alignment check says so).
 class LatencyEstimator {
  public:
   static constexpr int kMinExamples = 10;
-  static constexpr std::size_t kWindow = 200;
+  // Older examples count less, by a factor e over this many (half a minute of a ball both see at 30 Hz).
+  static constexpr double kMemoryExamples = 1000.0;
 
-  // One example: the omni's bearing minus the track's at the omni's corrected time, that
+  // One example: the omni's bearing minus the Kinect's at the omni's corrected time, that
   // difference's variance, the rate at which the bearing turns, and the estimate that corrected
-  // that time. Examples count by how precisely they pin the time: rate over bearing error.
+  // that time.
   void add(double residual_rad, double variance_rad2, double bearing_rate_radps, double applied_s);
-  // The relative latency (seconds the omni's stamps are late beyond its configured latency), once
-  // kMinExamples were seen.
-  std::optional<double> estimate() const;
-  // The estimate's standard error (seconds), once there is an estimate.
-  std::optional<double> standardError() const;
-  int examples() const { return static_cast<int>(examples_.size()); }
+  // The relative latency (seconds the omni's stamps are late beyond its configured latency) with its
+  // standard error, once kMinExamples were seen; before the examples it was 0 +- prior_sigma_s (the
+  // configured latency, as uncertain as configured), and it stays there while no bearing turns.
+  struct Fit {
+    double latency_s, sigma_s;
+  };
+  std::optional<Fit> fit(double prior_sigma_s) const;
+  int examples() const { return examples_; }
 
  private:
-  struct Example {
-    double latency_s, weight;
-  };
-  std::deque<Example> examples_;
+  int examples_ = 0;
+  // Weighted (1 / variance) sums over the examples of rate squared and of rate times
+  // (residual - rate applied), older ones discounted.
+  double wxx_ = 0.0, wxy_ = 0.0;
 };
 
 class BallFusion {
@@ -92,8 +101,13 @@ class BallFusion {
   const std::map<int, TeammateStanding>& teammates() const { return state_.teammates; }
 
   const FusionUpdate& latest() const { return state_.update; }
-  // The omni camera's latency relative to the Kinect, once learnt; and from how many examples.
-  std::optional<double> omniLatency_s() const { return state_.latency.estimate(); }
+  // The omni camera's latency relative to the Kinect with its standard error, once learnt (from
+  // fusion.omni.latency_s +- timing_sigma_s and the examples); and from how many examples.
+  std::optional<LatencyEstimator::Fit> omniLatency() const;
+  std::optional<double> omniLatency_s() const {
+    const std::optional<LatencyEstimator::Fit> fit = omniLatency();
+    return fit ? std::optional<double>(fit->latency_s) : std::nullopt;
+  }
   int omniLatencyExamples() const { return state_.latency.examples(); }
   // Frames that arrived more than max_delay_s behind the newest and were not used.
   int lateFramesDropped() const { return late_dropped_; }
@@ -110,6 +124,11 @@ class BallFusion {
     double gap_m = 0.0;
   };
   struct Candidate;
+  // A bearing in the robot frame (from +y, counter-clockwise, as the omni camera gives it) and its error.
+  struct KinectBearing {
+    double time_s, bearing_rad, sigma_rad;
+  };
+  static KinectBearing bearingOf(const fw::BallObservation& ball_R, double t_s);
   struct Track {
     int id = 0;
     BallFilter filter;
@@ -124,6 +143,8 @@ class BallFusion {
     bool omni_born = false;                      // started by an omni ball: perhaps the phantom of a ball in the air
     bool colour_confirmed = false;               // the colour image confirmed one of its Kinect balls
     bool confirmed = false;
+    // This robot's Kinect balls of it, newest last: their bearings in the robot frame time the omni camera.
+    std::deque<KinectBearing> kinect_bearings = {};
 
     // The air mode explains more of the data than the ground mode.
     bool flying() const { return filter.airProbability() > 0.5; }
@@ -181,9 +202,8 @@ class BallFusion {
   };
 
   // Teaches the latency estimator from an omni ball (at corrected time t, corrected by applied_s) on
-  // the world's track.
-  void learnLatency(const Track& track, const Candidate& candidate, double t, double applied_s,
-                    const fw::RobotPose& pose);
+  // the world's track, against the Kinect's bearings of that track.
+  void learnLatency(const Track& track, const Candidate& candidate, double t, double applied_s);
 
   // The time-line rule for a frame of source stamped stamp_s (its own clock): true to use it.
   bool onTimeLine(Source source, double stamp_s, double time_s);
