@@ -21,7 +21,6 @@ namespace {
 constexpr double kLatencyKinectWithin_s = 0.1;
 constexpr double kLatencyMaxOffset_s = 0.2;
 constexpr double kLatencyRateBaseline_s = 0.1;
-constexpr std::size_t kKinectBearingsKept = 4;  // a tenth of a second at 30 Hz
 constexpr double kLatencyMaxBearingResidual_rad = 0.2;
 // Learnt latency is never trusted to better than this (the omni's exposure and the examples' spread).
 constexpr double kMinTimingSigma_s = 0.005;
@@ -426,8 +425,14 @@ void BallFusion::process(const Frame& frame) {
     if (c.source == Source::kOmni && track.id == state.world_id && t - track.last_kinect_s < kLatencyKinectWithin_s) {
       learnLatency(track, c, t, frame.omni_latency_s);
     }
-    if (c.kinect) track.kinect_bearings.push_back(bearingOf(*c.kinect, t));
-    if (track.kinect_bearings.size() > kKinectBearingsKept) track.kinect_bearings.pop_front();
+    if (c.kinect) {
+      auto& kept = track.kinect_bearings;
+      if (track.kinect_bearing_count == kept.size()) {
+        std::rotate(kept.begin(), kept.begin() + 1, kept.end());  // the oldest goes
+        --track.kinect_bearing_count;
+      }
+      kept[track.kinect_bearing_count++] = bearingOf(*c.kinect, t);
+    }
     const Eigen::Vector3d before_F = BallFilter::likeliest(branches[pair.track]).x.head<3>();
     track.filter.update(branches[pair.track], t, *c.measurement);
     const bool reacquired = c.locates() && (track.filter.best().x.head<3>() - before_F).norm() > kReacquireJump_m;
@@ -575,12 +580,12 @@ BallFusion::KinectBearing BallFusion::bearingOf(const fw::BallObservation& ball_
 
 void BallFusion::learnLatency(const Track& track, const Candidate& candidate, double t, double applied_s) {
   // The Kinect's bearing at t: its newest, carried on at the rate over its frames of the baseline.
-  const std::deque<KinectBearing>& seen = track.kinect_bearings;
-  if (seen.empty()) return;
-  const KinectBearing& newest = seen.back();
-  const KinectBearing& oldest = *std::find_if(seen.begin(), seen.end(), [&newest](const KinectBearing& b) {
-    return newest.time_s - b.time_s <= kLatencyRateBaseline_s;
-  });
+  if (track.kinect_bearing_count == 0) return;
+  const auto seen_end = track.kinect_bearings.begin() + track.kinect_bearing_count;
+  const KinectBearing& newest = *(seen_end - 1);
+  const KinectBearing& oldest =
+      *std::find_if(track.kinect_bearings.begin(), seen_end,
+                    [&newest](const KinectBearing& b) { return newest.time_s - b.time_s <= kLatencyRateBaseline_s; });
   const double baseline_s = newest.time_s - oldest.time_s;
   if (baseline_s <= 0.0) return;
   const double rate = fw::wrapAngle(newest.bearing_rad - oldest.bearing_rad) / baseline_s;

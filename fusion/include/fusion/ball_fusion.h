@@ -17,6 +17,7 @@
 // live (plugins/fusion) and offline (`kinect3d fuse`).
 #pragma once
 
+#include <array>
 #include <deque>
 #include <map>
 #include <memory>
@@ -128,6 +129,7 @@ class BallFusion {
   struct KinectBearing {
     double time_s, bearing_rad, sigma_rad;
   };
+  static constexpr std::size_t kKinectBearingsKept = 4;  // a tenth of a second at 30 Hz
   static KinectBearing bearingOf(const fw::BallObservation& ball_R, double t_s);
   struct Track {
     int id = 0;
@@ -143,8 +145,10 @@ class BallFusion {
     bool omni_born = false;                      // started by an omni ball: perhaps the phantom of a ball in the air
     bool colour_confirmed = false;               // the colour image confirmed one of its Kinect balls
     bool confirmed = false;
-    // This robot's Kinect balls of it, newest last: their bearings in the robot frame time the omni camera.
-    std::deque<KinectBearing> kinect_bearings = {};
+    // This robot's Kinect balls of it, the newest kKinectBearingsKept, oldest first: their bearings in
+    // the robot frame time the omni camera.
+    std::array<KinectBearing, kKinectBearingsKept> kinect_bearings = {};
+    std::size_t kinect_bearing_count = 0;
 
     // The air mode explains more of the data than the ground mode.
     bool flying() const { return filter.airProbability() > 0.5; }
