@@ -105,10 +105,6 @@ class BallFusion {
   // The omni camera's latency relative to the Kinect with its standard error, once learnt (from
   // fusion.omni.latency_s +- timing_sigma_s and the examples); and from how many examples.
   std::optional<LatencyEstimator::Fit> omniLatency() const;
-  std::optional<double> omniLatency_s() const {
-    const std::optional<LatencyEstimator::Fit> fit = omniLatency();
-    return fit ? std::optional<double>(fit->latency_s) : std::nullopt;
-  }
   int omniLatencyExamples() const { return state_.latency.examples(); }
   // Frames that arrived more than max_delay_s behind the newest and were not used.
   int lateFramesDropped() const { return late_dropped_; }
