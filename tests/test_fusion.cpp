@@ -336,6 +336,21 @@ TEST(FusionFilter, ABounceFromAHighFallHopsOnAndALowOneEndsTheHops) {
   EXPECT_LT(low.airProbability(), 0.05) << "a ball falling slowly rolls on";
 }
 
+TEST(FusionFilter, AFlightCarriedLongUnseenBouncesOnInOneStepAsInManySteps) {
+  // The world's ball is carried to its time from the last measurement, however long ago: a ball
+  // falling at 2.5 m/s and rolling out at 4.7 m/s, carried a second in one step, had stood at its
+  // second touchdown, falling, from then on.
+  const fusion::FusionConfig config = testConfig();
+  const fusion::Hypothesis falling = hypothesis(fw::BallState::kAir, state(0.0, -7.0, 0.14, 0.0, -4.7, -2.5), 1e-4);
+  fusion::BallFilter at_once(config.motion, kT0, {falling});
+  fusion::BallFilter frame_by_frame(config.motion, kT0, {falling});
+  at_once.predict(kT0 + 1.0);
+  for (int i = 1; i <= 30; ++i) frame_by_frame.predict(kT0 + i / 30.0);
+  const Eigen::Vector3d once = at_once.best().x.head<3>(), stepped = frame_by_frame.best().x.head<3>();
+  EXPECT_LT(once.y(), -10.0) << "rolled on: " << once.transpose();
+  EXPECT_LT((once - stepped).norm(), 0.3) << once.transpose() << " against " << stepped.transpose();
+}
+
 TEST(FusionFilter, AHopLowerThanARobotNoticesIsNotAFlight) {
   const fusion::BallFilter filter(fusion::MotionConfig{}, kT0, {});
   auto hops = [&](fw::BallState mode, double z, double vz) {

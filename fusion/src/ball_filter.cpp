@@ -201,8 +201,10 @@ std::vector<Hypothesis> BallFilter::branchesAt(double t_s) const {
     landed.weight = h.weight * land;
     keepOnFloor(landed);
     roll(landed, dt_left);
-    double unused = 0.0;
-    flyUntilFloor(bounce, dt_left, unused);  // a second bounce within one step is below a frame's notice
+    // The rest of the step untouched: a step may span many frames (the world's ball carried to its
+    // time after the sensors have long lost it), and a ball stopped at its next touchdown would
+    // stand there, falling, for ever.
+    bounce = untouched(bounce, dt_left);
     branches.push_back(bounce);
     branches.push_back(landed);
   }
