@@ -17,6 +17,7 @@ std::vector<fw::OmniFrame> simulate(const fw::ConfigView& sim, const std::string
   model.stamp_late_s = sim.getDouble("stamp_late_s", 0.0, 1.0);
   model.viewpoint_height_m = sim.getDouble("viewpoint_height_m", 0.2, 3.0);
   model.max_height_m = sim.getDouble("max_height_m", 0.0, 3.0);
+  model.max_distance_m = sim.getDouble("max_distance_m", 0.5, 100.0);
   model.miss_probability = sim.getDouble("miss_probability", 0.0, 1.0);
   model.false_rate_hz = sim.getDouble("false_rate_hz", 0.0, 100.0);
   model.seed = static_cast<std::uint64_t>(sim.getInt("seed", 0, 2147483647));

@@ -19,7 +19,7 @@ struct OmniCameraModel {
   double stamp_late_s = 0.03;        // its stamps are this much later than the image (unknown to fusion)
   double viewpoint_height_m = 0.75;  // the mirror's viewpoint above the floor
   double max_height_m = 0.6;         // a ball centre higher than this is not seen
-  double max_distance_m = 9.0;
+  double max_distance_m = 9.0;       // nor one whose reported distance is farther (the mirror's edge)
   double bearing_sigma_rad = 0.01;
   double distance_sigma_m = 0.03;         // at the robot ...
   double distance_sigma_fraction = 0.04;  // ... growing with distance
