@@ -241,25 +241,6 @@ TEST(FusionFilter, ABallAboveTheOmniViewNeitherExplainsNorIsMovedByAnOmniBall) {
   EXPECT_EQ(filter.airProbability(), 0.0) << "the omni ball is credited to the ball it can see";
 }
 
-TEST(FusionFilter, AnOmniBallMuchNearerThanABallOnItsBearingIsNotItsPhantom) {
-  // A ball rolling away 8.4 m behind the robot, its distance known to a metre, may just have been
-  // kicked up: in the air its phantom lies farther out, never nearer. An orange shirt 1.9 m away on
-  // nearly the same bearing is another object; linearised in height (a ball below the floor) it
-  // passed for the phantom of the kick, and took the world's ball 6.5 m away in a report run.
-  const fw::RobotPose pose = poseAt(0.0, 0.0, 0.0, kT0);
-  const fusion::FusionConfig config = testConfig();
-  fusion::Hypothesis kicked_up = hypothesis(fw::BallState::kAir, state(0.0, -8.4, kRadius, 0.0, -4.0, 0.0), 1.0);
-  kicked_up.P.bottomRightCorner<3, 3>() = 36.0 * Eigen::Matrix3d::Identity();
-  const auto omniBall = [&](const Eigen::Vector3d& p_F) {
-    return fusion::OmniMeasurement(omniView(p_F, pose, 0.75), pose, pose, config.omni, config.pose, kRadius, 0.0);
-  };
-  EXPECT_TRUE(std::isinf(fusion::BallFilter::fit({kicked_up}, omniBall({-0.26, -1.85, kRadius})).mahalanobis));
-  EXPECT_LT(fusion::BallFilter::fit({kicked_up}, omniBall({0.0, -7.6, kRadius})).mahalanobis, 1.5)
-      << "a ball on the floor a little nearer is still this one, within its distance's metre";
-  EXPECT_LT(fusion::BallFilter::fit({kicked_up}, omniBall({0.0, -8.4, 0.3})).mahalanobis, 1.0)
-      << "and its phantom farther out too";
-}
-
 TEST(FusionFilter, AnOmniBallNeverPutsAFlyingBallBelowTheFloor) {
   // Believed 0.3 m up and falling fast, with its height and speed uncertain, the ball is on the floor
   // nearer the robot. The ray to it goes on below the floor past the ball: unconstrained, the update
@@ -333,9 +314,8 @@ TEST(FusionFilter, ABallTheOmniCameraDoesNotSeeIsMoreLikelyAboveItsView) {
   const fusion::Hypothesis flying =
       hypothesis(fw::BallState::kAir, state(0.0, 3.0, 1.0, 0.0, 2.0, 3.0), 0.01, 0.1);  // rising 1 m up
   fusion::BallFilter filter(config.motion, kT0, {rolling, flying});
-  const fw::RobotPose pose{0.0, 0.0, 0.0, {kT0, kT0}};
   const auto seen_by_omni = [&](const fusion::Hypothesis& h) {
-    return config.omni.detection_probability * fusion::omniVisibleProbability(h, pose, config.omni, kRadius);
+    return config.omni.detection_probability * fusion::omniVisibleProbability(h, config.omni);
   };
   for (int i = 1; i <= 3; ++i) filter.notSeen(kT0 + i / 30.0, seen_by_omni);
   EXPECT_GT(filter.airProbability(), 0.9) << "three images without the ball: it flies above the mirror's view";
@@ -674,55 +654,6 @@ TEST(Fusion, AFlightNoSensorSeesStaysTheWorldsBallThoughAnotherBallIsSeen) {
     EXPECT_LT((update.ball->position_F - lob(t_omni)).norm(), 0.3) << (t - kick_t) << " s after the kick";
   }
   EXPECT_GT(checked, 15) << "over half a second that only physics carries";
-}
-
-TEST(Fusion, ABallRolledBeyondTheOmniCamerasReachStaysTheWorldsBallButOneGoneWithinItGivesWay) {
-  // Behind the robot, out of the Kinect's view, a ball rolls away at 3 m/s; the omni camera reports
-  // balls up to 7 m, more than its configured reach (6 m), and from 0.7 s an orange shirt 6.9 m
-  // away. Beyond 7 m the ball is hidden, not gone; a ball picked up at 5.8 m, well within the reach the
-  // camera has shown, is gone.
-  constexpr double kCameraReach_m = 7.0;
-  const Eigen::Vector3d shirt(-3.0, 6.2, kRadius);
-  fusion::FusionConfig config = testConfig();
-  config.omni.reach_m = 6.0;
-  const auto run = [&](double vanishes_beyond_m) {
-    fusion::BallFusion fusion(config);
-    const Truth rolling = [](double t) {
-      const double s = std::min(t - kT0, 3.0 / 0.4);
-      return Eigen::Vector3d(0.0, -2.0 - (3.0 * s - 0.5 * 0.4 * s * s), kRadius);
-    };
-    std::vector<std::pair<double, std::optional<fw::FusedBall>>> after;  // once the ball is no longer reported
-    for (int i = 0; i < 81; ++i) {
-      const double t = kT0 + i / 30.0;
-      fusion.addPose(standingAtOrigin(t));
-      fusion.addKinectFrame(t, {});
-      const double t_omni = t + 0.01;
-      std::vector<fw::OmniBallObservation> omni;
-      if (i > 20) omni.push_back(omniView(shirt, standingAtOrigin(t_omni), 0.75));
-      const bool reported = rolling(t_omni).head<2>().norm() <= vanishes_beyond_m;
-      if (reported) omni.push_back(omniView(rolling(t_omni), standingAtOrigin(t_omni), 0.75));
-      fusion.addPose(standingAtOrigin(t_omni));
-      const fusion::FusionUpdate& update = fusion.addOmniFrame(t_omni, omni);
-      if (!reported) after.emplace_back(t_omni, update.ball);
-    }
-    return std::make_pair(after, rolling);
-  };
-
-  const auto [hidden, rolling] = run(kCameraReach_m);
-  ASSERT_GT(hidden.size(), 20u) << "over two thirds of a second unseen";
-  for (const auto& [t, ball] : hidden) {
-    ASSERT_TRUE(ball) << t - kT0 << " s";
-    EXPECT_LT((ball->position_F - rolling(t)).norm(), 0.3) << "carried, not swapped for the shirt, at " << t - kT0;
-  }
-
-  // Gone, it gives way to the shirt 0.2 s after it was last seen (before lost_after_s drops it).
-  const auto [gone, unused] = run(5.8);
-  ASSERT_GT(gone.size(), 20u);
-  for (const auto& [t, ball] : gone) {
-    if (t - gone.front().first < 0.3 || t - gone.front().first > 0.9) continue;
-    ASSERT_TRUE(ball) << t - kT0 << " s";
-    EXPECT_LT((ball->position_F - shirt).norm(), 0.3) << "a ball gone within reach gives way, at " << t - kT0;
-  }
 }
 
 TEST(Fusion, AFlightNoSensorSupportsGivesWayToTheBallAKinectLocatesElsewhere) {

@@ -99,7 +99,7 @@ Case makeCase(const std::string& name, int seed) {
     ball.velocity_mps.y() = (landing_y - ball.position_m.y()) / flight_s;
   }
   // Drawn last, so that the draws above are those of the seeds before it was.
-  c.omni.max_distance_m = uniform(6.0, 10.0);  // the mirror's reach: the fusion is told 6 m and learns the rest
+  c.omni.max_distance_m = uniform(6.0, 10.0);  // the mirror's reach, which the fusion does not know
   return c;
 }
 
@@ -245,7 +245,7 @@ void writeFusionReport(const fw::Config& config, int seeds, const std::string& o
       << " seeds; per seed the ball's drag (0.012-0.035 /m), restitution (0.5-0.7), bounce friction (0.1-0.3) "
          "and rolling deceleration (0.25-0.6 m/s^2) and the omni camera's stamp error (20-60 ms late) and the top of "
          "its view (a ball centre "
-         "0.5-0.7 m up; the fusion assumes 0.6) and its reach (6-10 m; the fusion is told 6 m and learns the rest) "
+         "0.5-0.7 m up; the fusion assumes 0.6) and its reach (6-10 m, which the fusion does not know) "
          "are drawn anew, and in lob_landing_behind the kick, to land 1-6 m "
          "behind the robot, so the filter is never tuned to one physics or one flight. The robot carrying the sensors "
          "stands, drives or turns (pass_on_ground, lob_while_turning, turn_at_rest); the ball bounces off robots "

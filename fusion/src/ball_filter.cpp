@@ -255,7 +255,7 @@ MeasurementFit BallFilter::fit(const std::vector<Hypothesis>& branches, const Me
   MeasurementFit fit{std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity()};
   double likelihood = 0.0;
   for (const Hypothesis& h : branches) {
-    if (h.weight < kNegligibleWeight * heaviest || !measurement.mayExplain(h)) continue;
+    if (h.weight < kNegligibleWeight * heaviest || !measurement.canSee(h.x.head<3>())) continue;
     const Innovation in = innovate(h, measurement, h.x);
     const Eigen::LDLT<Eigen::MatrixXd> S(in.S);
     const double d2 = in.y.dot(S.solve(in.y));
@@ -274,7 +274,7 @@ void BallFilter::update(std::vector<Hypothesis> branches, double t_s, const Meas
     Hypothesis& h = branches[i];
     // A ball where the sensor cannot see it did not make this measurement; its branch is not
     // moved by it either (near an omni camera's viewpoint height the model is singular).
-    if (!measurement.mayExplain(h)) {
+    if (!measurement.canSee(h.x.head<3>())) {
       log_likelihood[i] = -std::numeric_limits<double>::infinity();
       continue;
     }

@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <limits>
 #include <optional>
 
 #include "framework_api/log.h"
@@ -172,15 +171,7 @@ struct BallFusion::Candidate {
 };
 
 BallFusion::BallFusion(const FusionConfig& config)
-    : config_(config), kinect_time_line_(config.track.lost_after_s), omni_time_line_(config.track.lost_after_s) {
-  state_.omni_reach_m = config.omni.reach_m;
-}
-
-OmniConfig BallFusion::ownOmni() const {
-  OmniConfig omni = config_.omni;
-  omni.reach_m = state_.omni_reach_m;
-  return omni;
-}
+    : config_(config), kinect_time_line_(config.track.lost_after_s), omni_time_line_(config.track.lost_after_s) {}
 
 std::optional<LatencyEstimator::Fit> BallFusion::omniLatency() const {
   if (!config_.omni.estimate_latency) return std::nullopt;
@@ -232,7 +223,6 @@ const FusionUpdate& BallFusion::addTeamMessage(const fw::TeamMessage& message) {
     mate.robot_id = message.robot_id;
     mate.name = message.robot_name;
     mate.omni = config_.omni;
-    mate.omni.reach_m = std::numeric_limits<double>::infinity();  // not on the wire: its rays are taken as they come
     mate.pose_error = pose_error;
     // Its camera's latency is not known here: its stamps are as uncertain as this robot's omni
     // camera's before it learnt its own, and the two robots' clocks as their exchange's bound.
@@ -289,12 +279,9 @@ bool BallFusion::onTimeLine(Source source, double stamp_s, double time_s) {
   if (step == fw::TimeLine::Step::kJump && leads) {
     // The leading clock jumped: what the fusion holds belongs to the old time line.
     fw::logWarn("fusion", what() + ": its clock " + own.describe(step, stamp_s) + "; the fusion starts again from it");
-    // The omni camera's latency and reach are the camera's, not the time line's.
-    const LatencyEstimator latency = state_.latency;
-    const double omni_reach_m = state_.omni_reach_m;
+    const LatencyEstimator latency = state_.latency;  // the omni camera's latency is the camera's, not the time's
     state_ = State{};
     state_.latency = latency;
-    state_.omni_reach_m = omni_reach_m;
     recent_.clear();
     ++restarts_;
     return true;
@@ -378,11 +365,10 @@ std::vector<BallFusion::Candidate> BallFusion::candidatesOf(const Frame& frame, 
     c.ray_origin_F = Eigen::Vector3d(mate.viewpoint.x_m, mate.viewpoint.y_m, mate.omni.viewpoint_height_m);
     candidates.push_back(std::move(c));
   }
-  const OmniConfig own_omni = ownOmni();
   for (const fw::OmniBallObservation& ball : frame.omni) {
     auto omni =
         std::make_unique<OmniMeasurement>(ball, pose, poses_.at(frame.time_s + OmniMeasurement::kPoseRateStep_s),
-                                          own_omni, config_.pose, r, frame.omni_timing_sigma_s);
+                                          config_.omni, config_.pose, r, frame.omni_timing_sigma_s);
     Candidate c{Source::kOmni, nullptr, omni->groundBall_F(), groundCovariance(*omni, ball, pose)};
     c.measurement = std::move(omni);
     c.omni = &ball;
@@ -400,9 +386,6 @@ void BallFusion::process(const Frame& frame) {
     const TeammateWorldBall& prior = *frame.team_world_ball;
     state.teammates[prior.robot_id].name = prior.name;
     state.teammate_world_balls[prior.robot_id] = prior;
-  }
-  for (const fw::OmniBallObservation& ball : frame.omni) {
-    state.omni_reach_m = std::max(state.omni_reach_m, ball.distance_m);  // the mirror sees at least that far
   }
   std::vector<Candidate> candidates = candidatesOf(frame, pose);
 
@@ -461,13 +444,11 @@ void BallFusion::process(const Frame& frame) {
   // The omni camera looked all round and did not see these balls: where it should have, the
   // ball is less likely (a ball gone from its view after a kick has most likely flown above it).
   if (frame.source == Source::kOmni) {
-    const OmniConfig omni = ownOmni();
-    const double r = config_.motion.radius_m;
+    const OmniConfig& omni = config_.omni;
     for (std::size_t k = 0; k < state.tracks.size(); ++k) {
       if (track_used[k]) continue;
-      state.tracks[k].filter.notSeen(t, [&](const Hypothesis& h) {
-        return omni.detection_probability * omniVisibleProbability(h, pose, omni, r);
-      });
+      state.tracks[k].filter.notSeen(
+          t, [&omni](const Hypothesis& h) { return omni.detection_probability * omniVisibleProbability(h, omni); });
     }
   }
   // What no track took starts one, but a ball the colour image rejected, a static floater (the match
@@ -677,20 +658,14 @@ void BallFusion::maintainTracks(double t_s) {
     track.confirmed = track.colour_confirmed || track.seen_on_ground ||
                       best.x.tail<3>().norm() - speed_sigma > config.min_flight_speed_mps;
   }
-  // The world's ball is kept while it is supported, and while no sensor could see it: flying (a
-  // flight above the omni's view and out of the Kinect's) or beyond the omni camera's reach, it is
-  // carried, not swapped for another ball, until a Kinect, this robot's or a teammate's, locates
-  // another confirmed ball: then it was lost, not hidden. Otherwise, without support for
-  // kWorldSwitchAfter_s it gives way to a confirmed track supported since, and it is dropped when lost.
+  // The world's ball is kept while it is supported, and while it flies (a flight above the omni's
+  // view and out of the Kinect's is carried, not swapped for another ball) until a Kinect, this
+  // robot's or a teammate's, locates another confirmed ball: then the flight was lost, not hidden.
+  // On the ground without support for kWorldSwitchAfter_s it gives way to a confirmed track supported
+  // since, and it is dropped when lost.
   const auto world =
       std::find_if(tracks.begin(), tracks.end(), [&](const Track& track) { return track.id == state_.world_id; });
-  const auto beyondOmniReach = [&](const Track& track) {
-    BallFilter now = track.filter;
-    now.predict(t_s);
-    return omniDistance_m(now.best().x.head<3>(), poses_.at(t_s), config_.omni, config_.motion.radius_m) >
-           state_.omni_reach_m;
-  };
-  const bool carried = world != tracks.end() && (world->flying() || beyondOmniReach(*world));
+  const bool carried = world != tracks.end() && world->flying();
   const auto locatedSince = [&](const Track& track) {
     return track.confirmed && track.last_located_s > world->last_support_s;
   };

@@ -34,7 +34,6 @@ FusionConfig readFusionConfig(const fw::ConfigView& block) {
   config.omni.latency_s = omni.getDouble("latency_s", -1.0, 1.0);
   config.omni.viewpoint_height_m = omni.getDouble("viewpoint_height_m", 0.2, 3.0);
   config.omni.max_height_m = omni.getDouble("max_height_m", 0.0, 3.0);
-  config.omni.reach_m = omni.getDouble("reach_m", 0.5, 100.0);
   config.omni.detection_probability = omni.getDouble("detection_probability", 0.0, 0.99);
   config.omni.bearing_sigma_rad = fw::degreesToRadians(omni.getDouble("bearing_sigma_deg", 0.01, 45.0));
   config.omni.distance_sigma_m = omni.getDouble("distance_sigma_m", 0.001, 5.0);

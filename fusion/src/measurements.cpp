@@ -13,10 +13,6 @@ constexpr double kMinDepthBelowViewpoint_m = 0.1;
 // hint with an error of this share of the phantom's distance.
 constexpr double kAirborneRamp_m = 0.1;
 constexpr double kPhantomDistanceFraction = 0.2;
-// A phantom lies farther out than its ball, never nearer: a report nearer than a hypothesis's own
-// distance on the floor by more than this many sigmas (of that distance and the camera's) is another
-// object. The model's linearisation in height would let it pass (a ball below the floor).
-constexpr double kNearestPhantom_sigma = 4.0;
 }  // namespace
 
 PositionMeasurement::PositionMeasurement(const Eigen::Vector3d& p_R, const Eigen::Matrix3d& covariance_R,
@@ -58,21 +54,12 @@ Eigen::VectorXd OmniMeasurement::ownMotionRate(const Eigen::Vector3d& p_F) const
 
 bool OmniMeasurement::canSee(const Eigen::Vector3d& p_F) const { return omniCanSee(p_F, omni_); }
 
-bool OmniMeasurement::mayExplain(const Hypothesis& h) const {
-  const Eigen::Vector3d p_F = h.x.head<3>();
-  if (!canSee(p_F)) return false;
-  const Eigen::Vector2d away = p_F.head<2>() - Eigen::Vector2d(pose_.x_m, pose_.y_m);
-  const double on_floor = away.norm();
-  if (on_floor < 1e-9) return true;
-  const Eigen::Vector2d u = away / on_floor;
-  const double sigma = std::sqrt(u.dot(h.P.topLeftCorner<2, 2>() * u) + noise(p_F)(1, 1));
-  return z_[1] >= on_floor - kNearestPhantom_sigma * sigma;
-}
-
 Eigen::VectorXd OmniMeasurement::predictFrom(const fw::RobotPose& pose, const Eigen::Vector3d& p_F) const {
   const Eigen::Vector3d p_R = pose.T_F_R().inverse() * p_F;
+  const double h = omni_.viewpoint_height_m;
+  const double below = std::max(h - p_R.z(), kMinDepthBelowViewpoint_m);
   Eigen::VectorXd prediction(2);
-  prediction << std::atan2(-p_R.x(), p_R.y()), omniDistance_m(p_F, pose, omni_, radius_m_);
+  prediction << std::atan2(-p_R.x(), p_R.y()), p_R.head<2>().norm() * (h - radius_m_) / below;
   return prediction;
 }
 
@@ -108,24 +95,9 @@ Eigen::Vector3d OmniMeasurement::groundBall_F() const {
 
 bool omniCanSee(const Eigen::Vector3d& p_F, const OmniConfig& omni) { return p_F.z() <= omni.max_height_m; }
 
-double omniDistance_m(const Eigen::Vector3d& p_F, const fw::RobotPose& pose, const OmniConfig& omni, double radius_m) {
-  const Eigen::Vector3d p_R = pose.T_F_R().inverse() * p_F;
-  const double h = omni.viewpoint_height_m;
-  const double below = std::max(h - p_R.z(), kMinDepthBelowViewpoint_m);
-  return p_R.head<2>().norm() * (h - radius_m) / below;
-}
-
-double omniVisibleProbability(const Hypothesis& h, const fw::RobotPose& pose, const OmniConfig& omni, double radius_m) {
+double omniVisibleProbability(const Hypothesis& h, const OmniConfig& omni) {
   const double sigma_z = std::sqrt(std::max(h.P(2, 2), 1e-12));
-  const double below_top = 0.5 * std::erfc((h.x.z() - omni.max_height_m) / (sigma_z * std::sqrt(2.0)));
-  // Within reach: the reported distance's spread, the ball's own along the bearing and the camera's.
-  const Eigen::Vector2d away = h.x.head<2>() - Eigen::Vector2d(pose.x_m, pose.y_m);
-  const Eigen::Vector2d u = away.norm() > 1e-9 ? Eigen::Vector2d(away.normalized()) : Eigen::Vector2d::UnitX();
-  const double distance = omniDistance_m(h.x.head<3>(), pose, omni, radius_m);
-  const double camera_sigma = omni.distance_sigma_m + omni.distance_sigma_fraction * distance;
-  const double sigma_d = std::sqrt(u.dot(h.P.topLeftCorner<2, 2>() * u) + camera_sigma * camera_sigma);
-  const double within_reach = 0.5 * std::erfc((distance - omni.reach_m) / (sigma_d * std::sqrt(2.0)));
-  return below_top * within_reach;
+  return 0.5 * std::erfc((h.x.z() - omni.max_height_m) / (sigma_z * std::sqrt(2.0)));
 }
 
 double omniBearingSigma_rad(const fw::OmniBallObservation& observation, const OmniConfig& omni) {

@@ -53,9 +53,6 @@ class MeasurementModel {
   // Whether the sensor can see a ball at p_F at all (an omni camera sees nothing above some height);
   // a branch it cannot see is neither credited with the measurement nor moved by it.
   virtual bool canSee(const Eigen::Vector3d&) const { return true; }
-  // Whether hypothesis h could have made this measurement at all (seen, and within what the model
-  // allows beyond its linearisation); a branch that could not is neither credited nor moved.
-  virtual bool mayExplain(const Hypothesis& h) const { return canSee(h.x.head<3>()); }
 
  private:
   double timing_sigma_s_;

@@ -168,8 +168,6 @@ class BallFusion {
     std::map<int, TeammateStanding> teammates;
     std::map<int, std::deque<Judgement>> judged;            // per teammate, newest last
     std::map<int, TeammateWorldBall> teammate_world_balls;  // the newest of each teammate
-    // How far the omni camera surely sees: omni.reach_m, or the farthest ball it has reported.
-    double omni_reach_m = 0.0;
     FusionUpdate update;
   };
   // A teammate's ball with what places it: the teammate's pose and how far its localisation may be off.
@@ -224,8 +222,6 @@ class BallFusion {
                                  const std::vector<Hypothesis>& world_branches, double t_s) const;
   void recordJudgement(int teammate, const Judgement& judgement);
   const std::string& nameOf(Source source) const;  // this robot's own sources
-  // This robot's omni camera as far as it is known now: its configuration with the reach it has shown.
-  OmniConfig ownOmni() const;
   void maintainTracks(double t_s);
   std::optional<fw::FusedBall> worldBall(double t_s) const;
   // Without a world ball of its own: the freshest world ball of a teammate that is not discounted,

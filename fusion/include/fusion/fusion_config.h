@@ -34,9 +34,8 @@ struct KinectConfig {
 struct OmniConfig {
   std::string source = "omni";
   double latency_s = 0.0;
-  double viewpoint_height_m = 0.75;  // height of the omni mirror's viewpoint above the floor
-  double max_height_m = 0.6;         // a ball centre higher than this is above its mirror's view
-  double reach_m = 6.0;  // the camera surely sees balls on the floor this far (raised by the farthest it reports)
+  double viewpoint_height_m = 0.75;       // height of the omni mirror's viewpoint above the floor
+  double max_height_m = 0.6;              // a ball centre higher than this is above its mirror's view
   double detection_probability = 0.8;     // of a ball in its view (robots and people hide some)
   double bearing_sigma_rad = 0.0262;      // when the observation carries none
   double distance_sigma_m = 0.05;         // at the robot ...

@@ -43,9 +43,6 @@ class OmniMeasurement : public MeasurementModel {
   Eigen::VectorXd residual(const Eigen::VectorXd& z, const Eigen::VectorXd& h) const override;
   Eigen::VectorXd ownMotionRate(const Eigen::Vector3d& p_F) const override;
   bool canSee(const Eigen::Vector3d& p_F) const override;
-  // Not a ball reported nearer than the hypothesis's own distance on the floor allows (a phantom lies
-  // farther out): an orange shirt on the bearing of a ball far out is not that ball.
-  bool mayExplain(const Hypothesis& h) const override;
 
   // Where a ball on the floor would be for this observation, in the field frame (z = radius).
   Eigen::Vector3d groundBall_F() const;
@@ -63,12 +60,8 @@ class OmniMeasurement : public MeasurementModel {
 
 // Whether the omni camera can see a ball centre at p_F: below the top of its mirror's view.
 bool omniCanSee(const Eigen::Vector3d& p_F, const OmniConfig& omni);
-// Where the omni camera of a robot at pose would report a ball centre at p_F: its distance on the
-// floor (a ball in the air, farther out), as in OmniMeasurement.
-double omniDistance_m(const Eigen::Vector3d& p_F, const fw::RobotPose& pose, const OmniConfig& omni, double radius_m);
-// The chance that the ball of hypothesis h is in the view of the omni camera of a robot at pose:
-// below the top of its view, and reported within its reach.
-double omniVisibleProbability(const Hypothesis& h, const fw::RobotPose& pose, const OmniConfig& omni, double radius_m);
+// The chance that the ball of hypothesis h is below the top of the omni camera's view.
+double omniVisibleProbability(const Hypothesis& h, const OmniConfig& omni);
 
 // The omni camera's noise for a ground ball distance_m away: the observation's own sigmas where it
 // carries them, else the configured model (the distance's growing with the distance).
