@@ -203,7 +203,7 @@ std::vector<Hypothesis> BallFilter::branchesAt(double t_s) const {
     roll(landed, dt_left);
     // The rest of the step untouched: a step may span many frames (the world's ball carried to its
     // time after the sensors have long lost it), and a ball stopped at its next touchdown would
-    // stand there, falling, for ever.
+    // stand there, falling, until a sensor saw it again.
     bounce = untouched(bounce, dt_left);
     branches.push_back(bounce);
     branches.push_back(landed);
