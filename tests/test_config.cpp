@@ -54,6 +54,21 @@ class ConfigTest : public ::testing::Test {
   const fs::path root_ = temp_.path();
 };
 
+TEST_F(ConfigTest, AConfigurationWithOverridesLeavesTheOneItCameFromAsItWas) {
+  const fw::Config base = load("sensor:\n  voxel_m: 0.2\n");
+  const fw::Config changed = base.with({"sensor.voxel_m=0.1", "sensor.grid.core_voxels=5", "host.plugins=[a, b]"});
+  const fw::Config again = base.with({"sensor.min_points=9"});
+  EXPECT_EQ(changed.block("sensor").getDouble("voxel_m", 0.0, 1.0), 0.1);
+  EXPECT_EQ(changed.block("sensor").child("grid").getInt("core_voxels", 0, 10), 5);
+  for (const fw::Config* config : {&base, &again}) {
+    EXPECT_EQ(config->block("sensor").getDouble("voxel_m", 0.0, 1.0), 0.2);
+    EXPECT_EQ(config->block("sensor").child("grid").getInt("core_voxels", 0, 10), 3);
+    EXPECT_EQ(config->block("host").getStringList("plugins").size(), 0u);
+  }
+  EXPECT_EQ(again.block("sensor").getInt("min_points", 0, 10), 9);
+  EXPECT_EQ(base.block("sensor").getInt("min_points", 0, 10), 4);
+}
+
 TEST_F(ConfigTest, MergesDefaultsThenRobotThenCommandLine) {
   const fw::Config config = load("sensor:\n  voxel_m: 0.2\n  min_points: 6\n", {"sensor.min_points=8"});
   const fw::ConfigView sensor = config.block("sensor");

@@ -309,8 +309,10 @@ Config Config::load(const std::string& defaults_dir, const std::string& robot_fi
 }
 
 Config Config::with(const std::vector<std::string>& overrides) const {
-  auto data = std::make_shared<Data>(*data_);
-  data->root = YAML::Clone(data_->root);
+  // Built from the clone, not copied and then assigned: a copied YAML::Node shares its tree, and
+  // assigning to it rebinds that shared node, so the overrides below would change this
+  // configuration too (and every run after it made from this one).
+  auto data = std::make_shared<Data>(Data{YAML::Clone(data_->root), data_->origins});
   for (const std::string& assignment : overrides) {
     mergeInto(data->root, overrideToYaml(assignment), "", Source{"--set " + assignment, false}, *data);
   }
