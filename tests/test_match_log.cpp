@@ -88,7 +88,7 @@ TEST(MatchLog, RoundTripsEveryKindOfPublication) {
       {1.3, fw::TrajectoryCleared{"kinect3d"}},
       {1.4, fused},
       {1.5, fw::FusedBallCleared{{100.1, 2000.04}}},
-      {1.6, fw::RobotPose{1.0, -2.0, 0.3, {99.8, 2000.0}}},
+      {1.6, fw::RobotPose{1.0, -2.0, 0.3, {99.8, 2000.0}, std::nullopt}},
       {1.7, fw::Event{"fusion", "omni_latency", "42 ms", {100.0, 2000.0}, 0.042}},
       {1.8, health},
       {1.85, teammate},
@@ -173,7 +173,7 @@ TEST(MatchLog, AVersion3LogFromBeforeTheTeamStillReads) {
   ScopedTempDir dir;
   {
     fw::MatchLogWriter writer(dir.path().string(), {});
-    writer.write({1.0, fw::RobotPose{1.0, -2.0, 0.3, {99.8, 2000.0}}});
+    writer.write({1.0, fw::RobotPose{1.0, -2.0, 0.3, {99.8, 2000.0}, std::nullopt}});
   }
   sqlite3* db = nullptr;
   ASSERT_EQ(sqlite3_open((dir.path() / fw::kMatchLogFile).c_str(), &db), SQLITE_OK);
@@ -211,6 +211,43 @@ TEST(MatchLog, AVersion6LogFromBeforeTheGoalLineCrossingStillReads) {
   const auto& ball = std::get<fw::FusedBall>(read[0].item);
   EXPECT_DOUBLE_EQ(ball.position_F.y(), 2.0);
   EXPECT_FALSE(ball.goal_crossing);
+}
+
+TEST(MatchLog, ThePosesOdometryIsKeptAndAVersion7LogsPosesReadWithout) {
+  ScopedTempDir dir;
+  {
+    fw::MatchLogWriter writer(dir.path().string(), {});
+    fw::RobotPose with{1.0, 2.0, 0.5, {10.0, 10.01}, fw::RobotPose::Odometry{-3.0, 4.5, 7.25}};
+    fw::RobotPose without{1.1, 2.1, 0.6, {10.1, 10.11}, std::nullopt};
+    writer.write({1.0, with});
+    writer.write({1.1, without});
+  }
+  {
+    const std::vector<fw::JournalEntry> read = fw::MatchLogReader(dir.path().string()).entries();
+    ASSERT_EQ(read.size(), 2u);
+    const auto& with = std::get<fw::RobotPose>(read[0].item);
+    ASSERT_TRUE(with.odometry);
+    EXPECT_DOUBLE_EQ(with.odometry->x_m, -3.0);
+    EXPECT_DOUBLE_EQ(with.odometry->y_m, 4.5);
+    EXPECT_DOUBLE_EQ(with.odometry->theta_rad, 7.25);
+    EXPECT_DOUBLE_EQ(with.theta_rad, 0.5);
+    EXPECT_FALSE(std::get<fw::RobotPose>(read[1].item).odometry);
+  }
+  // Made as version 7 wrote it: the poses' rows without the odometry's columns.
+  sqlite3* db = nullptr;
+  ASSERT_EQ(sqlite3_open((dir.path() / fw::kMatchLogFile).c_str(), &db), SQLITE_OK);
+  for (const char* column : {"odometry_x_m", "odometry_y_m", "odometry_theta_rad"}) {
+    ASSERT_EQ(sqlite3_exec(db, (std::string("ALTER TABLE robot_pose DROP COLUMN ") + column).c_str(), nullptr, nullptr,
+                           nullptr),
+              SQLITE_OK);
+  }
+  ASSERT_EQ(sqlite3_exec(db, "PRAGMA user_version=7", nullptr, nullptr, nullptr), SQLITE_OK);
+  sqlite3_close(db);
+  const std::vector<fw::JournalEntry> read = fw::MatchLogReader(dir.path().string()).entries();
+  ASSERT_EQ(read.size(), 2u);
+  const auto& pose = std::get<fw::RobotPose>(read[0].item);
+  EXPECT_DOUBLE_EQ(pose.y_m, 2.0);
+  EXPECT_FALSE(pose.odometry);
 }
 
 TEST(MatchLog, AVersion4LogWithItsDepthAsPngStillReads) {
@@ -325,7 +362,7 @@ TEST(MatchLog, ABadLogIsNamedWithItsFileAndWhatIsWrong) {
   sqlite3_exec(db, "PRAGMA user_version=99", nullptr, nullptr, nullptr);
   sqlite3_close(db);
   EXPECT_NE(
-      errorOf(dir.path().string()).find(file.string() + ": schema version 99, this program reads versions 2 to 7"),
+      errorOf(dir.path().string()).find(file.string() + ": schema version 99, this program reads versions 2 to 8"),
       std::string::npos)
       << errorOf(dir.path().string());
 }
@@ -459,6 +496,8 @@ TEST_F(LoggedDemo, ExportsTheFilesTheOtherCommandsRead) {
   const auto entries = log.entries();
   EXPECT_EQ(fusion::readOmniFile(omni.string(), "omni").size(), itemsOf<fw::OmniFrame>(entries).size());
   EXPECT_EQ(fusion::readPoseFile(pose.string()).size(), itemsOf<fw::RobotPose>(entries).size());
+  // The simulated localisation publishes the wheels' odometry, and the pose file carries it on.
+  EXPECT_TRUE(fusion::readPoseFile(pose.string()).back().odometry);
   const auto frames = fusion::readDetectionsFile(detections.string(), "kinect3d");
   ASSERT_EQ(frames.size(), log.depthSources()[0].second);
   std::size_t with_ball = 0;

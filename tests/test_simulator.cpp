@@ -9,6 +9,7 @@
 #include <set>
 
 #include "kinect3d/point_projector.h"
+#include "kinect3d/sim/field_sensors.h"
 #include "kinect3d/sim/kinect_simulator.h"
 #include "kinect3d/sim/people.h"
 #include "scoped_temp_dir.h"
@@ -384,6 +385,42 @@ TEST(Simulator, AnotherKinectFacingOursHolesItsViewAndAddsFalseDepth) {
   EXPECT_GT(holes_in_patches, 0.95 * holes) << "holes of 2-5 px radius, not single pixels";
   EXPECT_GT(false_depth, 100) << "clusters of 3-7 px across";
   EXPECT_LT(holes + false_depth, static_cast<int>(clean.depth_mm.size() / 8)) << "only where the patterns overlap";
+}
+
+TEST(Simulator, TheWheelsOdometryFollowsTheTrueMotionOffByItsDrawnError) {
+  // pass_on_ground's robot drives a metre and turns as it goes.
+  const Scene scene = kinect3d::sim::loadScene("pass_on_ground");
+  kinect3d::sim::LocalisationModel model;
+  model.odometry_error = 0.05;
+  const kinect3d::sim::LocalisationSimulator with(scene, model);
+  model.odometry = false;
+  const kinect3d::sim::LocalisationSimulator without(scene, model);
+  ASSERT_GT(with.frameCount(), 30);
+  double true_m = 0.0, wheels_m = 0.0, true_rad = 0.0, wheels_rad = 0.0;
+  for (int i = 0; i < with.frameCount(); ++i) {
+    const fw::RobotPose pose = with.pose(i);
+    ASSERT_TRUE(pose.odometry) << "pose " << i;
+    EXPECT_FALSE(without.pose(i).odometry);
+    // The localisation's own error is the same drawn either way.
+    EXPECT_EQ(pose.x_m, without.pose(i).x_m);
+    if (i == 0) continue;
+    const fw::RobotPose truth0 = scene.robot.poseAt((i - 1) / model.rate_hz),
+                        truth1 = scene.robot.poseAt(i / model.rate_hz);
+    const fw::RobotPose::Odometry wheels0 = *with.pose(i - 1).odometry;
+    true_m += std::hypot(truth1.x_m - truth0.x_m, truth1.y_m - truth0.y_m);
+    wheels_m += std::hypot(pose.odometry->x_m - wheels0.x_m, pose.odometry->y_m - wheels0.y_m);
+    true_rad += truth1.theta_rad - truth0.theta_rad;
+    wheels_rad += pose.odometry->theta_rad - wheels0.theta_rad;
+  }
+  std::printf("driven %.3f m, the wheels say %.3f m; turned %.3f rad, the wheels say %.3f rad\n", true_m, wheels_m,
+              true_rad, wheels_rad);
+  ASSERT_GT(true_m, 0.5);
+  ASSERT_GT(std::abs(true_rad), 0.1);
+  // Off, by no more than four sigma of the drawn scale and the noise.
+  EXPECT_NE(wheels_m, true_m);
+  EXPECT_NEAR(wheels_m / true_m, 1.0, 4 * model.odometry_error);
+  EXPECT_NE(wheels_rad, true_rad);
+  EXPECT_NEAR(wheels_rad / true_rad, 1.0, 4 * model.odometry_error);
 }
 
 }  // namespace

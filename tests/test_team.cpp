@@ -27,7 +27,7 @@ fw::TeamMessage fullMessage() {
   fw::TeamMessage m;
   m.robot_name = "goalkeeper";
   m.sent_time_s = 1700000000.25;
-  m.pose = fw::RobotPose{1.5, -3.25, 0.4, {1700000000.2, 0.0}};
+  m.pose = fw::RobotPose{1.5, -3.25, 0.4, {1700000000.2, 0.0}, std::nullopt};
   m.pose_sigma_xy_m = 0.03;
   m.pose_sigma_theta_rad = 0.0175;
   fw::BallObservation ball;

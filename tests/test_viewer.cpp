@@ -298,12 +298,12 @@ TEST(ViewedLog, TeammatesAreDrawnInThisRobotsFrameWhereTheirMessagesPutThem) {
   ScopedTempDir dir;
   const std::string folder = smallLog(dir.path(), [](fw::MatchLogWriter& writer, const fw::DepthImage& image) {
     if (image.index < 5) return;
-    writer.write({image.stamp.receive_time_s, fw::RobotPose{1.0, 2.0, M_PI / 2, image.stamp}});
+    writer.write({image.stamp.receive_time_s, fw::RobotPose{1.0, 2.0, M_PI / 2, image.stamp, std::nullopt}});
     fw::TeamMessage message;
     message.robot_id = 4;
     message.robot_name = "keeper";
     message.sent_time_s = image.stamp.source_time_s;
-    message.pose = fw::RobotPose{1.0, 4.0, 0.0, image.stamp};
+    message.pose = fw::RobotPose{1.0, 4.0, 0.0, image.stamp, std::nullopt};
     fw::BallObservation ball;
     ball.position_m = {0.0, 4.0, 0.5};
     message.kinect_balls = {ball};

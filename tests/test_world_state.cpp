@@ -51,7 +51,7 @@ TEST(WorldState, ConcurrentWritersAndReadersSeeWholeValues) {
 TEST(WorldState, HoldsRobotPoseOmniBallsAndTrajectories) {
   fw::WorldState world;
   EXPECT_FALSE(world.robotPose());
-  world.publishRobotPose({1.0, -2.0, 0.5, {}});
+  world.publishRobotPose({1.0, -2.0, 0.5, {}, std::nullopt});
   EXPECT_DOUBLE_EQ(world.robotPose()->y_m, -2.0);
   fw::OmniBallObservation omni;
   omni.distance_m = 3.0;
@@ -88,7 +88,7 @@ TEST(Types, TrajectoryPropagation) {
 }
 
 TEST(Types, RobotToFieldAndOmniGroundPoint) {
-  fw::RobotPose pose{1.0, 2.0, M_PI / 2, {}};  // robot faces field -x
+  fw::RobotPose pose{1.0, 2.0, M_PI / 2, {}, std::nullopt};  // robot faces field -x
   const Eigen::Vector3d ahead_F = pose.fieldFromRobot({0.0, 1.0, 0.3});
   EXPECT_TRUE(ahead_F.isApprox(Eigen::Vector3d(0.0, 2.0, 0.3), 1e-12)) << ahead_F.transpose();
   fw::OmniBallObservation omni;
@@ -131,7 +131,7 @@ TEST(WorldState, JournalHoldsEveryPublicationInOrderOnlyOnceOpened) {
   world.openJournal(false);
   world.publishDepthImage(fw::DepthImage{});  // not wanted: not kept
   world.publishBalls({ballAt(2.0, "kinect3d"), ballAt(2.5, "kinect3d")});
-  world.publishRobotPose({1.0, -2.0, 0.5, {}});
+  world.publishRobotPose({1.0, -2.0, 0.5, {}, std::nullopt});
   world.publishEvent({"kinect3d", "floor_found", "aligned", {}});
   world.clearTrajectory("kinect3d");  // it had none: nothing happened, nothing journalled
   std::uint64_t refused = 0;
@@ -174,11 +174,11 @@ TEST(WorldState, JournalRefusesAndCountsWhatItsReaderCannotKeepUpWith) {
 TEST(WorldState, ADepthFramesBallsComeInTheOrderTheFrameArrivedWhateverCameWhileItWasProcessed) {
   fw::WorldState world;
   std::uint64_t pose_cursor = 0, reader = 0;
-  world.publishRobotPose({1.0, 0.0, 0.0, {10.0, 10.0}});
+  world.publishRobotPose({1.0, 0.0, 0.0, {10.0, 10.0}, std::nullopt});
   const fw::WorldState::DepthArrival arrival = world.arriveDepthFrame(std::nullopt, &pose_cursor);
   ASSERT_EQ(arrival.poses.size(), 1u) << "the detector gets the poses that came before its frame";
   // While the frame is processed, a pose and an omni image come.
-  world.publishRobotPose({2.0, 0.0, 0.0, {10.03, 10.03}});
+  world.publishRobotPose({2.0, 0.0, 0.0, {10.03, 10.03}, std::nullopt});
   world.publishOmniFrame({{10.02, 10.02}, {}, "omni"});
   EXPECT_EQ(world.measurementsSince(&reader).size(), 1u) << "the first pose; the rest waits for the frame's balls";
   world.publishBallFrame(arrival.place, {{10.0, 10.0}, {}, "kinect3d"});

@@ -171,7 +171,10 @@ struct BallFusion::Candidate {
 };
 
 BallFusion::BallFusion(const FusionConfig& config)
-    : config_(config), kinect_time_line_(config.track.lost_after_s), omni_time_line_(config.track.lost_after_s) {}
+    : config_(config),
+      pose_blend_(config.pose.odometry_blend_s, config.pose.sigma_xy_m, config.pose.sigma_theta_rad),
+      kinect_time_line_(config.track.lost_after_s),
+      omni_time_line_(config.track.lost_after_s) {}
 
 std::optional<LatencyEstimator::Fit> BallFusion::omniLatency() const {
   if (!config_.omni.estimate_latency) return std::nullopt;
@@ -181,7 +184,7 @@ std::optional<LatencyEstimator::Fit> BallFusion::omniLatency() const {
 }
 
 void BallFusion::addPose(const fw::RobotPose& pose) {
-  fw::RobotPose corrected = pose;
+  fw::RobotPose corrected = pose_blend_.add(pose);
   corrected.stamp.source_time_s -= config_.pose.latency_s;
   poses_.add(corrected);
 }
@@ -232,7 +235,7 @@ const FusionUpdate& BallFusion::addTeamMessage(const fw::TeamMessage& message) {
     mate.ball.bearing_sigma_rad = ray.bearing_sigma_rad;
     const double d = mate.ball.distance_m;
     mate.ball.distance_sigma_m = std::max(ray.elevation_sigma_rad * (d * d + drop_m * drop_m) / drop_m, 1e-6);
-    mate.viewpoint = fw::RobotPose{ray.origin_F.x(), ray.origin_F.y(), 0.0, {ray.time_s, ray.time_s}};
+    mate.viewpoint = fw::RobotPose{ray.origin_F.x(), ray.origin_F.y(), 0.0, {ray.time_s, ray.time_s}, std::nullopt};
     mate.omni.viewpoint_height_m = ray.origin_F.z();
     mate.omni.max_height_m = std::min(ray.view_top_m, ray.origin_F.z());
     frameAt(ray.time_s).team_rays.push_back(mate);

@@ -56,6 +56,7 @@ FusionConfig readFusionConfig(const fw::ConfigView& block) {
   config.pose.latency_s = pose.getDouble("latency_s", -1.0, 1.0);
   config.pose.sigma_xy_m = pose.getDouble("sigma_xy_m", 0.0, 5.0);
   config.pose.sigma_theta_rad = fw::degreesToRadians(pose.getDouble("sigma_theta_deg", 0.0, 90.0));
+  config.pose.odometry_blend_s = pose.getDouble("odometry_blend_s", 0.0, 10.0);
 
   const fw::ConfigView track = block.child("track");
   config.track.gate_sigma = track.getDouble("gate_sigma", 1.0, 100.0);

@@ -18,6 +18,8 @@ std::vector<fw::RobotPose> simulate(const fw::ConfigView& sim, const std::string
   model.sigma_theta_rad = fw::degreesToRadians(sim.getDouble("sigma_theta_deg", 0.0, 90.0));
   model.bias_xy_m = {sim.getDouble("bias_x_m", -20.0, 20.0), sim.getDouble("bias_y_m", -20.0, 20.0)};
   model.bias_theta_rad = fw::degreesToRadians(sim.getDouble("bias_theta_deg", -180.0, 180.0));
+  model.odometry = sim.getBool("odometry");
+  model.odometry_error = sim.getDouble("odometry_error", 0.0, 0.5);
   model.seed = static_cast<std::uint64_t>(sim.getInt("seed", 0, 2147483647));
   const kinect3d::sim::LocalisationSimulator localisation(
       kinect3d::sim::inSharedWorld(kinect3d::sim::loadScene(scene), world_start_wall_s), model);

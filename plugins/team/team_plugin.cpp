@@ -23,6 +23,7 @@
 #include "framework_api/pose_history.h"
 #include "fusion/fusion_config.h"
 #include "fusion/measurements.h"
+#include "fusion/pose_blend.h"
 #include "matchlog/match_log.h"
 #include "replay.h"
 #include "team_packet.h"
@@ -48,7 +49,8 @@ class TeamNetwork {
         robot_name_(context.robot_config->block("host").getString("robot_name")),
         key_(readKey(context.config)),
         channel_(openChannel(context.config)),
-        sequence_(static_cast<std::uint64_t>(fw::wallClockNow_s() * 1e6)) {
+        sequence_(static_cast<std::uint64_t>(fw::wallClockNow_s() * 1e6)),
+        pose_blend_(fusion_.pose.odometry_blend_s, fusion_.pose.sigma_xy_m, fusion_.pose.sigma_theta_rad) {
     fw::logInfo(name_, "robot " + std::to_string(robot_id_) + " of team " + std::to_string(team_id_) +
                            ", sharing on port " + std::to_string(context.config.getInt("port", 1, 65535)));
   }
@@ -219,9 +221,10 @@ class TeamNetwork {
   void readOwnMeasurements() {
     for (const fw::WorldState::Measurement& measurement : world_.measurementsSince(&cursor_)) {
       if (const auto* pose = std::get_if<fw::RobotPose>(&measurement)) {
-        poses_.add(*pose);
+        const fw::RobotPose blended = pose_blend_.add(*pose);
+        poses_.add(blended);
         pose_clock_.add(pose->stamp);
-        newest_pose_ = *pose;
+        newest_pose_ = blended;
       } else if (const auto* frame = std::get_if<fw::BallFrame>(&measurement)) {
         if (frame->source != fusion_.kinect.source) continue;
         kinect_clock_.add(frame->stamp);
@@ -338,7 +341,8 @@ class TeamNetwork {
   team::ReplayWindow replay_window_;
   std::map<int, Teammate> teammates_;
 
-  std::uint64_t cursor_ = 0;  // what was read of the measurements (fw::WorldState)
+  std::uint64_t cursor_ = 0;      // what was read of the measurements (fw::WorldState)
+  fusion::PoseBlend pose_blend_;  // the pose mapped with and sent is the one the fusion maps with
   fw::PoseHistory poses_;
   std::optional<fw::RobotPose> newest_pose_;
   fw::HostClockOf pose_clock_, kinect_clock_, omni_clock_;

@@ -54,7 +54,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
         break;
       }
       default:
-        fusion.addPose(fw::RobotPose{p_R.x(), p_R.y(), p_R.z(), {stamp_s, stamp_s}});
+        fusion.addPose(fw::RobotPose{p_R.x(), p_R.y(), p_R.z(), {stamp_s, stamp_s}, std::nullopt});
         break;
     }
     const std::optional<fw::FusedBall>& ball = fusion.latest().ball;

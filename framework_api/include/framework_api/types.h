@@ -64,6 +64,15 @@ struct RobotPose {
   double y_m = 0.0;
   double theta_rad = 0.0;
   Stamp stamp;
+  // The wheels' dead reckoning at the same instant, when the localisation publishes it: a pose in
+  // the odometry's own frame, which drifts over a match but moves smoothly from frame to frame
+  // where the localisation's pose jitters (fusion/pose_blend.h reads how it moved between poses).
+  struct Odometry {
+    double x_m = 0.0;
+    double y_m = 0.0;
+    double theta_rad = 0.0;
+  };
+  std::optional<Odometry> odometry;
 
   // Maps a point in the robot frame to the field frame.
   Eigen::Vector3d fieldFromRobot(const Eigen::Vector3d& p_R) const;

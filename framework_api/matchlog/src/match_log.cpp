@@ -45,7 +45,8 @@ CREATE TABLE fused_ball (seq INTEGER PRIMARY KEY, wall_time_s REAL NOT NULL, non
   goal_crossing_x_m REAL, goal_crossing_z_m REAL, goal_crossing_time_s REAL, goal_crossing_sigma_m REAL,
   goal_crossing_time_sigma_s REAL);
 CREATE TABLE robot_pose (seq INTEGER PRIMARY KEY, wall_time_s REAL NOT NULL, source_time_s REAL NOT NULL,
-  receive_time_s REAL NOT NULL, x_m REAL, y_m REAL, theta_rad REAL);
+  receive_time_s REAL NOT NULL, x_m REAL, y_m REAL, theta_rad REAL, odometry_x_m REAL, odometry_y_m REAL,
+  odometry_theta_rad REAL);
 CREATE TABLE event (seq INTEGER PRIMARY KEY, wall_time_s REAL NOT NULL, source TEXT NOT NULL,
   kind TEXT NOT NULL, message TEXT NOT NULL, source_time_s REAL, receive_time_s REAL, value REAL);
 CREATE TABLE health (seq INTEGER PRIMARY KEY, wall_time_s REAL NOT NULL, plugin TEXT NOT NULL,
@@ -385,8 +386,11 @@ void MatchLogWriter::write(const fw::JournalEntry& entry) {
                 .run(seq, wall, none.stamp.source_time_s, none.stamp.receive_time_s);
           },
           [&](const fw::RobotPose& p) {
-            statement("INSERT INTO robot_pose VALUES (?, ?, ?, ?, ?, ?, ?)")
-                .run(seq, wall, p.stamp.source_time_s, p.stamp.receive_time_s, p.x_m, p.y_m, p.theta_rad);
+            using Maybe = std::optional<double>;
+            const auto& o = p.odometry;
+            statement("INSERT INTO robot_pose VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?)")
+                .run(seq, wall, p.stamp.source_time_s, p.stamp.receive_time_s, p.x_m, p.y_m, p.theta_rad,
+                     o ? Maybe(o->x_m) : Maybe(), o ? Maybe(o->y_m) : Maybe(), o ? Maybe(o->theta_rad) : Maybe());
           },
           [&](const fw::DepthImage& image) {
             const auto refused = [&](const std::string& why) {
@@ -714,11 +718,17 @@ std::vector<fw::JournalEntry> MatchLogReader::entries(std::int64_t after_seq, st
     }
   }
   {
-    const auto poses = query(
-        "SELECT seq, wall_time_s, source_time_s, receive_time_s, x_m, y_m, theta_rad FROM robot_pose WHERE seq > ?");
+    const auto poses = query("SELECT seq, wall_time_s, source_time_s, receive_time_s, x_m, y_m, theta_rad" +
+                             std::string(schema_ >= 8 ? ", odometry_x_m, odometry_y_m, odometry_theta_rad" : "") +
+                             " FROM robot_pose WHERE seq > ?");
     Statement& q = *poses;
-    while (q.row())
-      by_seq[q.integer(0)] = {q.real(1), fw::RobotPose{q.real(4), q.real(5), q.real(6), {q.real(2), q.real(3)}}};
+    while (q.row()) {
+      fw::RobotPose pose{q.real(4), q.real(5), q.real(6), {q.real(2), q.real(3)}, std::nullopt};
+      if (schema_ >= 8 && !q.isNull(7)) {  // version 8 added the wheels' odometry
+        pose.odometry = fw::RobotPose::Odometry{q.real(7), q.real(8), q.real(9)};
+      }
+      by_seq[q.integer(0)] = {q.real(1), pose};
+    }
   }
   {
     const auto events = query("SELECT seq, wall_time_s, source, kind, message, source_time_s, receive_time_s" +

@@ -31,6 +31,7 @@
 #include "framework_api/types.h"
 #include "fusion/ball_filter.h"
 #include "fusion/fusion_config.h"
+#include "fusion/pose_blend.h"
 
 namespace fusion {
 
@@ -229,7 +230,8 @@ class BallFusion {
   std::optional<fw::FusedBall> teammatePrior(double t_s) const;
 
   FusionConfig config_;
-  fw::PoseHistory poses_;
+  PoseBlend pose_blend_;
+  fw::PoseHistory poses_;  // blended (pose_blend_), on the reference clock
   State state_;
   // Frames of the last max_delay_s with the state before each, to re-process after a late one.
   std::deque<std::pair<Frame, State>> recent_;

@@ -48,6 +48,7 @@ struct PoseConfig {
   double latency_s = 0.0;
   double sigma_xy_m = 0.03;  // localisation error, added to every measurement mapped by the pose
   double sigma_theta_rad = 0.0175;
+  double odometry_blend_s = 1.0;  // with the wheels' odometry: the localisation followed over this (PoseBlend)
 };
 
 struct TrackConfig {

@@ -153,12 +153,23 @@ void writeOmniFile(const std::string& path, const std::vector<fw::OmniFrame>& fr
 std::vector<fw::RobotPose> readPoseFile(const std::string& path) {
   std::vector<fw::RobotPose> poses;
   forEachLine(path, [&](const json& object, const std::string& where) {
-    requireOnlyKeys(object, {"t", "x_m", "y_m", "theta_rad"}, where);
+    requireOnlyKeys(object, {"t", "x_m", "y_m", "theta_rad", "odometry"}, where);
     fw::RobotPose pose;
     pose.stamp.source_time_s = pose.stamp.receive_time_s = number(object, "t", where, 0.0, kMaxTime_s);
     pose.x_m = number(object, "x_m", where, -100.0, 100.0);
     pose.y_m = number(object, "y_m", where, -100.0, 100.0);
     pose.theta_rad = number(object, "theta_rad", where, -4.0 * M_PI, 4.0 * M_PI);
+    if (object.contains("odometry")) {
+      const json& odometry = object.at("odometry");
+      const std::string odometry_where = where + ", odometry";
+      if (!odometry.is_object())
+        throw std::runtime_error(odometry_where + ": expected an object {x_m, y_m, theta_rad}");
+      requireOnlyKeys(odometry, {"x_m", "y_m", "theta_rad"}, odometry_where);
+      // The odometry's frame is its own: it drifts without bound over a long match, and turns add up.
+      pose.odometry = fw::RobotPose::Odometry{number(odometry, "x_m", odometry_where, -1e4, 1e4),
+                                              number(odometry, "y_m", odometry_where, -1e4, 1e4),
+                                              number(odometry, "theta_rad", odometry_where, -1e6, 1e6)};
+    }
     poses.push_back(pose);
   });
   return poses;
@@ -167,8 +178,11 @@ std::vector<fw::RobotPose> readPoseFile(const std::string& path) {
 void writePoseFile(const std::string& path, const std::vector<fw::RobotPose>& poses) {
   std::vector<json> lines;
   for (const fw::RobotPose& pose : poses) {
-    lines.push_back(
-        {{"t", pose.stamp.source_time_s}, {"x_m", pose.x_m}, {"y_m", pose.y_m}, {"theta_rad", pose.theta_rad}});
+    json line{{"t", pose.stamp.source_time_s}, {"x_m", pose.x_m}, {"y_m", pose.y_m}, {"theta_rad", pose.theta_rad}};
+    if (const auto& odometry = pose.odometry) {
+      line["odometry"] = {{"x_m", odometry->x_m}, {"y_m", odometry->y_m}, {"theta_rad", odometry->theta_rad}};
+    }
+    lines.push_back(line);
   }
   writeLines(path, lines);
 }

@@ -119,6 +119,31 @@ LocalisationSimulator::LocalisationSimulator(const Scene& scene, const Localisat
     errors_.push_back(e.cwiseProduct(sigma));
     e = a * e + b * draw();
   }
+  if (!model_.odometry) return;
+  // Its own random stream, so that the localisation's errors do not depend on whether it has odometry.
+  std::mt19937_64 wheels(model_.seed ^ 0x0d0e7e5ULL);
+  std::normal_distribution<double> wheel_normal(0.0, 1.0);
+  const double scale_xy = 1.0 + model_.odometry_error * wheel_normal(wheels);
+  const double scale_theta = 1.0 + model_.odometry_error * wheel_normal(wheels);
+  fw::RobotPose::Odometry odometry;
+  fw::RobotPose previous = scene_.robot.poseAt(0.0);
+  odometry_.push_back(odometry);
+  for (int i = 1; i < count; ++i) {
+    const fw::RobotPose now = scene_.robot.poseAt(i / model_.rate_hz);
+    // The true step in the robot frame of the step's start, as the wheels measure it.
+    const Eigen::Vector2d step_R =
+        Eigen::Rotation2Dd(-previous.theta_rad) * Eigen::Vector2d(now.x_m - previous.x_m, now.y_m - previous.y_m);
+    const double turn_rad = std::remainder(now.theta_rad - previous.theta_rad, 2.0 * M_PI);
+    const double noise_x = wheel_normal(wheels), noise_y = wheel_normal(wheels), noise_theta = wheel_normal(wheels);
+    const Eigen::Vector2d measured_R =
+        scale_xy * step_R + model_.odometry_error * step_R.norm() * Eigen::Vector2d(noise_x, noise_y);
+    const double measured_turn_rad = scale_theta * turn_rad + model_.odometry_error * std::abs(turn_rad) * noise_theta;
+    const Eigen::Vector2d p =
+        Eigen::Vector2d(odometry.x_m, odometry.y_m) + Eigen::Rotation2Dd(odometry.theta_rad) * measured_R;
+    odometry = {p.x(), p.y(), odometry.theta_rad + measured_turn_rad};
+    odometry_.push_back(odometry);
+    previous = now;
+  }
 }
 
 fw::RobotPose LocalisationSimulator::pose(int index) const {
@@ -129,6 +154,7 @@ fw::RobotPose LocalisationSimulator::pose(int index) const {
   pose.y_m += e.y() + model_.bias_xy_m.y();
   pose.theta_rad += e.z() + model_.bias_theta_rad;
   pose.stamp.source_time_s = pose.stamp.receive_time_s = scene_.start_time_s + t;
+  if (!odometry_.empty()) pose.odometry = odometry_[static_cast<std::size_t>(index)];
   return pose;
 }
 

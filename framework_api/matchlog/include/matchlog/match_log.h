@@ -26,7 +26,7 @@ struct sqlite3_stmt;
 
 namespace fw {
 
-constexpr int kMatchLogSchemaVersion = 7;
+constexpr int kMatchLogSchemaVersion = 8;
 // Logs back to this version are read (version 2 has no colour verdicts: its balls read as not checked;
 // versions 2 and 3 have no teammates' messages; versions 2 to 4 hold their depth as PNG; versions 2
 // to 5 keep no value with an event, and no time with the world ball's 'none', which they record

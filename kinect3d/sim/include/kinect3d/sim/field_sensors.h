@@ -61,6 +61,11 @@ struct LocalisationModel {
   // this and turned by this about itself.
   Eigen::Vector2d bias_xy_m = Eigen::Vector2d::Zero();
   double bias_theta_rad = 0.0;
+  // The wheels' odometry published with each pose (fw::RobotPose::odometry): the true motion, each
+  // step's distance and turn off by a scale error drawn once per run (one sigma odometry_error: a
+  // worn wheel, slip) and by noise of the same share of the step.
+  bool odometry = true;
+  double odometry_error = 0.02;
   std::uint64_t seed = 2;
 };
 
@@ -73,7 +78,8 @@ class LocalisationSimulator {
  private:
   Scene scene_;
   LocalisationModel model_;
-  std::vector<Eigen::Vector3d> errors_;  // x, y, theta per pose
+  std::vector<Eigen::Vector3d> errors_;            // x, y, theta per pose
+  std::vector<fw::RobotPose::Odometry> odometry_;  // per pose, when the model has odometry
 };
 
 }  // namespace kinect3d::sim
