@@ -12,7 +12,9 @@
 #include <random>
 #include <stdexcept>
 
+#include "fusion/fusion_config.h"
 #include "fusion/json_lines.h"
+#include "fusion/pose_blend.h"
 #include "kinect3d/sim/ball_motion.h"
 #include "kinect3d/sim/field_sensors.h"
 #include "kinect3d/sim/sequence_writer.h"
@@ -41,8 +43,8 @@ constexpr double kCalibratedBounceSigma = 0.03;
 
 struct Scored {
   std::vector<double> air_errors, ground_errors;
-  // In the air: how far a perfect sensor's ball would be off, mapped through the simulated
-  // localisation's pose instead of the true one (what no filter of one robot's sensors removes).
+  // In the air: how far a perfect sensor's ball would be off, mapped through the pose the fusion maps
+  // with instead of the true one (what no filter of one robot's sensors removes).
   std::vector<double> air_pose_floor;
   std::vector<double> ground_errors_kinect_sees;  // on the ground, while the Kinect sees the ball
   int updates = 0, with_ball = 0, on_phantom = 0;
@@ -117,7 +119,18 @@ Case makeCase(const std::string& name, int seed) {
   calibrated("drag_per_m", c.scene.physics.drag_per_m, kCalibratedDragSigma_per_m, 0.001, 0.1);
   calibrated("restitution", c.scene.physics.restitution, kCalibratedBounceSigma, 0.05, 0.95);
   calibrated("bounce_friction", c.scene.physics.bounce_friction, kCalibratedBounceSigma, 0.0, 0.9);
+  c.localisation.odometry_error = uniform(0.005, 0.05);  // the wheels' scale error and noise (one sigma)
   return c;
+}
+
+// The poses the fusion maps its sensors with: the simulated localisation's, blended with the wheels'
+// odometry as the fusion blends them.
+std::vector<fw::RobotPose> mappedPoses(const Case& c, const fusion::PoseConfig& pose) {
+  const sim::LocalisationSimulator localisation(c.scene, c.localisation);
+  fusion::PoseBlend blend(pose.odometry_blend_s, pose.sigma_xy_m, pose.sigma_theta_rad);
+  std::vector<fw::RobotPose> poses;
+  for (int i = 0; i < localisation.frameCount(); ++i) poses.push_back(blend.add(localisation.pose(i)));
+  return poses;
 }
 
 // Whether the Kinect saw the ball at time t: the Kinect-only run's last update at or before t had a
@@ -131,7 +144,7 @@ bool kinectSawBall(const FusionRun& kinect_only, double t_s) {
 }
 
 Scored score(const Case& c, const FusionRun& run, const FusionRun& kinect_only,
-             const sim::LocalisationSimulator& localisation) {
+             const std::vector<fw::RobotPose>& mapped_poses) {
   const sim::Scene& scene = c.scene;
   const sim::BallMotion motion(*scene.ball, scene.physics, scene.duration_s + 1.0, scene.objects);
   const double r = scene.physics.radius_m;
@@ -155,9 +168,9 @@ Scored score(const Case& c, const FusionRun& run, const FusionRun& kinect_only,
     const double error = (update.ball->position_F - truth).norm();
     (airborne(t) ? s.air_errors : s.ground_errors).push_back(error);
     if (airborne(t)) {
-      const int index =
-          std::clamp(static_cast<int>(std::lround(t * c.localisation.rate_hz)), 0, localisation.frameCount() - 1);
-      const Eigen::Vector3d seen = localisation.pose(index).T_F_R() * (scene.robot.poseAt(t).T_F_R().inverse() * truth);
+      const int index = std::clamp(static_cast<int>(std::lround(t * c.localisation.rate_hz)), 0,
+                                   static_cast<int>(mapped_poses.size()) - 1);
+      const Eigen::Vector3d seen = mapped_poses[index].T_F_R() * (scene.robot.poseAt(t).T_F_R().inverse() * truth);
       s.air_pose_floor.push_back((seen - truth).norm());
     }
     if (!airborne(t) && kinectSawBall(kinect_only, update.time_s)) s.ground_errors_kinect_sees.push_back(error);
@@ -210,50 +223,34 @@ void writeFusionReport(const fw::Config& config, int seeds, const std::string& o
   const fs::path inputs_dir = keep_dir.empty()
                                   ? fs::temp_directory_path() / ("kinect3d-fusion-report-" + std::to_string(::getpid()))
                                   : fs::path(keep_dir);
-  const char* runs[] = {"fused", "fused, ball calibrated", "omni only", "Kinect only"};
-  constexpr int kRuns = 4, kCalibrated = 1;
+  const char* runs[] = {"fused", "fused, ball calibrated", "fused, no odometry", "omni only", "Kinect only"};
+  constexpr int kRuns = 5;
+  const fusion::PoseConfig pose_config = fusion::readFusionConfig(config.block("fusion")).pose;
   const std::vector<std::string>& names = scenes.empty() ? kScenes : scenes;
   std::string table, latency;
   std::map<std::string, std::array<Scored, kRuns>> per_scene;
-  // The runs with the ball calibrated come after all the others: a run's output depends, in its last
-  // bits, on the configurations the process ran before it, and so every fused.jsonl stays what
-  // `kinect3d fuse` gives for its case.
-  struct CalibratedRun {
-    std::string name;
-    Case c;
-    std::string dir;
-    FusionRun kinect_only;
-  };
-  std::vector<CalibratedRun> calibrated_runs;
   for (const std::string& name : names) {
     for (int seed = 1; seed <= seeds; ++seed) {
       // Through files, exactly as `kinect3d fuse` reads them.
-      Case c = makeCase(name, seed);
+      const Case c = makeCase(name, seed);
       const std::string dir = (inputs_dir / (name + "-" + std::to_string(seed))).string();
       sim::writeTumSequence(c.scene, dir);
       writeFieldSensorFiles(c.scene, c.omni, c.localisation, dir);
       const std::string depth = "tum:" + dir, omni = dir + "/omni.jsonl", pose = dir + "/pose.jsonl";
       const FusionRun fused = fuseRecorded(config, {depth, omni, pose});
+      const FusionRun calibrated = fuseRecorded(config.with(c.calibrated_ball), {depth, omni, pose});
+      const FusionRun no_odometry = fuseRecorded(config.with({"fusion.pose.odometry_blend_s=0"}), {depth, omni, pose});
       const FusionRun omni_only = fuseRecorded(config, {"", omni, pose});
-      FusionRun kinect_only = fuseRecorded(config, {depth, "", pose});
+      const FusionRun kinect_only = fuseRecorded(config, {depth, "", pose});
       fusion::writeFusedFile(dir + "/fused.jsonl", fused.updates);
-      const sim::LocalisationSimulator localisation(c.scene, c.localisation);
-      const FusionRun* run_of[kRuns] = {&fused, nullptr, &omni_only, &kinect_only};
-      for (int k = 0; k < kRuns; ++k) {
-        if (run_of[k]) per_scene[name][k].add(score(c, *run_of[k], kinect_only, localisation));
-      }
+      const std::vector<fw::RobotPose> mapped_poses = mappedPoses(c, pose_config);
+      const FusionRun* run_of[kRuns] = {&fused, &calibrated, &no_odometry, &omni_only, &kinect_only};
+      for (int k = 0; k < kRuns; ++k) per_scene[name][k].add(score(c, *run_of[k], kinect_only, mapped_poses));
       char text[256];
       std::snprintf(text, sizeof text, "| %s | %d | %.0f | %s |\n", name.c_str(), seed, 1000 * c.omni.stamp_late_s,
                     fused.omni_latency_s ? std::to_string(std::lround(1000 * *fused.omni_latency_s)).c_str() : "-");
       latency += text;
-      calibrated_runs.push_back({name, std::move(c), dir, std::move(kinect_only)});
     }
-  }
-  for (const CalibratedRun& run : calibrated_runs) {
-    const FusionRun calibrated = fuseRecorded(config.with(run.c.calibrated_ball),
-                                              {"tum:" + run.dir, run.dir + "/omni.jsonl", run.dir + "/pose.jsonl"});
-    const sim::LocalisationSimulator localisation(run.c.scene, run.c.localisation);
-    per_scene[run.name][kCalibrated].add(score(run.c, calibrated, run.kinect_only, localisation));
   }
   Scored overall[kRuns];
   for (const std::string& name : names) {
@@ -285,9 +282,12 @@ void writeFusionReport(const fw::Config& config, int seeds, const std::string& o
          "behind the robot, so the filter is never tuned to one physics or one flight: it runs with the shipped ball "
          "block (*fused*), and once more with the ball calibrated (*fused, ball calibrated*: its drag, restitution and "
          "bounce friction as `kinect3d calibrate drag` would measure them from a few flights, each off by a drawn "
-         "error of 0.002 /m, 0.03 and 0.03, one sigma; rolling is not calibrated). The robot carrying the sensors "
+         "error of 0.002 /m, 0.03 and 0.03, one sigma; rolling is not calibrated), and once more with the pose as the "
+         "localisation gives it, without the wheels' odometry (*fused, no odometry*). The robot carrying the sensors "
          "stands, drives or turns (pass_on_ground, lob_while_turning, turn_at_rest); the ball bounces off robots "
-         "(ball_hits_robot). The robot's pose comes from simulated localisation (3 cm, 1 degree, correlated over 1 s). "
+         "(ball_hits_robot). The robot's pose comes from simulated localisation (3 cm, 1 degree, correlated over 1 s) "
+         "with the wheels' odometry beside it (off by a scale error and noise of 0.5-5 %, drawn per seed), which "
+         "the fusion blends (fusion.pose.odometry_blend_s). "
          "The omni camera misses 5 % of images, "
          "is blocked by robots and people, and sees an orange false ball about every 2 s.\n\n"
       << "Errors are 3D distances in the field frame between the world's ball and the truth at each update (both "
@@ -301,8 +301,9 @@ void writeFusionReport(const fw::Config& config, int seeds, const std::string& o
       << "| scene | run | air median (m) | air p95 (m) | ground median (m) | ground p95 (m) | ground median where "
          "the Kinect sees it (m) | with ball | on phantom | kick (frames) | landing (frames) |\n"
       << "|---|---|---|---|---|---|---|---|---|---|---|\n"
-      << table << "\nThe localisation's share: a perfect sensor's ball in the air, mapped through the simulated "
-      << "localisation's pose instead of the true one, would be off by "
+      << table << "\nThe localisation's share: a perfect sensor's ball in the air, mapped through the pose the "
+      << "fusion maps with (the simulated localisation's, blended with the odometry) instead of the true one, would be "
+         "off by "
       << metres(fw::quantile(overall[0].air_pose_floor, 0.5)) << " m (median) and "
       << metres(fw::quantile(overall[0].air_pose_floor, 0.95))
       << " m (p95) at the fused run's updates; no filter of one robot's own sensors removes that.\n"
