@@ -99,6 +99,22 @@ TEST(PoseBlend, TakesALocalisationThatJumpsAtOnce) {
   EXPECT_LT(offBy_m(next, d.truth[31]), 1.0 + 4 * kSigmaXy_m);
 }
 
+TEST(PoseBlend, AnOdometryThatRestartsAtZeroDoesNotThrowThePoseAway) {
+  // The wheels' controller restarted: its odometry starts again from the origin of its frame.
+  Drive d = drive(60, 6);
+  const fw::RobotPose::Odometry at_restart = *d.localised[30].odometry;
+  for (std::size_t i = 30; i < d.localised.size(); ++i) {
+    fw::RobotPose::Odometry& odometry = *d.localised[i].odometry;
+    odometry = {odometry.x_m - at_restart.x_m, odometry.y_m - at_restart.y_m,
+                odometry.theta_rad - at_restart.theta_rad};
+  }
+  fusion::PoseBlend blend(1.0, kSigmaXy_m, kSigmaTheta_rad);
+  for (std::size_t i = 0; i < d.localised.size(); ++i) {
+    const fw::RobotPose blended = blend.add(d.localised[i]);
+    EXPECT_LT(offBy_m(blended, d.truth[i]), 4 * kSigmaXy_m) << "pose " << i;
+  }
+}
+
 TEST(PoseBlend, APoseWithoutOdometryOrWithoutATimeConstantIsTheLocalisations) {
   const Drive d = drive(30, 5);
   fusion::PoseBlend none(0.0, kSigmaXy_m, kSigmaTheta_rad);
