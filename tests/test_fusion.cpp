@@ -1185,21 +1185,23 @@ TEST(Fusion, LearnsTheOmniLatencyFromTheRobotsTurnThroughALocalisationThatWander
   EXPECT_LE(worst_s, 0.005);
 }
 
-TEST(Fusion, AFlightCarriedThroughAWanderingLocalisationMissesLessWithTheWheelsOdometry) {
+TEST(Fusion, TheWheelsOdometryKeepsAWanderingLocalisationOutOfAFlightsVelocity) {
   // The robot drives at 1.5 m/s and turns while the Kinect sees a lob until it rises out of view
   // (1.2 m); the rest of the flight is carried. Its localisation wanders as the simulator's (3 cm and a
   // degree, correlated over a second), whose steps from frame to frame read as ball velocity; the
-  // wheels' odometry (2 % long) moves smoothly.
+  // wheels' odometry (2 % long) moves smoothly. The position's error is mostly the localisation's own
+  // slow error, which the odometry does not remove (over these seeds 0.059 against 0.072 m, but
+  // 0.066 m either way over seeds 13-24); the velocity's is what it removes.
   const auto driving = [](double t) { return poseAt(0.0, 1.5 * (t - kT0), 0.3 * (t - kT0), t); };
   const auto below_view = [](const Eigen::Vector3d& p) { return p.z() < 1.2; };
-  std::vector<double> with_wheels_m, without_m;
-  for (int seed = 1; seed <= 6; ++seed) {
+  std::vector<double> with_wheels_m, without_m, with_wheels_mps, without_mps;
+  for (int seed = 1; seed <= 12; ++seed) {
     std::mt19937 random(seed);
     std::normal_distribution<double> normal(0.0, 1.0);
     const double keep = std::exp(-1.0 / 30.0), fresh = std::sqrt(1.0 - keep * keep);
     const Eigen::Vector3d sigma(0.03, 0.03, fw::degreesToRadians(1.0));
     std::vector<fw::RobotPose> believed;
-    Eigen::Vector3d error = sigma.cwiseProduct(Eigen::Vector3d(normal(random), normal(random), normal(random)));
+    Eigen::Vector3d error = sigma.cwiseProduct(drawVector3(normal, random));
     for (int i = 0; i < 75; ++i) {
       const double t = kT0 + i / 30.0;
       fw::RobotPose pose = driving(t);
@@ -1208,8 +1210,7 @@ TEST(Fusion, AFlightCarriedThroughAWanderingLocalisationMissesLessWithTheWheelsO
       pose.y_m += error.y();
       pose.theta_rad += error.z();
       believed.push_back(pose);
-      error =
-          keep * error + fresh * sigma.cwiseProduct(Eigen::Vector3d(normal(random), normal(random), normal(random)));
+      error = keep * error + fresh * sigma.cwiseProduct(drawVector3(normal, random));
     }
     const Eigen::Vector3d p0(0.0, 3.0, kRadius), v0(0.5, 3.0, 5.0);
     const Truth lob = [&](double t) { return lobAt(t, kT0 + 0.2, p0, v0); };
@@ -1225,7 +1226,11 @@ TEST(Fusion, AFlightCarriedThroughAWanderingLocalisationMissesLessWithTheWheelsO
         std::vector<fw::BallObservation> kinect;
         if (below_view(p)) kinect.push_back(kinectView(p, driving(t), kinect_noise));
         const auto& ball = fusion.addKinectFrame(t, kinect).ball;
-        if (p.z() > 0.3 && ball) (wheels ? with_wheels_m : without_m).push_back((ball->position_F - p).norm());
+        if (p.z() > 0.3 && ball) {
+          const Eigen::Vector3d v = (lob(t + 1e-3) - lob(t - 1e-3)) / 2e-3;
+          (wheels ? with_wheels_m : without_m).push_back((ball->position_F - p).norm());
+          (wheels ? with_wheels_mps : without_mps).push_back((ball->velocity_F - v).norm());
+        }
       }
     }
   }
@@ -1237,7 +1242,8 @@ TEST(Fusion, AFlightCarriedThroughAWanderingLocalisationMissesLessWithTheWheelsO
   };
   std::printf("air error median: %.3f m with the wheels' odometry, %.3f m without\n", median(with_wheels_m),
               median(without_m));
-  EXPECT_LT(median(with_wheels_m), 0.9 * median(without_m));
+  std::printf("velocity error median: %.3f m/s with, %.3f m/s without\n", median(with_wheels_mps), median(without_mps));
+  EXPECT_LT(median(with_wheels_mps), 0.85 * median(without_mps));
 }
 
 TEST(FusionConfig, ShippedDefaultsAreTheStructDefaults) {
