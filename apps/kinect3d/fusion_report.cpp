@@ -2,8 +2,6 @@
 
 #include <unistd.h>
 #include <algorithm>
-#include <array>
-#include <map>
 
 #include <cmath>
 #include <cstdio>
@@ -226,10 +224,10 @@ void writeFusionReport(const fw::Config& config, int seeds, const std::string& o
   const char* runs[] = {"fused", "fused, ball calibrated", "fused, no odometry", "omni only", "Kinect only"};
   constexpr int kRuns = 5;
   const fusion::PoseConfig pose_config = fusion::readFusionConfig(config.block("fusion")).pose;
-  const std::vector<std::string>& names = scenes.empty() ? kScenes : scenes;
   std::string table, latency;
-  std::map<std::string, std::array<Scored, kRuns>> per_scene;
-  for (const std::string& name : names) {
+  Scored overall[kRuns];
+  for (const std::string& name : scenes.empty() ? kScenes : scenes) {
+    Scored per_scene[kRuns];
     for (int seed = 1; seed <= seeds; ++seed) {
       // Through files, exactly as `kinect3d fuse` reads them.
       const Case c = makeCase(name, seed);
@@ -245,18 +243,15 @@ void writeFusionReport(const fw::Config& config, int seeds, const std::string& o
       fusion::writeFusedFile(dir + "/fused.jsonl", fused.updates);
       const std::vector<fw::RobotPose> mapped_poses = mappedPoses(c, pose_config);
       const FusionRun* run_of[kRuns] = {&fused, &calibrated, &no_odometry, &omni_only, &kinect_only};
-      for (int k = 0; k < kRuns; ++k) per_scene[name][k].add(score(c, *run_of[k], kinect_only, mapped_poses));
+      for (int k = 0; k < kRuns; ++k) per_scene[k].add(score(c, *run_of[k], kinect_only, mapped_poses));
       char text[256];
       std::snprintf(text, sizeof text, "| %s | %d | %.0f | %s |\n", name.c_str(), seed, 1000 * c.omni.stamp_late_s,
                     fused.omni_latency_s ? std::to_string(std::lround(1000 * *fused.omni_latency_s)).c_str() : "-");
       latency += text;
     }
-  }
-  Scored overall[kRuns];
-  for (const std::string& name : names) {
     for (int k = 0; k < kRuns; ++k) {
-      table += row(name, runs[k], per_scene[name][k]);
-      overall[k].add(per_scene[name][k]);
+      table += row(name, runs[k], per_scene[k]);
+      overall[k].add(per_scene[k]);
     }
   }
   for (int k = 0; k < kRuns; ++k) table += row("**all**", runs[k], overall[k]);
