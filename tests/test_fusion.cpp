@@ -815,6 +815,38 @@ TEST(Fusion, AMislocalisedTeammateIsDiscountedAndDoesNotMoveTheBall) {
   }
 }
 
+TEST(Fusion, AMislocalisedTeammateIsDiscountedWhileTheBallHopsInFrontOfThisRobotsOmniCamera) {
+  // The ball hops 0.35 m high 3 m in front of this robot, which has only its omni camera: of a ball
+  // in the air that gives the bearing alone. The keeper's Kinect sees every hop, but the keeper
+  // believes it stands a metre from where it does, across this robot's line of sight. Its balls
+  // lie off this robot's bearing to the ball by about 18 degrees, which is what judges it: the ball
+  // never rests on the floor long enough to judge it there.
+  const Truth hopping = [](double t) {
+    const double tau = t - kT0, hop_s = 2.0 * std::sqrt(2.0 * 0.35 / 9.81);
+    const double phase = std::fmod(tau, hop_s);
+    return Eigen::Vector3d(-1.0 + 0.4 * tau, 3.0, kRadius + 0.5 * 9.81 * phase * (hop_s - phase));
+  };
+  const fw::RobotPose keeper = poseAt(0.5, 7.0, M_PI, kT0);
+  fusion::BallFusion fusion(testConfig());
+  const FedRun run = feedWithTeammate(fusion, hopping, 3.0, never, always, keeper, poseAt(1.5, 7.0, M_PI, kT0));
+  ASSERT_EQ(fusion.teammates().count(4), 1u);
+  const fusion::TeammateStanding& standing = fusion.teammates().at(4);
+  EXPECT_TRUE(standing.discounted);
+  EXPECT_GT(standing.median_gap_m, 0.5);
+  EXPECT_GE(standing.examples, testConfig().team.judge_examples);
+  // After the judgement, the world's ball follows this robot's own camera: the last second's world
+  // balls rest on none of the keeper's.
+  int last_second = 0, with_keeper = 0;
+  for (const fusion::FusionUpdate& update : run.updates) {
+    if (!update.ball || update.time_s < kT0 + 2.0) continue;
+    ++last_second;
+    const std::vector<std::string>& sources = update.ball->sources;
+    with_keeper += std::count(sources.begin(), sources.end(), "team:keeper") > 0 ? 1 : 0;
+  }
+  EXPECT_GT(last_second, 20);
+  EXPECT_EQ(with_keeper, 0);
+}
+
 // The keeper's message with its pose and world ball alone (a robot without a Kinect sends no more),
 // its ball on the floor at p_F rolling at v_F, given by `sources`, at time t.
 fw::TeamMessage worldBallMessage(const Eigen::Vector3d& p_F, const Eigen::Vector3d& v_F, double t,

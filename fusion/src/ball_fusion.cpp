@@ -396,7 +396,7 @@ void BallFusion::process(const Frame& frame) {
   std::vector<std::vector<Hypothesis>> branches;
   for (const Track& track : state.tracks) branches.push_back(track.filter.branchesAt(t));
   // Teammates are judged against this robot's own view first; a discounted teammate's observations are not used.
-  judgeTeammates(frame, candidates, branches, t);
+  judgeTeammates(frame, candidates, branches, pose, t);
   std::vector<bool> discounted(candidates.size(), false);
   for (std::size_t c = 0; c < candidates.size(); ++c) {
     if (candidates[c].source == Source::kTeammate) discounted[c] = state.teammates[candidates[c].teammate].discounted;
@@ -488,7 +488,8 @@ void BallFusion::Track::supportedBy(const Candidate& candidate, double t_s) {
 }
 
 void BallFusion::judgeTeammates(const Frame& frame, const std::vector<Candidate>& candidates,
-                                const std::vector<std::vector<Hypothesis>>& branches, double t_s) {
+                                const std::vector<std::vector<Hypothesis>>& branches, const fw::RobotPose& pose,
+                                double t_s) {
   State& state = state_;
   for (const TeammateBall& mate : frame.team) state.teammates[mate.robot_id].name = mate.name;
   for (const TeammateRay& mate : frame.team_rays) state.teammates[mate.robot_id].name = mate.name;
@@ -513,7 +514,7 @@ void BallFusion::judgeTeammates(const Frame& frame, const std::vector<Candidate>
   std::map<int, Judgement> closest;
   for (const Candidate& candidate : candidates) {
     if (candidate.source != Source::kTeammate) continue;
-    const std::optional<Judgement> judged = judge(candidate, *own, *own_branches, t_s);
+    const std::optional<Judgement> judged = judge(candidate, *own, *own_branches, pose, t_s);
     const auto found = closest.find(candidate.teammate);
     if (judged && (found == closest.end() || judged->mahalanobis < found->second.mahalanobis)) {
       closest[candidate.teammate] = *judged;
@@ -524,35 +525,55 @@ void BallFusion::judgeTeammates(const Frame& frame, const std::vector<Candidate>
 
 std::optional<BallFusion::Judgement> BallFusion::judge(const Candidate& candidate, const Track& world,
                                                        const std::vector<Hypothesis>& world_branches,
-                                                       double t_s) const {
-  // Only against what this robot's own sensors place well: its Kinect's ball anywhere, its omni
-  // camera's on the floor (a ball in the air is only a bearing to it).
+                                                       const fw::RobotPose& pose, double t_s) const {
+  // Only against what this robot's own sensors place: its Kinect's ball anywhere, its omni camera's
+  // on the floor; of a ball in the air the omni camera gives only the bearing from this robot.
   const bool own_kinect = t_s - world.last_kinect_s <= kJudgeOwnSupportWithin_s;
-  const bool own_omni_on_floor = t_s - world.last_omni_s <= kJudgeOwnSupportWithin_s && !world.flying();
-  if (!own_kinect && !(own_omni_on_floor && !candidate.in_air)) return std::nullopt;
+  const bool own_omni = t_s - world.last_omni_s <= kJudgeOwnSupportWithin_s;
+  const bool on_floor = !world.flying() && !candidate.in_air;
+  if (!own_kinect && !own_omni) return std::nullopt;
   const Hypothesis& best =
       *std::max_element(world_branches.begin(), world_branches.end(),
                         [](const Hypothesis& a, const Hypothesis& b) { return a.weight < b.weight; });
   const Eigen::Vector3d world_F = best.x.head<3>();
+  // How far, in bearing seen from `from`, `seen` lies off this robot's ball, in sigmas given the
+  // variance of its own bearing; and how far that puts this robot's ball off the line of sight.
+  const auto byBearing = [&](const Eigen::Vector2d& from, const Eigen::Vector2d& seen,
+                             double seen_variance_rad2) -> std::optional<Judgement> {
+    const Eigen::Vector2d to_seen = seen - from, to_world = world_F.head<2>() - from;
+    const double d = std::max(to_world.norm(), 0.1);
+    const double residual =
+        fw::wrapAngle(std::atan2(to_seen.y(), to_seen.x()) - std::atan2(to_world.y(), to_world.x()));
+    const Eigen::Vector2d across(-to_world.y() / d, to_world.x() / d);
+    const double variance = seen_variance_rad2 + across.dot(best.P.topLeftCorner<2, 2>() * across) / (d * d);
+    const double gap_m = d * std::abs(std::sin(residual));
+    if (gap_m > kMaxMislocalisation_m) return std::nullopt;
+    return Judgement{std::abs(residual) / std::sqrt(variance), gap_m};
+  };
   if (!candidate.ray_origin_F) {
-    // A Kinect ball on the floor plane only: a robot's localisation errs there, while a Kinect far
-    // away puts a ball on the floor a little high.
-    const Eigen::Vector2d gap = (candidate.p_F - world_F).head<2>();
-    if (gap.norm() > kMaxMislocalisation_m) return std::nullopt;
-    const Eigen::Matrix2d S = best.P.topLeftCorner<2, 2>() + candidate.covariance_F.topLeftCorner<2, 2>();
-    return Judgement{std::sqrt(gap.dot(S.ldlt().solve(gap))), gap.norm()};
+    if (own_kinect || on_floor) {
+      // A Kinect ball on the floor plane only: a robot's localisation errs there, while a Kinect far
+      // away puts a ball on the floor a little high.
+      const Eigen::Vector2d gap = (candidate.p_F - world_F).head<2>();
+      if (gap.norm() > kMaxMislocalisation_m) return std::nullopt;
+      const Eigen::Matrix2d S = best.P.topLeftCorner<2, 2>() + candidate.covariance_F.topLeftCorner<2, 2>();
+      return Judgement{std::sqrt(gap.dot(S.ldlt().solve(gap))), gap.norm()};
+    }
+    // A ball in the air that only this robot's omni camera sees: the teammate's Kinect ball by its
+    // bearing from this robot's camera, which lies on this robot's ray to the ball.
+    const Eigen::Vector2d camera(pose.x_m, pose.y_m);
+    const Eigen::Vector2d to_seen = candidate.p_F.head<2>() - camera;
+    const double d = std::max(to_seen.norm(), 0.1);
+    const Eigen::Vector2d across(-to_seen.y() / d, to_seen.x() / d);
+    const double sigma_b = config_.omni.bearing_sigma_rad;
+    return byBearing(camera, candidate.p_F.head<2>(),
+                     sigma_b * sigma_b + across.dot(candidate.covariance_F.topLeftCorner<2, 2>() * across) / (d * d));
   }
-  // An omni ray by its bearing alone: a ball in the air lies on the bearing of its phantom.
-  const Eigen::Vector2d ray = (candidate.p_F - *candidate.ray_origin_F).head<2>();
-  const Eigen::Vector2d to_world = (world_F - *candidate.ray_origin_F).head<2>();
-  const double d = std::max(to_world.norm(), 0.1);
-  const double residual = fw::wrapAngle(std::atan2(ray.y(), ray.x()) - std::atan2(to_world.y(), to_world.x()));
-  const Eigen::Vector2d across(-to_world.y() / d, to_world.x() / d);
-  const double variance =
-      candidate.measurement->noise(candidate.p_F)(0, 0) + across.dot(best.P.topLeftCorner<2, 2>() * across) / (d * d);
-  const double gap_m = d * std::abs(std::sin(residual));
-  if (gap_m > kMaxMislocalisation_m) return std::nullopt;
-  return Judgement{std::abs(residual) / std::sqrt(variance), gap_m};
+  // An omni ray by its bearing alone (a ball in the air lies on the bearing of its phantom), against
+  // a ball this robot places.
+  if (!own_kinect && !on_floor) return std::nullopt;
+  return byBearing(candidate.ray_origin_F->head<2>(), candidate.p_F.head<2>(),
+                   candidate.measurement->noise(candidate.p_F)(0, 0));
 }
 
 void BallFusion::recordJudgement(int teammate, const Judgement& judgement) {
