@@ -119,9 +119,11 @@ using Sees = std::function<bool(double, const Eigen::Vector3d&)>;
 // One 30 Hz step at t of this robot's own sensors watching `truth` from `pose(t)`: a Kinect frame (the
 // ball while kinect_sees) and, with_omni, an omni image half a frame later (the ball while it is in
 // the camera's view and omni_sees), stamped omni_stamp_late_s late.
+// shirts_F: orange things on the floor that the omni camera takes for balls in every image.
 void feedOwnStep(fusion::BallFusion& fusion, const Truth& truth, double t,
                  const std::function<fw::RobotPose(double)>& pose, const Sees& kinect_sees, const Sees& omni_sees,
-                 bool with_omni, double omni_stamp_late_s, std::mt19937& random, FedRun& run) {
+                 bool with_omni, double omni_stamp_late_s, std::mt19937& random, FedRun& run,
+                 const std::vector<Eigen::Vector3d>& shirts_F = {}) {
   fusion.addPose(pose(t));
   const Eigen::Vector3d p = truth(t);
   std::vector<fw::BallObservation> kinect;
@@ -134,6 +136,7 @@ void feedOwnStep(fusion::BallFusion& fusion, const Truth& truth, double t,
   const Eigen::Vector3d q = truth(t_omni);
   std::vector<fw::OmniBallObservation> omni;
   if (q.z() < 0.6 && omni_sees(t_omni, q)) omni.push_back(omniView(q, pose(t_omni), 0.75));
+  for (const Eigen::Vector3d& shirt_F : shirts_F) omni.push_back(omniView(shirt_F, pose(t_omni), 0.75));
   fusion.addPose(pose(t_omni));
   run.updates.push_back(fusion.addOmniFrame(t_omni + omni_stamp_late_s, omni));
   run.truth.push_back(q);
@@ -702,11 +705,12 @@ fw::TeamMessage teammateMessage(const fw::RobotPose& true_pose, const fw::RobotP
 // This robot at the origin watches `truth` with its Kinect while kinect_sees and with its omni camera
 // while omni_sees (and the ball is in its view); a teammate's Kinect sees it all the time from true_pose and sends what
 // it saw every 50 ms, each message 80-130 ms late and a fifth of them lost (none sent without a believed_pose);
-// with_world_ball: each message also carries the teammate's world ball, its newest Kinect ball.
-// Everything reaches the fusion in arrival order.
+// with_world_ball: each message also carries the teammate's world ball, its newest Kinect ball;
+// shirts_F: as feedOwnStep's. Everything reaches the fusion in arrival order.
 FedRun feedWithTeammate(fusion::BallFusion& fusion, const Truth& truth, double duration_s, const Sees& kinect_sees,
                         const Sees& omni_sees, const fw::RobotPose& true_pose,
-                        const std::optional<fw::RobotPose>& believed_pose, bool with_world_ball = false) {
+                        const std::optional<fw::RobotPose>& believed_pose, bool with_world_ball = false,
+                        const std::vector<Eigen::Vector3d>& shirts_F = {}) {
   std::mt19937 random(11);
   std::uniform_real_distribution<double> unit(0.0, 1.0);
   FedRun run;
@@ -744,7 +748,7 @@ FedRun feedWithTeammate(fusion::BallFusion& fusion, const Truth& truth, double d
       }
       unsent.clear();
     }
-    feedOwnStep(fusion, truth, t, standingAtOrigin, kinect_sees, omni_sees, true, 0.0, random, run);
+    feedOwnStep(fusion, truth, t, standingAtOrigin, kinect_sees, omni_sees, true, 0.0, random, run, shirts_F);
   }
   return run;
 }
@@ -771,6 +775,28 @@ TEST(Fusion, ALobOnlyATeammatesKinectSeesIsHeldInTheAirFromItsMessages) {
   EXPECT_EQ(from_teammate, static_cast<int>(air_errors_m.size()));
   ASSERT_EQ(fusion.teammates().count(4), 1u);
   EXPECT_FALSE(fusion.teammates().at(4).discounted);
+}
+
+TEST(Fusion, AWellLocalisedTeammateIsNotJudgedAgainstAnOrangeShirtThisRobotsOmniCameraSees) {
+  // A lob over this robot, 2 m high, seen by the keeper's Kinect and by this robot's omni camera only
+  // below 0.6 m; an orange shirt lies on the floor 2.5 m to this robot's right, and its omni camera
+  // takes it for a ball in every image. While the lob flies above the camera's view, the shirt is
+  // the only ball this robot's own sensors hold: it says nothing of the keeper.
+  const Eigen::Vector3d p0(0.3, 2.5, kRadius), v0(0.0, -3.0, 6.5);
+  const Truth lob = [&](double t) { return lobAt(t, kT0 + 0.5, p0, v0); };
+  const fw::RobotPose keeper = poseAt(0.5, 7.0, M_PI, kT0);
+  fusion::BallFusion fusion(testConfig());
+  const FedRun run =
+      feedWithTeammate(fusion, lob, 2.5, never, always, keeper, keeper, false, {Eigen::Vector3d(2.5, 0.5, kRadius)});
+  ASSERT_EQ(fusion.teammates().count(4), 1u);
+  EXPECT_FALSE(fusion.teammates().at(4).discounted);
+  std::vector<double> air_errors_m;
+  for (std::size_t i = 0; i < run.updates.size(); ++i) {
+    if (run.truth[i].z() < 0.6 || !run.updates[i].ball) continue;
+    air_errors_m.push_back((run.updates[i].ball->position_F - run.truth[i]).norm());
+  }
+  ASSERT_GE(air_errors_m.size(), 30u);
+  EXPECT_LE(fw::quantile(air_errors_m, 0.5), 0.15) << "the lob, from the keeper's balls";
 }
 
 TEST(Fusion, AMislocalisedTeammateIsDiscountedAndDoesNotMoveTheBall) {

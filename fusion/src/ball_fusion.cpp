@@ -37,6 +37,11 @@ constexpr double kJudgeOwnSupportWithin_s = 0.1;
 // does: an orange shirt), not the same ball from a wrong place: a mislocalised robot (a metre, twenty
 // degrees at eight metres) is nearer. It is not judged by it.
 constexpr double kMaxMislocalisation_m = 3.0;
+// A teammate's Kinect ball and a ball this robot's omni camera alone holds are taken for the same
+// ball when they lie this far apart along the line of sight from the camera (or this share of the
+// distance, whichever is more: omni distances are uncertain, and a metre-off teammate is judged).
+constexpr double kSameBallAlong_m = 1.0;
+constexpr double kSameBallAlongShare = 0.3;
 // A discounted teammate is trusted again once its median falls below this share of the discount's.
 constexpr double kTrustAgainShare = 0.5;
 // A Kinect ball (this robot's or a teammate's) that moves a track's likeliest ball by more than this
@@ -511,9 +516,23 @@ void BallFusion::judgeTeammates(const Frame& frame, const std::vector<Candidate>
     }
   }
   if (own == nullptr) return;
+  // A ball another teammate supported lately may rest on that teammate rather than on this robot's
+  // sensors (a far omni ball, uncertain by metres, joins a teammate's Kinect ball a metre off): a
+  // teammate is judged against it only if every other teammate that supported it has been judged
+  // and found good. Else a mislocalised keeper would have its honest teammates discounted.
+  const auto vouched = [&](int id) {
+    const auto standing = state.teammates.find(id);
+    return standing != state.teammates.end() && standing->second.examples >= config_.team.judge_examples &&
+           !standing->second.discounted;
+  };
+  const auto restsOnOthers = [&](int teammate) {
+    return std::any_of(own->last_teammate_s.begin(), own->last_teammate_s.end(), [&](const auto& support) {
+      return support.first != teammate && t_s - support.second <= kSourceRecent_s && !vouched(support.first);
+    });
+  };
   std::map<int, Judgement> closest;
   for (const Candidate& candidate : candidates) {
-    if (candidate.source != Source::kTeammate) continue;
+    if (candidate.source != Source::kTeammate || restsOnOthers(candidate.teammate)) continue;
     const std::optional<Judgement> judged = judge(candidate, *own, *own_branches, pose, t_s);
     const auto found = closest.find(candidate.teammate);
     if (judged && (found == closest.end() || judged->mahalanobis < found->second.mahalanobis)) {
@@ -523,57 +542,69 @@ void BallFusion::judgeTeammates(const Frame& frame, const std::vector<Candidate>
   for (const auto& [teammate, judgement] : closest) recordJudgement(teammate, judgement);
 }
 
-std::optional<BallFusion::Judgement> BallFusion::judge(const Candidate& candidate, const Track& world,
-                                                       const std::vector<Hypothesis>& world_branches,
+std::optional<BallFusion::Judgement> BallFusion::judge(const Candidate& candidate, const Track& own,
+                                                       const std::vector<Hypothesis>& own_branches,
                                                        const fw::RobotPose& pose, double t_s) const {
-  // Only against what this robot's own sensors place: its Kinect's ball anywhere, its omni camera's
-  // on the floor; of a ball in the air the omni camera gives only the bearing from this robot.
-  const bool own_kinect = t_s - world.last_kinect_s <= kJudgeOwnSupportWithin_s;
-  const bool own_omni = t_s - world.last_omni_s <= kJudgeOwnSupportWithin_s;
-  const bool on_floor = !world.flying() && !candidate.in_air;
+  // Only against what this robot's own sensors place: its Kinect's ball; the world's ball on the
+  // floor, which its omni camera holds (a teammate's ray); or the ball its omni camera holds where the
+  // teammate's Kinect ball is (on the floor, or in the air: then by its bearing).
+  const bool own_kinect = t_s - own.last_kinect_s <= kJudgeOwnSupportWithin_s;
+  const bool own_omni = t_s - own.last_omni_s <= kJudgeOwnSupportWithin_s;
   if (!own_kinect && !own_omni) return std::nullopt;
   const Hypothesis& best =
-      *std::max_element(world_branches.begin(), world_branches.end(),
+      *std::max_element(own_branches.begin(), own_branches.end(),
                         [](const Hypothesis& a, const Hypothesis& b) { return a.weight < b.weight; });
-  const Eigen::Vector3d world_F = best.x.head<3>();
+  const Eigen::Vector3d own_F = best.x.head<3>();
   // How far, in bearing seen from `from`, `seen` lies off this robot's ball, in sigmas given the
   // variance of its own bearing; and how far that puts this robot's ball off the line of sight.
   const auto byBearing = [&](const Eigen::Vector2d& from, const Eigen::Vector2d& seen,
                              double seen_variance_rad2) -> std::optional<Judgement> {
-    const Eigen::Vector2d to_seen = seen - from, to_world = world_F.head<2>() - from;
-    const double d = std::max(to_world.norm(), 0.1);
-    const double residual =
-        fw::wrapAngle(std::atan2(to_seen.y(), to_seen.x()) - std::atan2(to_world.y(), to_world.x()));
-    const Eigen::Vector2d across(-to_world.y() / d, to_world.x() / d);
+    const Eigen::Vector2d to_seen = seen - from, to_own = own_F.head<2>() - from;
+    const double d = std::max(to_own.norm(), 0.1);
+    const double residual = fw::wrapAngle(std::atan2(to_seen.y(), to_seen.x()) - std::atan2(to_own.y(), to_own.x()));
+    const Eigen::Vector2d across(-to_own.y() / d, to_own.x() / d);
     const double variance = seen_variance_rad2 + across.dot(best.P.topLeftCorner<2, 2>() * across) / (d * d);
     const double gap_m = d * std::abs(std::sin(residual));
     if (gap_m > kMaxMislocalisation_m) return std::nullopt;
     return Judgement{std::abs(residual) / std::sqrt(variance), gap_m};
   };
-  if (!candidate.ray_origin_F) {
-    if (own_kinect || on_floor) {
-      // A Kinect ball on the floor plane only: a robot's localisation errs there, while a Kinect far
-      // away puts a ball on the floor a little high.
-      const Eigen::Vector2d gap = (candidate.p_F - world_F).head<2>();
-      if (gap.norm() > kMaxMislocalisation_m) return std::nullopt;
-      const Eigen::Matrix2d S = best.P.topLeftCorner<2, 2>() + candidate.covariance_F.topLeftCorner<2, 2>();
-      return Judgement{std::sqrt(gap.dot(S.ldlt().solve(gap))), gap.norm()};
-    }
-    // A ball in the air that only this robot's omni camera sees: the teammate's Kinect ball by its
-    // bearing from this robot's camera, which lies on this robot's ray to the ball.
-    const Eigen::Vector2d camera(pose.x_m, pose.y_m);
-    const Eigen::Vector2d to_seen = candidate.p_F.head<2>() - camera;
-    const double d = std::max(to_seen.norm(), 0.1);
-    const Eigen::Vector2d across(-to_seen.y() / d, to_seen.x() / d);
-    const double sigma_b = config_.omni.bearing_sigma_rad;
-    return byBearing(camera, candidate.p_F.head<2>(),
-                     sigma_b * sigma_b + across.dot(candidate.covariance_F.topLeftCorner<2, 2>() * across) / (d * d));
+  if (candidate.ray_origin_F) {
+    // An omni ray by its bearing alone (a ball in the air lies on the bearing of its phantom). A ray
+    // does not say whether the ball is in the air: against a ball this robot's omni camera alone holds,
+    // only the world's on the floor (another may be an orange shirt, or a phantom).
+    if (!own_kinect && (own.id != state_.world_id || own.flying())) return std::nullopt;
+    return byBearing(candidate.ray_origin_F->head<2>(), candidate.p_F.head<2>(),
+                     candidate.measurement->noise(candidate.p_F)(0, 0));
   }
-  // An omni ray by its bearing alone (a ball in the air lies on the bearing of its phantom), against
-  // a ball this robot places.
-  if (!own_kinect && !on_floor) return std::nullopt;
-  return byBearing(candidate.ray_origin_F->head<2>(), candidate.p_F.head<2>(),
-                   candidate.measurement->noise(candidate.p_F)(0, 0));
+  const Eigen::Vector2d camera(pose.x_m, pose.y_m);
+  const Eigen::Vector2d to_seen = candidate.p_F.head<2>() - camera;
+  const double d = std::max(to_seen.norm(), 0.1);
+  if (!own_kinect) {
+    // This robot's omni camera holds the teammate's ball, if it is the same ball, where the teammate
+    // puts it along the line of sight, and in the same mode: both on the floor, or both in the air
+    // (then by its bearing, all the omni camera gives of a ball in the air). A ball elsewhere, or one
+    // on the floor while the teammate's flies, is another object, an orange shirt, or a phantom: it
+    // says nothing of the teammate.
+    const double own_m = (own_F.head<2>() - camera).norm();
+    if (own.flying() != candidate.in_air || candidate.p_F.z() > config_.omni.max_height_m ||
+        std::abs(own_m - d) > std::max(kSameBallAlong_m, kSameBallAlongShare * d)) {
+      return std::nullopt;
+    }
+  }
+  if (own_kinect || !candidate.in_air) {
+    // A Kinect ball on the floor plane only: a robot's localisation errs there, while a Kinect far
+    // away puts a ball on the floor a little high.
+    const Eigen::Vector2d gap = (candidate.p_F - own_F).head<2>();
+    if (gap.norm() > kMaxMislocalisation_m) return std::nullopt;
+    const Eigen::Matrix2d S = best.P.topLeftCorner<2, 2>() + candidate.covariance_F.topLeftCorner<2, 2>();
+    return Judgement{std::sqrt(gap.dot(S.ldlt().solve(gap))), gap.norm()};
+  }
+  // A ball in the air to this robot's omni camera: the teammate's Kinect ball by its bearing from
+  // this robot's camera, which lies on this robot's ray to the ball.
+  const Eigen::Vector2d across(-to_seen.y() / d, to_seen.x() / d);
+  const double sigma_b = config_.omni.bearing_sigma_rad;
+  return byBearing(camera, candidate.p_F.head<2>(),
+                   sigma_b * sigma_b + across.dot(candidate.covariance_F.topLeftCorner<2, 2>() * across) / (d * d));
 }
 
 void BallFusion::recordJudgement(int teammate, const Judgement& judgement) {

@@ -216,12 +216,12 @@ class BallFusion {
   // support now (none: nobody is judged); this robot at pose.
   void judgeTeammates(const Frame& frame, const std::vector<Candidate>& candidates,
                       const std::vector<std::vector<Hypothesis>>& branches, const fw::RobotPose& pose, double t_s);
-  // How far a teammate's ball or ray lies from this robot's ball (world, its branches at t_s), when
-  // this robot's own sensors support that ball well enough to judge by; and the teammate's standing
-  // after one more such judgement.
-  std::optional<Judgement> judge(const Candidate& candidate, const Track& world,
-                                 const std::vector<Hypothesis>& world_branches, const fw::RobotPose& pose,
+  // How far a teammate's ball or ray lies from this robot's ball (own, its branches at t_s), when
+  // this robot's own sensors support that ball well enough to judge by.
+  std::optional<Judgement> judge(const Candidate& candidate, const Track& own,
+                                 const std::vector<Hypothesis>& own_branches, const fw::RobotPose& pose,
                                  double t_s) const;
+  // The teammate's standing after one more such judgement.
   void recordJudgement(int teammate, const Judgement& judgement);
   const std::string& nameOf(Source source) const;  // this robot's own sources
   void maintainTracks(double t_s);
