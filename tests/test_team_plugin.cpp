@@ -377,15 +377,10 @@ TEST(TeamPlugin, ThreeRobotsInOneWorldHoldTheLobOnlyTheKeepersKinectSees) {
     EXPECT_NE(output.find("\n  team "), std::string::npos) << names[i] << ":\n" << output;
   }
 
-  // The world's truth, the same in every robot's scene, on the shared clock.
+  // The world's truth, the same in every robot's scene (TeamWorlds.EveryRobotOfAWorldSeesTheSameBall),
+  // on the shared clock.
   const kinect3d::sim::Scene scene = kinect3d::sim::loadScene(world + "defender.yaml");
   const kinect3d::sim::BallMotion truth = trueBallOf(scene);
-  for (const char* other : {"keeper.yaml", "striker.yaml"}) {
-    const kinect3d::sim::BallMotion same = trueBallOf(kinect3d::sim::loadScene(world + other));
-    for (double t = 0.0; t < scene.duration_s; t += 0.1) {
-      ASSERT_LT((same.positionAt(t) - truth.positionAt(t)).norm(), 0.01) << other << " at " << t << " s";
-    }
-  }
   for (const char* name : {"keeper", "defender", "striker"}) {
     const bool keeper_itself = std::string(name) == "keeper";
     const InTheAir lob = lobInTheAir(onlySubfolder(dir.path() / name), truth, world_start_s, keeper_itself);
@@ -521,3 +516,38 @@ TEST(TeamPlugin, ARobotFileWithoutItsIdOrKeyIsRefusedNamingTheKey) {
 }
 
 }  // namespace
+
+TEST(TeamWorlds, EveryRobotOfAWorldSeesTheSameBall) {
+  // The team tests and `kinect3d report team` play a world as one scene file per robot, each with the
+  // others as obstacles: the ball must fly the same in all of them, or the robots would not share one
+  // truth.
+  const std::map<std::string, std::vector<std::string>> worlds = {
+      {"team", {"keeper", "defender", "striker"}},
+      {"team5", {"keeper", "wing", "defender", "striker", "midfielder"}},
+      {"team_hop", {"defender", "striker"}},
+      {"team_hop3", {"defender", "striker", "midfielder"}}};
+  for (const auto& [world, robots] : worlds) {
+    const std::string folder = std::string(TEST_DATA_DIR) + "/scenes/" + world + "/";
+    const kinect3d::sim::Scene first = kinect3d::sim::loadScene(folder + robots.front() + ".yaml");
+    const kinect3d::sim::BallMotion truth = trueBallOf(first);
+    for (const std::string& robot : robots) {
+      const kinect3d::sim::Scene scene = kinect3d::sim::loadScene(folder + robot + ".yaml");
+      EXPECT_EQ(scene.duration_s, first.duration_s) << world << "/" << robot;
+      EXPECT_EQ(scene.objects.size(), first.objects.size()) << world << "/" << robot << ": the others as obstacles";
+      const kinect3d::sim::BallMotion same = trueBallOf(scene);
+      for (double t = 0.0; t < first.duration_s; t += 0.05) {
+        ASSERT_LT((same.positionAt(t) - truth.positionAt(t)).norm(), 0.01) << world << "/" << robot << " at " << t;
+      }
+    }
+  }
+}
+
+TEST(TeamWorlds, TheTeamReportNamesAWorldFileItCannotFind) {
+  const ScopedTempDir dir;
+  const auto [status, output] =
+      runCommand(std::string(KINECT3D_EXE) + " report team --out " + (dir.path() / "report.md").string() +
+                 " --worlds " + dir.path().string() + " 2>&1");
+  EXPECT_NE(status, 0);
+  EXPECT_NE(output.find((dir.path() / "team" / "keeper.yaml").string() + " missing"), std::string::npos) << output;
+  EXPECT_FALSE(std::filesystem::exists(dir.path() / "report.md"));
+}

@@ -34,6 +34,7 @@
 #include "offline_fusion.h"
 #include "source_tools.h"
 #include "team_packet.h"
+#include "team_report.h"
 #include "view_server.h"
 
 namespace {
@@ -285,6 +286,7 @@ void addReport(CLI::App& app) {
     std::string kind, out, keep, log;
     std::vector<std::string> scenes;
     kinect3d::ReportOptions report;
+    kinect3d::TeamReportOptions team;
     ConfigOptions config;
   };
   auto options = std::make_shared<Options>();
@@ -293,9 +295,10 @@ void addReport(CLI::App& app) {
   command
       ->add_option("kind", options->kind,
                    "detection (docs/accuracy.md), trajectory (docs/trajectory.md), fusion (docs/fusion-report.md), "
-                   "calibration (docs/calibration-report.md) or match (a match log's page, docs/match-log.md)")
+                   "calibration (docs/calibration-report.md), team (docs/team-report.md) or match (a match log's page, "
+                   "docs/match-log.md)")
       ->required()
-      ->check(CLI::IsMember({"detection", "trajectory", "fusion", "calibration", "match"}));
+      ->check(CLI::IsMember({"detection", "trajectory", "fusion", "calibration", "team", "match"}));
   command->add_option("log", options->log, "match: the match log folder")->check(CLI::ExistingDirectory);
   command->add_option("--out", options->out, "Markdown file to write, e.g. docs/accuracy.md; match: a folder")
       ->required();
@@ -314,8 +317,14 @@ void addReport(CLI::App& app) {
                    "detection: the folder holding the third-party real frames, real-depth/ and realdata/ "
                    "(not in the repository; without it that part of the report is left out)")
       ->check(CLI::ExistingDirectory);
+  command->add_option("--runs", options->team.runs, "team: live runs per world and network")->capture_default_str();
+  command
+      ->add_option("--worlds", options->team.worlds_dir,
+                   "team: the folder holding the team worlds (team/, team5/, team_hop/, team_hop3/)")
+      ->default_val("tests/data/scenes");
   command->add_option("--keep", options->keep,
-                      "fusion: keep every case's input files and fused output here; calibration: every session");
+                      "fusion: keep every case's input files and fused output here; calibration: every session; "
+                      "team: every robot's match logs");
   command
       ->add_option("--scenes", options->scenes,
                    "fusion: only these scenes (comma-separated; default all: " + kinect3d::fusionReportScenes() + ")")
@@ -327,6 +336,12 @@ void addReport(CLI::App& app) {
     }
     if (options->kind == "match") {
       kinect3d::writeMatchReport(options->log, options->out);
+      return;
+    }
+    if (options->kind == "team") {
+      options->team.defaults_dir = options->config.defaults_dir;
+      options->team.keep_dir = options->keep;
+      kinect3d::writeTeamReport(options->team, options->out);
       return;
     }
     const fw::Config config = options->config.load();

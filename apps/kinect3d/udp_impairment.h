@@ -1,6 +1,7 @@
-// A lossy robot network for the team tests, on loopback only: each link listens on one 127.0.0.N
-// address and forwards what it gets to another, losing, delaying (so reordering) and duplicating
-// packets at random, as Wi-Fi on a crowded field does. Counts what each link carried.
+// A lossy robot network on loopback only, for the team tests and `kinect3d report team`: each link
+// listens on one 127.0.0.N address and forwards what it gets to another, losing, delaying (so
+// reordering) and duplicating packets at random, as Wi-Fi on a crowded field does. Counts what each
+// link carried.
 #pragma once
 
 #include <arpa/inet.h>
