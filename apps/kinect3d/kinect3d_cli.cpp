@@ -290,8 +290,9 @@ void addReport(CLI::App& app) {
     ConfigOptions config;
   };
   auto options = std::make_shared<Options>();
-  CLI::App* command = app.add_subcommand(
-      "report", "Measure detection, trajectory or fusion on simulated scenes, or show a match log as a page");
+  CLI::App* command = app.add_subcommand("report",
+                                         "Measure detection, trajectory, fusion, calibration or the team on simulated "
+                                         "scenes, or show a match log as a page");
   command
       ->add_option("kind", options->kind,
                    "detection (docs/accuracy.md), trajectory (docs/trajectory.md), fusion (docs/fusion-report.md), "
