@@ -66,7 +66,7 @@ const std::vector<World> kWorlds = {
 struct Network {
   std::string name;
   UdpImpairment::Faults faults;
-  std::vector<std::string> first_robot_overrides;  // a mislocalised keeper
+  std::vector<std::string> first_robot_overrides;  // its localisation made wrong
 };
 std::vector<Network> networksOf(const World& world) {
   const UdpImpairment::Faults lossy{0.2, 0.2, 0.05};
@@ -90,7 +90,7 @@ struct Score {
   std::vector<double> air_m, ground_m;  // the error of each world ball there was
   int air_updates = 0, air_held = 0, ground_updates = 0, ground_held = 0;
   std::vector<double> air_medians_m;  // one per run
-  int discounted_keeper = 0;          // runs in which this robot said the keeper's localisation was off
+  int discounted_first = 0;           // runs in which it said the world's first robot was mislocalised
 
   void add(const Score& run) {
     air_m.insert(air_m.end(), run.air_m.begin(), run.air_m.end());
@@ -100,12 +100,13 @@ struct Score {
     ground_updates += run.ground_updates;
     ground_held += run.ground_held;
     air_medians_m.insert(air_medians_m.end(), run.air_medians_m.begin(), run.air_medians_m.end());
-    discounted_keeper += run.discounted_keeper;
+    discounted_first += run.discounted_first;
   }
 };
 
-// Every world ball (or none) the robot published in the scene, on the world's clock.
-Score scoreLog(const std::string& run, const sim::Scene& scene, double world_start_s) {
+// Every world ball (or none) the robot published in the scene, on the world's clock; and whether it
+// discounted the world's first robot (first_robot, its name).
+Score scoreLog(const std::string& run, const sim::Scene& scene, double world_start_s, const std::string& first_robot) {
   const sim::BallMotion truth(*scene.ball, scene.physics, scene.duration_s, scene.objects);
   Score s;
   for (const fw::JournalEntry& entry : fw::MatchLogReader(run).entries()) {
@@ -117,8 +118,8 @@ Score scoreLog(const std::string& run, const sim::Scene& scene, double world_sta
     } else if (const auto* none = std::get_if<fw::FusedBallCleared>(&entry.item)) {
       time_s = none->stamp.source_time_s;
     } else if (const auto* event = std::get_if<fw::Event>(&entry.item)) {
-      if (event->kind == "teammate_discounted" && event->message.find("keeper") != std::string::npos) {
-        s.discounted_keeper = 1;
+      if (event->kind == "teammate_discounted" && event->message.rfind("teammate " + first_robot + " ", 0) == 0) {
+        s.discounted_first = 1;
       }
       continue;
     } else {
@@ -264,8 +265,9 @@ std::string range(std::vector<double> values) {
   return metres(values.front()) + "-" + metres(values.back());
 }
 
+// mislocalising: the network mislocalises the world's first robot; first: this is that robot.
 std::string row(const std::string& network, const Robot& robot, const Score& with, const Score& alone, int runs,
-                bool mislocalised) {
+                bool mislocalising, bool first) {
   std::string text = "| " + network + " | " + robot.name + (robot.kinect ? " (Kinect)" : "") + " | " +
                      metres(fw::quantile(with.air_m, 0.5)) + " / " + metres(fw::quantile(with.air_m, 0.9)) + " | " +
                      range(with.air_medians_m) + " | " + share(with.air_held, with.air_updates) + " | " +
@@ -273,11 +275,8 @@ std::string row(const std::string& network, const Robot& robot, const Score& wit
                      share(alone.air_held, alone.air_updates) + " | " + metres(fw::quantile(with.ground_m, 0.5)) +
                      " | " + share(with.ground_held, with.ground_updates) + " | " +
                      metres(fw::quantile(alone.ground_m, 0.5)) + " | " + share(alone.ground_held, alone.ground_updates);
-  if (mislocalised && robot.name != "keeper") {
-    text += " | " + std::to_string(with.discounted_keeper) + " of " + std::to_string(runs);
-  } else if (mislocalised) {
-    text += " | ";
-  }
+  if (mislocalising)
+    text += " | " + (first ? std::string() : std::to_string(with.discounted_first) + " of " + std::to_string(runs));
   return text + " |\n";
 }
 
@@ -324,12 +323,12 @@ void writeTeamReport(const TeamReportOptions& options, const std::string& out_pa
           const std::string& log = played.logs[i];
           const fs::path alone_dir = dir / "alone" / world.robots[i].name;
           replayMatch(log, options.defaults_dir, "", {"fusion.team.use=false"}, alone_dir.string());
-          with[i].add(scoreLog(log, scene, played.world_start_s));
-          alone[i].add(scoreLog(theRunIn(alone_dir), scene, played.world_start_s));
+          with[i].add(scoreLog(log, scene, played.world_start_s, world.robots.front().name));
+          alone[i].add(scoreLog(theRunIn(alone_dir), scene, played.world_start_s, world.robots.front().name));
         }
       }
       for (std::size_t i = 0; i < world.robots.size(); ++i) {
-        table += row(network.name, world.robots[i], with[i], alone[i], options.runs, mislocalising);
+        table += row(network.name, world.robots[i], with[i], alone[i], options.runs, mislocalising, i == 0);
       }
     }
     sections += "\n## " + world.folder + ": " + world.what + "\n\n" +
