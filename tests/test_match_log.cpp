@@ -31,6 +31,22 @@ namespace {
 
 namespace fs = std::filesystem;
 
+// Rewrites the match log in dir as an older version wrote it: sql (the schema's change, then its
+// PRAGMA user_version) run on its database.
+void rewriteAsOlderVersion(const fs::path& dir, const std::string& sql) {
+  sqlite3* db = nullptr;
+  ASSERT_EQ(sqlite3_open((dir / fw::kMatchLogFile).c_str(), &db), SQLITE_OK);
+  EXPECT_EQ(sqlite3_exec(db, sql.c_str(), nullptr, nullptr, nullptr), SQLITE_OK) << sql;
+  sqlite3_close(db);
+}
+
+// The SQL that drops columns from a table and sets the schema's version.
+std::string droppingColumns(const std::string& table, const std::vector<std::string>& columns, int version) {
+  std::string sql;
+  for (const std::string& column : columns) sql += "ALTER TABLE " + table + " DROP COLUMN " + column + "; ";
+  return sql + "PRAGMA user_version=" + std::to_string(version);
+}
+
 std::string errorOf(const std::string& folder) {
   try {
     fw::MatchLogReader log(folder);
@@ -175,10 +191,7 @@ TEST(MatchLog, AVersion3LogFromBeforeTheTeamStillReads) {
     fw::MatchLogWriter writer(dir.path().string(), {});
     writer.write({1.0, fw::RobotPose{1.0, -2.0, 0.3, {99.8, 2000.0}, std::nullopt}});
   }
-  sqlite3* db = nullptr;
-  ASSERT_EQ(sqlite3_open((dir.path() / fw::kMatchLogFile).c_str(), &db), SQLITE_OK);
-  ASSERT_EQ(sqlite3_exec(db, "DROP TABLE team_message; PRAGMA user_version=3", nullptr, nullptr, nullptr), SQLITE_OK);
-  sqlite3_close(db);
+  ASSERT_NO_FATAL_FAILURE(rewriteAsOlderVersion(dir.path(), "DROP TABLE team_message; PRAGMA user_version=3"));
   std::int64_t last_seq = -1;
   const std::vector<fw::JournalEntry> read = fw::MatchLogReader(dir.path().string()).entries(0, &last_seq);
   ASSERT_EQ(read.size(), 1u);
@@ -196,16 +209,11 @@ TEST(MatchLog, AVersion6LogFromBeforeTheGoalLineCrossingStillReads) {
     writer.write({1.0, ball});
   }
   // Made as version 6 wrote it: the world ball's rows without the crossing's columns.
-  sqlite3* db = nullptr;
-  ASSERT_EQ(sqlite3_open((dir.path() / fw::kMatchLogFile).c_str(), &db), SQLITE_OK);
-  for (const char* column : {"goal_line", "goal_crossing_x_m", "goal_crossing_z_m", "goal_crossing_time_s",
-                             "goal_crossing_sigma_m", "goal_crossing_time_sigma_s"}) {
-    ASSERT_EQ(sqlite3_exec(db, (std::string("ALTER TABLE fused_ball DROP COLUMN ") + column).c_str(), nullptr, nullptr,
-                           nullptr),
-              SQLITE_OK);
-  }
-  ASSERT_EQ(sqlite3_exec(db, "PRAGMA user_version=6", nullptr, nullptr, nullptr), SQLITE_OK);
-  sqlite3_close(db);
+  ASSERT_NO_FATAL_FAILURE(rewriteAsOlderVersion(
+      dir.path(), droppingColumns("fused_ball",
+                                  {"goal_line", "goal_crossing_x_m", "goal_crossing_z_m", "goal_crossing_time_s",
+                                   "goal_crossing_sigma_m", "goal_crossing_time_sigma_s"},
+                                  6)));
   const std::vector<fw::JournalEntry> read = fw::MatchLogReader(dir.path().string()).entries();
   ASSERT_EQ(read.size(), 1u);
   const auto& ball = std::get<fw::FusedBall>(read[0].item);
@@ -234,15 +242,8 @@ TEST(MatchLog, ThePosesOdometryIsKeptAndAVersion7LogsPosesReadWithout) {
     EXPECT_FALSE(std::get<fw::RobotPose>(read[1].item).odometry);
   }
   // Made as version 7 wrote it: the poses' rows without the odometry's columns.
-  sqlite3* db = nullptr;
-  ASSERT_EQ(sqlite3_open((dir.path() / fw::kMatchLogFile).c_str(), &db), SQLITE_OK);
-  for (const char* column : {"odometry_x_m", "odometry_y_m", "odometry_theta_rad"}) {
-    ASSERT_EQ(sqlite3_exec(db, (std::string("ALTER TABLE robot_pose DROP COLUMN ") + column).c_str(), nullptr, nullptr,
-                           nullptr),
-              SQLITE_OK);
-  }
-  ASSERT_EQ(sqlite3_exec(db, "PRAGMA user_version=7", nullptr, nullptr, nullptr), SQLITE_OK);
-  sqlite3_close(db);
+  ASSERT_NO_FATAL_FAILURE(rewriteAsOlderVersion(
+      dir.path(), droppingColumns("robot_pose", {"odometry_x_m", "odometry_y_m", "odometry_theta_rad"}, 7)));
   const std::vector<fw::JournalEntry> read = fw::MatchLogReader(dir.path().string()).entries();
   ASSERT_EQ(read.size(), 2u);
   const auto& pose = std::get<fw::RobotPose>(read[0].item);

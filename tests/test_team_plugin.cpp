@@ -306,6 +306,14 @@ TEST(TeamPlugin, AMislocalisedKeeperIsDiscountedByTheDefenderAndNotUsedThroughAL
   }
 }
 
+// The world's time 0 of a team run, on the robots' clock: as the run's configuration recorded it.
+double worldStartOf(const std::string& log_folder) {
+  return fw::Config::parseDocument(fw::MatchLogReader(log_folder).run().config_yaml, log_folder)
+      .root()
+      .child("host")
+      .getDouble("sim_world_start_wall_s", 1.0, 1e10);
+}
+
 // A team world's ball in one robot's match log, while the true ball was at least min_height_m up (the
 // log's times on the world's clock from world_start_s): the error of each world ball that `counts`,
 // and how many world balls there were then.
@@ -460,11 +468,7 @@ TEST(TeamPlugin, TheDefendersRecordedRunHoldsTheLobFromTheKeepersMessages) {
   // fusion meets the same network every time, where a live run draws a new one.
   const ScopedTempDir dir;
   const std::string replayed = replayInto(std::string(TEST_DATA_DIR) + "/team_run/defender", dir.path());
-  const fw::MatchLogReader log(replayed);
-  const double world_start_s = fw::Config::parseDocument(log.run().config_yaml, "the replay's configuration")
-                                   .root()
-                                   .child("host")
-                                   .getDouble("sim_world_start_wall_s", 1.0, 1e10);
+  const double world_start_s = worldStartOf(replayed);
   const kinect3d::sim::Scene scene =
       kinect3d::sim::loadScene(std::string(TEST_DATA_DIR) + "/scenes/team/defender.yaml");
   const kinect3d::sim::BallMotion truth = trueBallOf(scene);
@@ -506,10 +510,7 @@ TEST(TeamPlugin, TheRecordedHopWhoseFirstHopWentWideIsPlacedByTheStrikersRays) {
   const std::string recorded = std::string(TEST_DATA_DIR) + "/team_run/hop_defender";
   const std::string replayed = replayInto(recorded, dir.path() / "with");
   const std::string alone = replayInto(recorded, dir.path() / "alone", "--set fusion.team.use=false");
-  const double world_start_s = fw::Config::parseDocument(fw::MatchLogReader(replayed).run().config_yaml, "the replay")
-                                   .root()
-                                   .child("host")
-                                   .getDouble("sim_world_start_wall_s", 1.0, 1e10);
+  const double world_start_s = worldStartOf(replayed);
   const kinect3d::sim::Scene scene =
       kinect3d::sim::loadScene(std::string(TEST_DATA_DIR) + "/scenes/team_hop/defender.yaml");
   const kinect3d::sim::BallMotion truth = trueBallOf(scene);
