@@ -4,7 +4,7 @@
 // mislocalised teammate is discounted; three robots, each its own host process, simulating one
 // world hold a lob only one of them sees; recorded runs replayed hold the lob (one of them the run
 // that once lost it) and a hop two robots' omni cameras place; a robot file without its id or key is
-// refused; the team worlds fly one ball in every robot's file.
+// refused; the team worlds fly one ball in every robot's file, and the team report plays the ones named.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -589,5 +589,22 @@ TEST(TeamWorlds, TheTeamReportNamesAWorldFileItCannotFind) {
                  " --worlds " + dir.path().string() + " 2>&1");
   EXPECT_NE(status, 0);
   EXPECT_NE(output.find((dir.path() / "team" / "keeper.yaml").string() + " missing"), std::string::npos) << output;
+  EXPECT_FALSE(std::filesystem::exists(dir.path() / "report.md"));
+}
+
+TEST(TeamWorlds, TheTeamReportPlaysOnlyTheWorldsNamedAndRefusesOneItDoesNotHave) {
+  const ScopedTempDir dir;
+  const std::string command = std::string(KINECT3D_EXE) + " report team --out " + (dir.path() / "report.md").string() +
+                              " --worlds " + dir.path().string();
+  // Only the hop's files are looked for: the first missing is its own.
+  const auto [status, output] = runCommand(command + " --scenes team_hop 2>&1");
+  EXPECT_NE(status, 0);
+  EXPECT_NE(output.find((dir.path() / "team_hop" / "defender.yaml").string() + " missing"), std::string::npos)
+      << output;
+  const auto [unknown_status, unknown_output] = runCommand(command + " --scenes team,team7 2>&1");
+  EXPECT_NE(unknown_status, 0);
+  EXPECT_NE(unknown_output.find("'team7' is not a world of the team report (team,team5,team_hop,team_hop3)"),
+            std::string::npos)
+      << unknown_output;
   EXPECT_FALSE(std::filesystem::exists(dir.path() / "report.md"));
 }

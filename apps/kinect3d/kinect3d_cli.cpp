@@ -328,7 +328,8 @@ void addReport(CLI::App& app) {
                       "team: every robot's match logs");
   command
       ->add_option("--scenes", options->scenes,
-                   "fusion: only these scenes (comma-separated; default all: " + kinect3d::fusionReportScenes() + ")")
+                   "fusion: only these scenes (comma-separated; default all: " + kinect3d::fusionReportScenes() +
+                       "); team: only these worlds (default all: " + kinect3d::teamReportWorlds() + ")")
       ->delimiter(',');
   options->config.addTo(command, /*with_robot_file=*/false);
   command->callback([options] {
@@ -342,6 +343,7 @@ void addReport(CLI::App& app) {
     if (options->kind == "team") {
       options->team.defaults_dir = options->config.defaults_dir;
       options->team.keep_dir = options->keep;
+      options->team.worlds = options->scenes;
       kinect3d::writeTeamReport(options->team, options->out);
       return;
     }

@@ -282,9 +282,26 @@ std::string row(const std::string& network, const Robot& robot, const Score& wit
 
 }  // namespace
 
+std::string teamReportWorlds() {
+  std::string names;
+  for (const World& world : kWorlds) names += (names.empty() ? "" : ",") + world.folder;
+  return names;
+}
+
 void writeTeamReport(const TeamReportOptions& options, const std::string& out_path) {
   if (options.runs < 1) throw std::runtime_error("report team: --runs must be at least 1");
+  for (const std::string& name : options.worlds) {
+    if (std::none_of(kWorlds.begin(), kWorlds.end(), [&](const World& world) { return world.folder == name; })) {
+      throw std::runtime_error("--scenes: '" + name + "' is not a world of the team report (" + teamReportWorlds() +
+                               ")");
+    }
+  }
+  const auto chosen = [&](const World& world) {
+    return options.worlds.empty() ||
+           std::find(options.worlds.begin(), options.worlds.end(), world.folder) != options.worlds.end();
+  };
   for (const World& world : kWorlds) {
+    if (!chosen(world)) continue;
     for (const Robot& robot : world.robots) {
       const fs::path file = fs::path(options.worlds_dir) / world.folder / (robot.name + ".yaml");
       if (!fs::exists(file)) {
@@ -298,8 +315,9 @@ void writeTeamReport(const TeamReportOptions& options, const std::string& out_pa
                                 ? fs::temp_directory_path() / ("kinect3d-team-report-" + std::to_string(::getpid()))
                                 : fs::path(options.keep_dir);
   std::string sections, bandwidth;
-  unsigned seed = 1;
-  for (const World& world : kWorlds) {
+  for (std::size_t w = 0; w < kWorlds.size(); ++w) {
+    const World& world = kWorlds[w];
+    if (!chosen(world)) continue;
     const sim::Scene scene = sim::loadScene((fs::path(options.worlds_dir) / world.folder / "defender.yaml").string());
     const std::vector<Network> networks = networksOf(world);
     const bool mislocalising = std::any_of(networks.begin(), networks.end(),
@@ -314,7 +332,9 @@ void writeTeamReport(const TeamReportOptions& options, const std::string& out_pa
         std::printf("report team: %s, %s, run %d of %d\n", world.folder.c_str(), network.name.c_str(), run,
                     options.runs);
         std::fflush(stdout);
-        const Played played = playWorld(options, world, network, seed++, dir);
+        // Seeded by world, network and run: one world played alone plays as in the whole report.
+        const unsigned seed = static_cast<unsigned>(1000 * w + 100 * (&network - networks.data()) + run);
+        const Played played = playWorld(options, world, network, seed, dir);
         if (&network == &networks.front()) {
           bytes_per_robot_s += played.bytes_per_robot_s / options.runs;
           bytes_per_packet += played.bytes_per_packet / options.runs;

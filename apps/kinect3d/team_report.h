@@ -5,15 +5,20 @@
 #pragma once
 
 #include <string>
+#include <vector>
 
 namespace kinect3d {
 
 struct TeamReportOptions {
-  std::string defaults_dir;  // the per-plugin defaults every robot starts from
-  std::string worlds_dir;    // the folder holding the report's worlds (team/, team5/, team_hop/, team_hop3/)
-  int runs = 3;              // live runs per world and network
-  std::string keep_dir;      // every run's match logs stay here (empty: a temporary folder)
+  std::string defaults_dir;         // the per-plugin defaults every robot starts from
+  std::string worlds_dir;           // the folder holding the report's worlds (team/, team5/, team_hop/, team_hop3/)
+  int runs = 3;                     // live runs per world and network
+  std::string keep_dir;             // every run's match logs stay here (empty: a temporary folder)
+  std::vector<std::string> worlds;  // only these worlds (empty: all)
 };
+
+// The report's worlds, comma-separated.
+std::string teamReportWorlds();
 
 void writeTeamReport(const TeamReportOptions& options, const std::string& out_path);
 
