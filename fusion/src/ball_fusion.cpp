@@ -232,8 +232,9 @@ const FusionUpdate& BallFusion::addTeamMessage(const fw::TeamMessage& message) {
     mate.name = message.robot_name;
     mate.omni = config_.omni;
     mate.pose_error = pose_error;
-    // Its camera's latency is not known here: its stamps are as uncertain as this robot's omni
-    // camera's before it learnt its own, and the two robots' clocks as their exchange's bound.
+    // The teammate took its camera's configured latency off the ray's time, but what it learnt of
+    // it is not known here: its times are as uncertain as this robot's omni camera's before it
+    // learnt its own, and the two robots' clocks as their exchange's bound.
     mate.timing_sigma_s = std::hypot(config_.omni.timing_sigma_s, message.clock_offset_sigma_s);
     mate.ball.bearing_rad = std::atan2(-ray.direction_F.x(), ray.direction_F.y());
     mate.ball.distance_m = drop_m / -ray.direction_F.z() * horizontal;

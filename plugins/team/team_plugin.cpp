@@ -217,11 +217,14 @@ class TeamNetwork {
   }
 
   // This robot's own measurements since the last step (the fusion's inputs, in their order): each
-  // Kinect ball and omni ray placed in the field with the pose at its time.
+  // Kinect ball and omni ray placed in the field with the pose at its time. Times are the fusion's:
+  // each source's stamps less its known latency (fusion.<source>.latency_s), so that a teammate
+  // places what this robot saw where the robot stood when it saw it.
   void readOwnMeasurements() {
     for (const fw::WorldState::Measurement& measurement : world_.measurementsSince(&cursor_)) {
       if (const auto* pose = std::get_if<fw::RobotPose>(&measurement)) {
-        const fw::RobotPose blended = pose_blend_.add(*pose);
+        fw::RobotPose blended = pose_blend_.add(*pose);
+        blended.stamp.source_time_s -= fusion_.pose.latency_s;
         poses_.add(blended);
         pose_clock_.add(pose->stamp);
         newest_pose_ = blended;
@@ -247,20 +250,22 @@ class TeamNetwork {
   }
 
   fw::BallObservation toField(const fw::BallObservation& ball_R) const {
-    const fw::RobotPose pose = poses_.at(ball_R.stamp.source_time_s);
+    const double seen_s = ball_R.stamp.source_time_s - fusion_.kinect.latency_s;
+    const fw::RobotPose pose = poses_.at(seen_s);
     const Eigen::Matrix3d rotation = pose.T_F_R().linear();
     fw::BallObservation ball = ball_R;
     ball.position_m = pose.fieldFromRobot(ball_R.position_m);
     ball.covariance_m2 = rotation * ball_R.covariance_m2 * rotation.transpose();
     ball.frame = fw::Frame::kField;
-    ball.stamp.source_time_s = kinect_clock_.toHost(ball_R.stamp.source_time_s);
+    ball.stamp.source_time_s = kinect_clock_.toHost(seen_s);
     return ball;
   }
 
   // The omni camera's ray through a ball it reports: from its mirror's viewpoint to the ball's centre
   // if the ball rests on the floor.
   fw::BallRay rayOf(const fw::OmniBallObservation& ball, const fw::Stamp& stamp) const {
-    const fw::RobotPose pose = poses_.at(stamp.source_time_s);
+    const double seen_s = stamp.source_time_s - fusion_.omni.latency_s;
+    const fw::RobotPose pose = poses_.at(seen_s);
     const double h = fusion_.omni.viewpoint_height_m, r = fusion_.motion.radius_m;
     Eigen::Vector3d centre_R = ball.groundPoint_R();
     centre_R.z() = r;
@@ -272,7 +277,7 @@ class TeamNetwork {
     const double d = ball.distance_m, drop = h - r;
     ray.elevation_sigma_rad = fusion::omniDistanceSigma_m(ball, fusion_.omni, d) * drop / (d * d + drop * drop);
     ray.view_top_m = fusion_.omni.max_height_m;
-    ray.time_s = omni_clock_.toHost(stamp.source_time_s);
+    ray.time_s = omni_clock_.toHost(seen_s);
     return ray;
   }
 
@@ -302,11 +307,12 @@ class TeamNetwork {
     if (kinect_clock_.known()) {
       if (const std::optional<fw::BallTrajectory> flight = world_.trajectory(fusion_.kinect.source);
           flight && flight->touchdown) {
-        const fw::RobotPose pose = poses_.at(flight->time_s);
+        const double latency_s = fusion_.kinect.latency_s;
+        const fw::RobotPose pose = poses_.at(flight->time_s - latency_s);
         const Eigen::Vector3d point_F =
             pose.fieldFromRobot({flight->touchdown->point_m.x(), flight->touchdown->point_m.y(), 0.0});
-        message.touchdown = fw::Touchdown{point_F.head<2>(), kinect_clock_.toHost(flight->touchdown->time_s),
-                                          flight->touchdown->sigma_m};
+        message.touchdown = fw::Touchdown{
+            point_F.head<2>(), kinect_clock_.toHost(flight->touchdown->time_s - latency_s), flight->touchdown->sigma_m};
       }
     }
     for (const auto& [robot_id, mate] : teammates_) {
@@ -331,7 +337,8 @@ class TeamNetwork {
 
   fw::WorldState& world_;
   const std::string name_;
-  const fusion::FusionConfig fusion_;  // the sources' names, the localisation's and the omni camera's uncertainty
+  const fusion::FusionConfig
+      fusion_;  // the sources' names and known latencies, the localisation's and omni camera's uncertainty
   const int team_id_;
   const int robot_id_;
   const std::string robot_name_;
