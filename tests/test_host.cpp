@@ -270,6 +270,28 @@ TEST(HostProcess, ReportsAStuckPluginAndStillStopsWithinASecond) {
   EXPECT_NE(out.find("stuck 1 times"), std::string::npos) << out;
 }
 
+TEST(HostProcess, AtLogLevelWarnItPrintsItsErrorsAndSummaryButNotItsProgress) {
+  HostProcess host({"--robot", std::string(TEST_CONFIG_DIR) + "/robots/exchange.yaml", "--plugin-dir", TEST_PLUGIN_DIR,
+                    "--set", "host.plugins=[tp_producer, tp_stuck]", "--set", "host.stuck_after_s=0.3", "--set",
+                    "host.log_level=warn"});
+  ASSERT_TRUE(host.waitForOutput("[tp_stuck] stuck: inside one step"));
+  host.signal(SIGTERM);
+  host.waitExit(std::chrono::milliseconds(3000));
+  const std::string out = host.readAll();
+  EXPECT_EQ(out.find(" INFO "), std::string::npos) << "the plugins' loading, said at info:\n" << out;
+  EXPECT_NE(out.find(" ERROR [tp_stuck] stuck"), std::string::npos) << out;
+  EXPECT_NE(out.find("Summary ("), std::string::npos) << out;
+}
+
+TEST(HostProcess, AnUnknownLogLevelIsRefusedNamingTheKeyAndTheLevels) {
+  HostProcess host({"--robot", std::string(TEST_CONFIG_DIR) + "/robots/exchange.yaml", "--plugin-dir", TEST_PLUGIN_DIR,
+                    "--set", "host.log_level=verbose"});
+  EXPECT_EQ(host.waitExit(std::chrono::milliseconds(3000)), 2);
+  const std::string out = host.readAll();
+  EXPECT_NE(out.find("host.log_level"), std::string::npos) << out;
+  EXPECT_NE(out.find("'info' 'warn' 'error'"), std::string::npos) << out;
+}
+
 TEST(HostProcess, KeepsRunningWhenItsOutputIsClosed) {
   HostProcess host({"--robot", std::string(PROJECT_CONFIG_DIR) + "/robots/demo.yaml", "--plugin-dir",
                     PRODUCT_PLUGIN_DIR, "--set", "host.duration_s=1.5"});

@@ -192,6 +192,7 @@ Played playWorld(const TeamReportOptions& options, const World& world, const Net
     }
     std::vector<std::string> overrides{
         "host.robot_name=" + robot.name,
+        "host.log_level=warn",  // five robots' progress is thousands of lines; their warnings are few
         "host.plugins=[localisation, " + std::string(robot.kinect ? "kinect3d, " : "") + "omni, fusion, team, logger]",
         "host.sim_world_start_wall_s=" + std::to_string(world_start_s),
         "localisation.source=" + source,

@@ -59,9 +59,8 @@ int main(int argc, char** argv) {
     }
     const fw::ConfigView host_config = config.block("host");
     const double duration_s = host_config.getDouble("duration_s", 0.0, 1e7);
+    fw::Host host(config, plugin_dir);  // which also sets host.log_level
     fw::logInfo("host", "robot '" + host_config.getString("robot_name") + "' from " + robot_file);
-
-    fw::Host host(config, plugin_dir);
     host.start();
     const auto started = std::chrono::steady_clock::now();
     const timespec poll{0, 100'000'000};  // 100 ms: stop latency well inside one second

@@ -79,6 +79,8 @@ Host::Host(const Config& config, const std::string& plugin_dir) : config_(config
     wake_.notify_all();
   });
   const ConfigView host = config.block("host");
+  const std::string least = host.getChoice("log_level", {"info", "warn", "error"});
+  setLeastLogLevel(least == "error" ? LogLevel::kError : least == "warn" ? LogLevel::kWarn : LogLevel::kInfo);
   max_consecutive_errors_ = host.getInt("max_consecutive_errors", 1, 1000000);
   stuck_after_s_ = host.getDouble("stuck_after_s", 0.05, 3600.0);
   const std::vector<std::string> names = host.getStringList("plugins");

@@ -1,5 +1,6 @@
 #include "framework_api/log.h"
 
+#include <atomic>
 #include <chrono>
 #include <cstdio>
 #include <ctime>
@@ -9,6 +10,7 @@ namespace fw {
 
 namespace {
 std::mutex g_mutex;
+std::atomic<LogLevel> g_least{LogLevel::kInfo};
 
 const char* levelName(LogLevel level) {
   switch (level) {
@@ -23,7 +25,10 @@ const char* levelName(LogLevel level) {
 }
 }  // namespace
 
+void setLeastLogLevel(LogLevel least) { g_least = least; }
+
 void log(LogLevel level, const std::string& component, const std::string& message) {
+  if (level < g_least) return;
   const auto now = std::chrono::system_clock::now();
   const std::time_t seconds = std::chrono::system_clock::to_time_t(now);
   const auto millis = std::chrono::duration_cast<std::chrono::milliseconds>(now.time_since_epoch()).count() % 1000;

@@ -10,6 +10,8 @@ namespace fw {
 enum class LogLevel { kInfo, kWarn, kError };
 
 void log(LogLevel level, const std::string& component, const std::string& message);
+// Messages below this level are not printed, in the whole process (host.log_level; info at first).
+void setLeastLogLevel(LogLevel least);
 inline void logInfo(const std::string& component, const std::string& message) {
   log(LogLevel::kInfo, component, message);
 }
