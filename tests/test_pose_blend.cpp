@@ -32,9 +32,10 @@ struct Drive {
   std::vector<fw::RobotPose> truth, localised;  // localised carries the odometry
 };
 
-// The localisation wanders as the simulator's does (3 cm and a degree, correlated over a second); the
-// odometry integrates each true step scaled 3 % too long and turned 3 % too far, in a frame of its own.
-Drive drive(int frames, unsigned seed, fw::RobotPose (*truthAt)(double) = truthAt) {
+// The robot follows path (by default the circle). The localisation wanders as the simulator's does
+// (3 cm and a degree, correlated over a second); the odometry integrates each true step scaled 3 % too
+// long and turned 3 % too far, in a frame of its own.
+Drive drive(int frames, unsigned seed, fw::RobotPose (*path)(double) = truthAt) {
   std::mt19937 random(seed);
   std::normal_distribution<double> normal(0.0, 1.0);
   const double keep = std::exp(-kFrame_s / 1.0), fresh = std::sqrt(1.0 - keep * keep);
@@ -43,7 +44,7 @@ Drive drive(int frames, unsigned seed, fw::RobotPose (*truthAt)(double) = truthA
   fw::RobotPose::Odometry odometry{50.0, -20.0, 3.0};
   Drive d;
   for (int i = 0; i < frames; ++i) {
-    const fw::RobotPose truth = truthAt(kT0 + i * kFrame_s);
+    const fw::RobotPose truth = path(kT0 + i * kFrame_s);
     if (i > 0) {
       const fw::RobotPose& before = d.truth.back();
       const Eigen::Vector2d step_R =
