@@ -17,6 +17,7 @@
 #include "kinect3d/sim/field_sensors.h"
 #include "kinect3d/sim/sequence_writer.h"
 #include "offline_fusion.h"
+#include "report_text.h"
 
 namespace kinect3d {
 
@@ -63,19 +64,6 @@ struct Scored {
                                  other.landing_delays_frames.end());
   }
 };
-
-std::string metres(double value) {
-  if (std::isnan(value)) return "-";
-  char text[32];
-  std::snprintf(text, sizeof text, "%.2f", value);
-  return text;
-}
-
-std::string joined(const std::vector<std::string>& names) {
-  std::string text;
-  for (const std::string& name : names) text += (text.empty() ? "" : ",") + name;
-  return text;
-}
 
 // A scene with its physics and the omni's stamp error drawn for this seed, and the ball block a
 // robot that calibrated this ball would run with.

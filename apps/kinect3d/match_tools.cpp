@@ -176,13 +176,18 @@ std::string newRunFolder(const std::string& base, const std::set<std::string>& b
   throw std::runtime_error(base + ": the logger started no run there within 20 s");
 }
 
-// A match log folder as given, or in a folder of them (the logger's logs/) the newest, said aloud.
-std::string newestRun(const std::string& folder) {
-  if (fs::exists(fs::path(folder) / fw::kMatchLogFile)) return folder;
+std::vector<std::string> matchLogsIn(const std::string& folder) {
   std::vector<std::string> runs;
   for (const fs::directory_entry& entry : fs::directory_iterator(folder)) {
     if (fs::exists(entry.path() / fw::kMatchLogFile)) runs.push_back(entry.path().string());
   }
+  return runs;
+}
+
+// A match log folder as given, or in a folder of them (the logger's logs/) the newest, said aloud.
+std::string newestRun(const std::string& folder) {
+  if (fs::exists(fs::path(folder) / fw::kMatchLogFile)) return folder;
+  const std::vector<std::string> runs = matchLogsIn(folder);
   if (runs.empty()) throw std::runtime_error(folder + ": neither a match log nor a folder of them");
   const std::string newest = *std::max_element(runs.begin(), runs.end());  // <date>_<time>_<robot>
   fw::logInfo("view", "the newest of " + std::to_string(runs.size()) + " runs in " + folder + ": " + newest);

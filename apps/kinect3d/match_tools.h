@@ -29,6 +29,8 @@ void exportMatch(const std::string& log_folder, const ExportFiles& files);
 // `kinect3d view`'s log folders. The run folder a logger started in base after `before` (its
 // entries then), once it holds a readable log; throws after 20 s without one.
 std::string newRunFolder(const std::string& base, const std::set<std::string>& before);
+// The match logs in a folder of them (the logger's logs/), in no particular order.
+std::vector<std::string> matchLogsIn(const std::string& folder);
 // A match log folder as given, or the newest in a folder of them (the logger's logs/), said aloud.
 std::string newestRun(const std::string& folder);
 

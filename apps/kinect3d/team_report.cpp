@@ -18,10 +18,12 @@
 #include "framework_api/config.h"
 #include "framework_api/host.h"
 #include "framework_api/install_layout.h"
+#include "framework_api/sensor_pose.h"
 #include "kinect3d/sim/ball_motion.h"
 #include "kinect3d/sim/scene.h"
 #include "match_tools.h"
 #include "matchlog/match_log.h"
+#include "report_text.h"
 #include "team_packet.h"
 #include "udp_impairment.h"
 
@@ -35,7 +37,7 @@ constexpr double kInTheAirAbove_m = 0.1;      // truth: in the air when the cent
 constexpr double kOnTheGroundBelow_m = 0.01;  // ... on the ground below this; the 10 cm between are not scored
 constexpr double kHeldWithin_m = 0.5;         // a world ball this close to the truth holds the ball
 constexpr double kWorldStartsAfter_s = 2.0;   // time for every host to load its plugins before the world's time 0
-constexpr int kPort = 50470;                  // the report's own (the tests use 50431-50435)
+constexpr int kPort = 50470;                  // the report's own (the tests use 50431-50436)
 
 struct Robot {
   std::string name;
@@ -142,21 +144,10 @@ Score scoreLog(const std::string& run, const sim::Scene& scene, double world_sta
 
 // The one run folder a robot's logger made in folder.
 std::string theRunIn(const fs::path& folder) {
-  std::vector<fs::path> runs;
-  for (const fs::directory_entry& entry : fs::directory_iterator(folder)) {
-    if (fs::exists(entry.path() / fw::kMatchLogFile)) runs.push_back(entry.path());
-  }
+  const std::vector<std::string> runs = matchLogsIn(folder.string());
   if (runs.size() != 1)
     throw std::runtime_error(folder.string() + ": expected one match log, found " + std::to_string(runs.size()));
-  return runs.front().string();
-}
-
-std::string mountingOf(const fw::SensorPose& pose) {
-  const double deg = 180.0 / M_PI;
-  char text[256];
-  std::snprintf(text, sizeof text, "{x: %.4f, y: %.4f, z: %.4f, yaw_deg: %.4f, pitch_deg: %.4f, roll_deg: %.4f}",
-                pose.x_m, pose.y_m, pose.z_m, pose.yaw_rad * deg, pose.pitch_rad * deg, pose.roll_rad * deg);
-  return text;
+  return runs.front();
 }
 
 struct Played {
@@ -206,7 +197,8 @@ Played playWorld(const TeamReportOptions& options, const World& world, const Net
         "logger.folder=" + fw::yamlQuoted((dir / robot.name).string())};
     if (robot.kinect) {
       overrides.push_back("kinect3d.source=" + source);
-      overrides.push_back("kinect3d.sensor.pose_in_robot=" + mountingOf(sim::loadScene(scene_file).sensor_pose));
+      overrides.push_back("kinect3d.sensor.pose_in_robot=" +
+                          fw::poseInRobotYaml(sim::loadScene(scene_file).sensor_pose));
     }
     if (i == 0) {
       overrides.insert(overrides.end(), network.first_robot_overrides.begin(), network.first_robot_overrides.end());
@@ -246,13 +238,6 @@ Played playWorld(const TeamReportOptions& options, const World& world, const Net
   return played;
 }
 
-std::string metres(double value) {
-  if (std::isnan(value)) return "-";
-  char text[32];
-  std::snprintf(text, sizeof text, "%.2f", value);
-  return text;
-}
-
 std::string share(int part, int whole) {
   if (whole == 0) return "-";
   char text[32];
@@ -284,9 +269,9 @@ std::string row(const std::string& network, const Robot& robot, const Score& wit
 }  // namespace
 
 std::string teamReportWorlds() {
-  std::string names;
-  for (const World& world : kWorlds) names += (names.empty() ? "" : ",") + world.folder;
-  return names;
+  std::vector<std::string> names;
+  for (const World& world : kWorlds) names.push_back(world.folder);
+  return joined(names);
 }
 
 void writeTeamReport(const TeamReportOptions& options, const std::string& out_path) {
@@ -325,18 +310,18 @@ void writeTeamReport(const TeamReportOptions& options, const std::string& out_pa
                                            [](const Network& n) { return !n.first_robot_overrides.empty(); });
     std::string table;
     double bytes_per_robot_s = 0.0, bytes_per_packet = 0.0;
-    for (const Network& network : networks) {
+    for (std::size_t c = 0; c < networks.size(); ++c) {
+      const Network& network = networks[c];
       std::vector<Score> with(world.robots.size()), alone(world.robots.size());
       for (int run = 1; run <= options.runs; ++run) {
-        const fs::path dir =
-            logs_dir / world.folder / (std::to_string(&network - networks.data()) + "-" + std::to_string(run));
+        const fs::path dir = logs_dir / world.folder / (std::to_string(c) + "-" + std::to_string(run));
         std::printf("report team: %s, %s, run %d of %d\n", world.folder.c_str(), network.name.c_str(), run,
                     options.runs);
         std::fflush(stdout);
         // Seeded by world, network and run: one world played alone plays as in the whole report.
-        const unsigned seed = static_cast<unsigned>(1000 * w + 100 * (&network - networks.data()) + run);
+        const unsigned seed = static_cast<unsigned>(1000 * w + 100 * c + run);
         const Played played = playWorld(options, world, network, seed, dir);
-        if (&network == &networks.front()) {
+        if (c == 0) {
           bytes_per_robot_s += played.bytes_per_robot_s / options.runs;
           bytes_per_packet += played.bytes_per_packet / options.runs;
         }
@@ -368,6 +353,7 @@ void writeTeamReport(const TeamReportOptions& options, const std::string& out_pa
   if (!out) throw std::runtime_error(out_path + ": cannot open for writing");
   out << "# The team: each robot's world ball, alone and with its teammates\n\n"
       << "Generated by `kinect3d report team --out " << out_path << " --runs " << options.runs
+      << (options.worlds.empty() ? "" : " --scenes " + joined(options.worlds))
       << "`, run from the repository's root (the worlds are read from `--worlds`, tests/data/scenes: "
          "team/, team5/, team_hop/ and team_hop3/; docs/team.md explains the plugin and what the fusion does with "
          "teammates). Each world is played "
@@ -375,7 +361,8 @@ void writeTeamReport(const TeamReportOptions& options, const std::string& out_pa
       << " times per network, live: every robot is a host with its own simulated sensors (localisation 3 cm and 1 "
          "degree, with the wheels' odometry; the omni camera with its misses, orange false balls and 30 ms late "
          "stamps; the Kinect where it has one), its fusion and its team plugin, all on one world clock, each robot "
-         "sending to the others over loopback (127.0.0.140-144) through a link that loses, delays and duplicates as "
+         "sending to the others over loopback (robots on 127.0.0.140-144, the links into them on 127.0.0.150-154) "
+         "through a link that loses, delays and duplicates as "
          "the network says. The robots' messages arrive as they happen to, so each run differs; *per run* gives the "
          "spread of the runs' medians.\n\n"
          "*With teammates* scores each robot's own match log; *alone* the same log replayed with "
