@@ -702,15 +702,17 @@ fw::TeamMessage teammateMessage(const fw::RobotPose& true_pose, const fw::RobotP
   return message;
 }
 
+// Where a teammate believes it stands at time t (none: it sends nothing).
+using Belief = std::function<std::optional<fw::RobotPose>(double t)>;
+
 // This robot at the origin watches `truth` with its Kinect while kinect_sees and with its omni camera
 // while omni_sees (and the ball is in its view); a teammate's Kinect sees it all the time from true_pose and sends what
-// it saw every 50 ms, each message 80-130 ms late and a fifth of them lost (none sent without a believed_pose);
+// it saw every 50 ms, each message 80-130 ms late and a fifth of them lost (none sent while it has no belief);
 // with_world_ball: each message also carries the teammate's world ball, its newest Kinect ball;
 // shirts_F: as feedOwnStep's. Everything reaches the fusion in arrival order.
 FedRun feedWithTeammate(fusion::BallFusion& fusion, const Truth& truth, double duration_s, const Sees& kinect_sees,
-                        const Sees& omni_sees, const fw::RobotPose& true_pose,
-                        const std::optional<fw::RobotPose>& believed_pose, bool with_world_ball = false,
-                        const std::vector<Eigen::Vector3d>& shirts_F = {}) {
+                        const Sees& omni_sees, const fw::RobotPose& true_pose, const Belief& belief,
+                        bool with_world_ball = false, const std::vector<Eigen::Vector3d>& shirts_F = {}) {
   std::mt19937 random(11);
   std::uniform_real_distribution<double> unit(0.0, 1.0);
   FedRun run;
@@ -731,6 +733,7 @@ FedRun feedWithTeammate(fusion::BallFusion& fusion, const Truth& truth, double d
     unsent.emplace_back(t, truth(t));  // the teammate's Kinect, in step with this robot's
     if (i % 3 != 0 || i == 0) {
       // Every 50 ms (every one and a half frames: here every third frame carries two) a message goes.
+      const std::optional<fw::RobotPose> believed_pose = belief(t);
       if (unit(random) > 0.2 && believed_pose) {
         fw::RobotPose believed = *believed_pose;
         believed.stamp.source_time_s = t;
@@ -751,6 +754,16 @@ FedRun feedWithTeammate(fusion::BallFusion& fusion, const Truth& truth, double d
     feedOwnStep(fusion, truth, t, standingAtOrigin, kinect_sees, omni_sees, true, 0.0, random, run, shirts_F);
   }
   return run;
+}
+
+// The same, the teammate believing the same pose all along (none: it sends nothing).
+FedRun feedWithTeammate(fusion::BallFusion& fusion, const Truth& truth, double duration_s, const Sees& kinect_sees,
+                        const Sees& omni_sees, const fw::RobotPose& true_pose,
+                        const std::optional<fw::RobotPose>& believed_pose, bool with_world_ball = false,
+                        const std::vector<Eigen::Vector3d>& shirts_F = {}) {
+  return feedWithTeammate(
+      fusion, truth, duration_s, kinect_sees, omni_sees, true_pose, [believed_pose](double) { return believed_pose; },
+      with_world_ball, shirts_F);
 }
 
 TEST(Fusion, ALobOnlyATeammatesKinectSeesIsHeldInTheAirFromItsMessages) {
@@ -838,6 +851,93 @@ TEST(Fusion, AMislocalisedTeammateIsDiscountedAndDoesNotMoveTheBall) {
     const fusion::TeammateStanding& standing = fusion.teammates().at(4);
     EXPECT_TRUE(standing.discounted);
     EXPECT_GT(standing.median_gap_m, 0.7);
+  }
+}
+
+TEST(Fusion, ATeammateTheConfigurationIgnoresChangesNoWorldBall) {
+  // The lob only the keeper sees (above): with fusion.team.ignore naming the keeper, every world ball
+  // after this robot's own frames is the one it gives without the keeper's messages, to the bit.
+  const Eigen::Vector3d p0(0.3, 2.5, kRadius), v0(0.0, -3.5, 5.0);
+  const Truth lob = [&](double t) { return lobAt(t, kT0 + 0.5, p0, v0); };
+  const fw::RobotPose keeper = poseAt(0.5, 7.0, M_PI, kT0);
+  fusion::BallFusion alone(testConfig());
+  const FedRun without = feedWithTeammate(alone, lob, 2.5, never, always, keeper, std::nullopt);
+  fusion::FusionConfig config = testConfig();
+  config.team.ignore = {"striker", "keeper"};
+  fusion::BallFusion ignoring(config);
+  const FedRun run = feedWithTeammate(ignoring, lob, 2.5, never, always, keeper, keeper, true);
+  std::vector<const fusion::FusionUpdate*> own;
+  for (std::size_t i = 0; i < run.updates.size(); ++i) {
+    if (!run.from_teammate[i]) own.push_back(&run.updates[i]);
+  }
+  ASSERT_EQ(own.size(), without.updates.size());
+  int published = 0;
+  for (std::size_t i = 0; i < own.size(); ++i) {
+    ASSERT_EQ(own[i]->ball.has_value(), without.updates[i].ball.has_value()) << "update " << i;
+    if (!own[i]->ball) continue;
+    ++published;
+    EXPECT_EQ(own[i]->ball->position_F, without.updates[i].ball->position_F) << "update " << i;
+    EXPECT_EQ(own[i]->ball->sources, without.updates[i].ball->sources) << "update " << i;
+  }
+  EXPECT_GT(published, 30);
+  EXPECT_EQ(ignoring.teammates().count(4), 0u) << "not even judged";
+  // The same messages heard: the lob is held from them (ALobOnlyATeammatesKinectSeesIsHeldInTheAirFromItsMessages).
+  fusion::BallFusion listening(testConfig());
+  const FedRun heard = feedWithTeammate(listening, lob, 2.5, never, always, keeper, keeper, true);
+  int from_keeper = 0;
+  for (const fusion::FusionUpdate& update : heard.updates) {
+    if (update.ball) from_keeper += std::count(update.ball->sources.begin(), update.ball->sources.end(), "team:keeper");
+  }
+  EXPECT_GT(from_keeper, 30);
+}
+
+TEST(Fusion, ADiscountedTeammateIsTrustedAgainOnlyByObservationsThatWouldShowItsError) {
+  // The keeper, 7 m away facing this robot, believes it is turned by 20 degrees. The ball rests 2 m in
+  // front of this robot, where its omni camera sees the keeper's error (1.8 m), then rolls up to the
+  // keeper and rests 0.6 m from it: there the keeper puts it only 0.2 m off, which this robot, 6.4 m
+  // away, sees as agreement (under 2 sigma). The keeper stays discounted. When instead its
+  // localisation comes right while the ball still rests near this robot, it is trusted again and used.
+  const fw::RobotPose keeper = poseAt(0.5, 7.0, M_PI, kT0), turned = poseAt(0.5, 7.0, M_PI + 0.35, kT0);
+  const double roll_t = kT0 + 2.0, v0 = std::sqrt(2.0 * 0.4 * 4.4);  // 4.4 m at 0.4 m/s^2, as the fusion expects
+  const Truth rolls_to_keeper = [&](double t) {
+    const double tau = std::clamp(t - roll_t, 0.0, v0 / 0.4);
+    return Eigen::Vector3d(0.5, 2.0 + v0 * tau - 0.2 * tau * tau, kRadius);
+  };
+  const auto keeperIn = [](const fusion::FusionUpdate& update) {
+    return update.ball && std::count(update.ball->sources.begin(), update.ball->sources.end(), "team:keeper") > 0;
+  };
+  {
+    fusion::BallFusion fusion(testConfig());
+    const FedRun run = feedWithTeammate(fusion, rolls_to_keeper, 9.0, never, always, keeper, turned);
+    ASSERT_EQ(fusion.teammates().count(4), 1u);
+    const fusion::TeammateStanding& standing = fusion.teammates().at(4);
+    EXPECT_TRUE(standing.discounted) << "judged near the keeper: median " << standing.median_mahalanobis << " sigma, "
+                                     << standing.median_gap_m << " m, against " << standing.discounted_gap_m
+                                     << " m when discounted";
+    EXPECT_LT(standing.median_mahalanobis, 2.0) << "its balls near it look right from here";
+    int with_keeper = 0, late = 0;
+    for (const fusion::FusionUpdate& update : run.updates) {
+      if (update.time_s < roll_t + 3.0) continue;
+      ++late;
+      with_keeper += keeperIn(update) ? 1 : 0;
+    }
+    EXPECT_GT(late, 100);
+    EXPECT_EQ(with_keeper, 0) << "the ball beside the keeper rests on this robot's camera alone";
+  }
+  {
+    const Truth rests = [](double) { return Eigen::Vector3d(0.5, 2.0, kRadius); };
+    fusion::BallFusion fusion(testConfig());
+    const FedRun run = feedWithTeammate(fusion, rests, 5.0, never, always, keeper, [&](double t) {
+      return std::optional<fw::RobotPose>(t < kT0 + 2.0 ? turned : keeper);
+    });
+    int discounted_while_turned = 0, used_at_the_end = 0;
+    for (const fusion::FusionUpdate& update : run.updates) {
+      if (update.time_s > kT0 + 1.0 && update.time_s < kT0 + 2.0) discounted_while_turned += keeperIn(update) ? 0 : 1;
+      if (update.time_s > kT0 + 4.0) used_at_the_end += keeperIn(update) ? 1 : 0;
+    }
+    EXPECT_GT(discounted_while_turned, 30);
+    EXPECT_GT(used_at_the_end, 30) << "trusted again, and used";
+    EXPECT_FALSE(fusion.teammates().at(4).discounted);
   }
 }
 
@@ -1346,6 +1446,7 @@ TEST(FusionConfig, ShippedDefaultsAreTheStructDefaults) {
   EXPECT_EQ(read.team.max_delay_s, code.team.max_delay_s);
   EXPECT_EQ(read.team.judge_examples, code.team.judge_examples);
   EXPECT_EQ(read.team.discount_sigma, code.team.discount_sigma);
+  EXPECT_EQ(read.team.ignore, code.team.ignore);
 }
 
 TEST(FusionConfig, AnOmniViewTopAboveItsViewpointIsRefusedWithItsKey) {

@@ -42,6 +42,13 @@ constexpr double kMaxMislocalisation_m = 3.0;
 // distance, whichever is more: omni distances are uncertain, and a metre-off teammate is judged).
 constexpr double kSameBallAlong_m = 1.0;
 constexpr double kSameBallAlongShare = 0.3;
+// This robot's omni camera places a ball on the floor well enough to judge teammates by, whoever
+// else supports it, while its distance error is within this (5 cm + 5 % of the distance by default:
+// 4 m). A farther ball is placed by whoever joins it.
+constexpr double kOmniPlacesWithin_m = 0.25;
+// A teammate not yet judged on judge_examples of its observations is used beside this robot's own
+// view once this many agree with it (their median within discount_sigma).
+constexpr int kFirstJudgements = 3;
 // A discounted teammate is trusted again once its median falls below this share of the discount's.
 constexpr double kTrustAgainShare = 0.5;
 // A Kinect ball (this robot's or a teammate's) that moves a track's likeliest ball by more than this
@@ -166,9 +173,10 @@ struct BallFusion::Candidate {
   bool in_air = false;
   bool is_static = false;  // an air ball in space occupied for seconds
   fw::ColourVerdict colour = fw::ColourVerdict::kNotChecked;
-  const fw::OmniBallObservation* omni = nullptr;  // the omni's ball, in the frame being processed
-  const fw::BallObservation* kinect = nullptr;    // this robot's Kinect's ball, in the frame being processed
-  int teammate = 0;                               // the teammate's robot id, for Source::kTeammate
+  const fw::OmniBallObservation* omni = nullptr;            // the omni's ball, in the frame being processed
+  const fw::BallObservation* kinect = nullptr;              // this robot's Kinect's ball, in the frame being processed
+  int teammate = 0;                                         // the teammate's robot id, for Source::kTeammate
+  Eigen::Vector2d teammate_xy_F = Eigen::Vector2d::Zero();  // and where it believes it stands
   std::optional<Eigen::Vector3d> ray_origin_F = std::nullopt;  // a teammate's omni ray: its camera's viewpoint
 
   // A Kinect's ball, this robot's or a teammate's: the centre in 3D, not a bearing.
@@ -250,6 +258,15 @@ const FusionUpdate& BallFusion::addTeamMessage(const fw::TeamMessage& message) {
     frameAt(message.world_ball->stamp.source_time_s).team_world_ball =
         TeammateWorldBall{message.robot_id, message.robot_name, *message.world_ball,
                           Eigen::Vector2d(message.pose->x_m, message.pose->y_m), pose_error};
+  }
+  if (ignores(message.robot_name)) {
+    // Its messages still step the fusion at their times, as a discounted teammate's do: a replay
+    // ignoring it differs from the run only by what it saw.
+    for (auto& [t, frame] : frames) {
+      frame.team.clear();
+      frame.team_rays.clear();
+      frame.team_world_ball.reset();
+    }
   }
   for (auto& [t, frame] : frames) {
     // Its clock was moved onto the reference by the team plugin: a time far from the fusion's is a
@@ -363,6 +380,7 @@ std::vector<BallFusion::Candidate> BallFusion::candidatesOf(const Frame& frame, 
     c.is_static = mate.ball_F.is_static && c.in_air;
     c.colour = mate.ball_F.colour;
     c.teammate = mate.robot_id;
+    c.teammate_xy_F = Eigen::Vector2d(mate.pose.x_m, mate.pose.y_m);
     candidates.push_back(std::move(c));
   }
   for (const TeammateRay& mate : frame.team_rays) {
@@ -371,6 +389,7 @@ std::vector<BallFusion::Candidate> BallFusion::candidatesOf(const Frame& frame, 
     Candidate c{Source::kTeammate, nullptr, omni->groundBall_F(), groundCovariance(*omni, mate.ball, mate.viewpoint)};
     c.measurement = std::move(omni);
     c.teammate = mate.robot_id;
+    c.teammate_xy_F = Eigen::Vector2d(mate.viewpoint.x_m, mate.viewpoint.y_m);
     c.ray_origin_F = Eigen::Vector3d(mate.viewpoint.x_m, mate.viewpoint.y_m, mate.omni.viewpoint_height_m);
     candidates.push_back(std::move(c));
   }
@@ -401,11 +420,23 @@ void BallFusion::process(const Frame& frame) {
   // Gate every candidate against every track's branches at t, then pair them most likely first.
   std::vector<std::vector<Hypothesis>> branches;
   for (const Track& track : state.tracks) branches.push_back(track.filter.branchesAt(t));
-  // Teammates are judged against this robot's own view first; a discounted teammate's observations are not used.
-  judgeTeammates(frame, candidates, branches, pose, t);
+  // Teammates are judged against this robot's own view first. A discounted teammate's observations
+  // are not used; nor, while this robot's own sensors place the ball, are those of a teammate not yet
+  // judged on judge_examples of them that lie near enough to be judged by it, unless its first few
+  // lie within discount_sigma: this robot sees the ball itself, and a mislocalised teammate would
+  // move it until it is found out. (What lies farther is another object to the judge, perhaps the
+  // ball where this robot's own view is an orange shirt.)
+  const std::optional<Eigen::Vector2d> own_placed_F = judgeTeammates(frame, candidates, branches, pose, t);
   std::vector<bool> discounted(candidates.size(), false);
   for (std::size_t c = 0; c < candidates.size(); ++c) {
-    if (candidates[c].source == Source::kTeammate) discounted[c] = state.teammates[candidates[c].teammate].discounted;
+    if (candidates[c].source != Source::kTeammate) continue;
+    const TeammateStanding& standing = state.teammates[candidates[c].teammate];
+    const bool unproven =
+        standing.examples < config_.team.judge_examples &&
+        (standing.examples < kFirstJudgements || standing.median_mahalanobis > config_.team.discount_sigma);
+    const bool judgeable =
+        own_placed_F && (candidates[c].p_F.head<2>() - *own_placed_F).norm() <= kMaxMislocalisation_m;
+    discounted[c] = standing.discounted || (judgeable && unproven);
   }
   struct Pair {
     double log_likelihood;
@@ -473,6 +504,11 @@ void BallFusion::process(const Frame& frame) {
   state.update.ball = worldBall(t);
 }
 
+bool BallFusion::ignores(const std::string& teammate) const {
+  const std::vector<std::string>& ignored = config_.team.ignore;
+  return std::find(ignored.begin(), ignored.end(), teammate) != ignored.end();
+}
+
 const std::string& BallFusion::nameOf(Source source) const {
   return source == Source::kKinect ? config_.kinect.source : config_.omni.source;
 }
@@ -493,9 +529,9 @@ void BallFusion::Track::supportedBy(const Candidate& candidate, double t_s) {
   }
 }
 
-void BallFusion::judgeTeammates(const Frame& frame, const std::vector<Candidate>& candidates,
-                                const std::vector<std::vector<Hypothesis>>& branches, const fw::RobotPose& pose,
-                                double t_s) {
+std::optional<Eigen::Vector2d> BallFusion::judgeTeammates(const Frame& frame, const std::vector<Candidate>& candidates,
+                                                          const std::vector<std::vector<Hypothesis>>& branches,
+                                                          const fw::RobotPose& pose, double t_s) {
   State& state = state_;
   for (const TeammateBall& mate : frame.team) state.teammates[mate.robot_id].name = mate.name;
   for (const TeammateRay& mate : frame.team_rays) state.teammates[mate.robot_id].name = mate.name;
@@ -516,11 +552,14 @@ void BallFusion::judgeTeammates(const Frame& frame, const std::vector<Candidate>
       own_branches = &branches[k];
     }
   }
-  if (own == nullptr) return;
+  if (own == nullptr) return std::nullopt;
   // A ball another teammate supported lately may rest on that teammate rather than on this robot's
-  // sensors (a far omni ball, uncertain by metres, joins a teammate's Kinect ball a metre off): a
-  // teammate is judged against it only if every other teammate that supported it has been judged
-  // and found good. Else a mislocalised keeper would have its honest teammates discounted.
+  // sensors (a far omni ball, uncertain by metres, joins a teammate's Kinect ball a metre off): unless
+  // this robot's own sensors place it (its Kinect, or its omni camera a ball on the floor near enough),
+  // a teammate is judged against it only if every other teammate that supported it has been judged
+  // and found good. Else a mislocalised keeper would have its honest teammates discounted; and two
+  // teammates that see the ball this robot sees would wait for each other for ever.
+  const bool own_places = t_s - own->last_kinect_s <= kJudgeOwnSupportWithin_s || omniPlaces(*own, pose, t_s);
   const auto vouched = [&](int id) {
     const auto standing = state.teammates.find(id);
     return standing != state.teammates.end() && standing->second.examples >= config_.team.judge_examples &&
@@ -533,14 +572,17 @@ void BallFusion::judgeTeammates(const Frame& frame, const std::vector<Candidate>
   };
   std::map<int, Judgement> closest;
   for (const Candidate& candidate : candidates) {
-    if (candidate.source != Source::kTeammate || restsOnOthers(candidate.teammate)) continue;
-    const std::optional<Judgement> judged = judge(candidate, *own, *own_branches, pose, t_s);
+    if (candidate.source != Source::kTeammate || (!own_places && restsOnOthers(candidate.teammate))) continue;
+    std::optional<Judgement> judged = judge(candidate, *own, *own_branches, pose, t_s);
+    if (judged) judged->from_teammate_m = (candidate.p_F.head<2>() - candidate.teammate_xy_F).norm();
     const auto found = closest.find(candidate.teammate);
     if (judged && (found == closest.end() || judged->mahalanobis < found->second.mahalanobis)) {
       closest[candidate.teammate] = *judged;
     }
   }
   for (const auto& [teammate, judgement] : closest) recordJudgement(teammate, judgement);
+  if (!own_places) return std::nullopt;
+  return own->filter.best().x.head<2>();
 }
 
 std::optional<BallFusion::Judgement> BallFusion::judge(const Candidate& candidate, const Track& own,
@@ -567,7 +609,7 @@ std::optional<BallFusion::Judgement> BallFusion::judge(const Candidate& candidat
     const double variance = seen_variance_rad2 + across.dot(best.P.topLeftCorner<2, 2>() * across) / (d * d);
     const double gap_m = d * std::abs(std::sin(residual));
     if (gap_m > kMaxMislocalisation_m) return std::nullopt;
-    return Judgement{std::abs(residual) / std::sqrt(variance), gap_m};
+    return Judgement{std::abs(residual) / std::sqrt(variance), gap_m, d * std::sqrt(variance)};
   };
   if (candidate.ray_origin_F) {
     // An omni ray by its bearing alone (a ball in the air lies on the bearing of its phantom). A ray
@@ -583,12 +625,14 @@ std::optional<BallFusion::Judgement> BallFusion::judge(const Candidate& candidat
   if (!own_kinect) {
     // This robot's omni camera holds the teammate's ball, if it is the same ball, where the teammate
     // puts it along the line of sight, and in the same mode: both on the floor, or both in the air
-    // (then by its bearing, all the omni camera gives of a ball in the air). A ball elsewhere, or one
-    // on the floor while the teammate's flies, is another object, an orange shirt, or a phantom: it
-    // says nothing of the teammate.
+    // (then by its bearing, all the omni camera gives of a ball in the air). A ball on the floor
+    // while the teammate's flies is another object, an orange shirt, or a phantom: it says nothing
+    // of the teammate; so is one elsewhere along the line of sight, unless the omni camera places
+    // the ball on the floor near enough to know: there is one ball, and a teammate that puts it
+    // where this robot sees none is off (its localisation, or its eyes).
     const double own_m = (own_F.head<2>() - camera).norm();
     if (own.flying() != candidate.in_air || candidate.p_F.z() > config_.omni.max_height_m ||
-        std::abs(own_m - d) > std::max(kSameBallAlong_m, kSameBallAlongShare * d)) {
+        (std::abs(own_m - d) > std::max(kSameBallAlong_m, kSameBallAlongShare * d) && !omniPlaces(own, pose, t_s))) {
       return std::nullopt;
     }
   }
@@ -598,7 +642,9 @@ std::optional<BallFusion::Judgement> BallFusion::judge(const Candidate& candidat
     const Eigen::Vector2d gap = (candidate.p_F - own_F).head<2>();
     if (gap.norm() > kMaxMislocalisation_m) return std::nullopt;
     const Eigen::Matrix2d S = best.P.topLeftCorner<2, 2>() + candidate.covariance_F.topLeftCorner<2, 2>();
-    return Judgement{std::sqrt(gap.dot(S.ldlt().solve(gap))), gap.norm()};
+    const double mahalanobis = std::sqrt(gap.dot(S.ldlt().solve(gap)));
+    const double sigma_m = gap.norm() > 1e-6 ? gap.norm() / mahalanobis : std::sqrt(S.trace() / 2.0);
+    return Judgement{mahalanobis, gap.norm(), sigma_m};
   }
   // A ball in the air to this robot's omni camera: the teammate's Kinect ball by its bearing from
   // this robot's camera, which lies on this robot's ray to the ball.
@@ -608,22 +654,44 @@ std::optional<BallFusion::Judgement> BallFusion::judge(const Candidate& candidat
                    sigma_b * sigma_b + across.dot(candidate.covariance_F.topLeftCorner<2, 2>() * across) / (d * d));
 }
 
+bool BallFusion::omniPlaces(const Track& own, const fw::RobotPose& pose, double t_s) const {
+  const double distance_m = (own.filter.best().x.head<2>() - Eigen::Vector2d(pose.x_m, pose.y_m)).norm();
+  return t_s - own.last_omni_s <= kJudgeOwnSupportWithin_s && !own.flying() &&
+         config_.omni.distance_sigma_m + config_.omni.distance_sigma_fraction * distance_m <= kOmniPlacesWithin_m;
+}
+
 void BallFusion::recordJudgement(int teammate, const Judgement& judgement) {
   std::deque<Judgement>& judged = state_.judged[teammate];
   judged.push_back(judgement);
   if (judged.size() > static_cast<std::size_t>(config_.team.judge_examples)) judged.pop_front();
-  std::vector<double> distances, gaps_m;
+  std::vector<double> distances, gaps_m, sigmas_m, from_teammate_m;
   for (const Judgement& j : judged) {
     distances.push_back(j.mahalanobis);
     gaps_m.push_back(j.gap_m);
+    sigmas_m.push_back(j.sigma_m);
+    from_teammate_m.push_back(j.from_teammate_m);
   }
   TeammateStanding& standing = state_.teammates[teammate];
   standing.examples = static_cast<int>(judged.size());
   standing.median_mahalanobis = fw::quantile(distances, 0.5);
   standing.median_gap_m = fw::quantile(gaps_m, 0.5);
   if (standing.examples < config_.team.judge_examples) return;
-  if (standing.median_mahalanobis > config_.team.discount_sigma) standing.discounted = true;
-  if (standing.median_mahalanobis < kTrustAgainShare * config_.team.discount_sigma) standing.discounted = false;
+  const double median_sigma_m = fw::quantile(sigmas_m, 0.5),
+               median_from_teammate_m = fw::quantile(from_teammate_m, 0.5);
+  if (!standing.discounted && standing.median_mahalanobis > config_.team.discount_sigma) {
+    standing.discounted = true;
+    standing.discounted_gap_m = standing.median_gap_m;
+    standing.discounted_from_m = median_from_teammate_m;
+  }
+  // Trusted again only by observations that would show the error it was discounted for. A turned
+  // teammate's error grows with the ball's distance from it (20 degrees: 1.7 m at 5 m, 0.2 m at
+  // 0.6 m), so that error is taken to shrink with the distance; a shifted one's would not.
+  const double error_now_m =
+      standing.discounted_gap_m * std::min(1.0, median_from_teammate_m / std::max(standing.discounted_from_m, 0.1));
+  if (standing.discounted && standing.median_mahalanobis < kTrustAgainShare * config_.team.discount_sigma &&
+      error_now_m >= config_.team.discount_sigma * median_sigma_m) {
+    standing.discounted = false;
+  }
 }
 
 // As the omni camera gives a bearing: from the robot's +y, counter-clockwise.

@@ -79,6 +79,7 @@ FusionConfig readFusionConfig(const fw::ConfigView& block) {
   config.team.judge_examples = team.getInt("judge_examples", 1, 1000);
   config.team.discount_sigma = team.getDouble("discount_sigma", 1.0, 100.0);
   config.team.prior_max_age_s = team.getDouble("prior_max_age_s", 0.0, 10.0);
+  config.team.ignore = team.getStringList("ignore");
   return config;
 }
 

@@ -9,6 +9,7 @@
 #include <cstdio>
 #include <map>
 #include <optional>
+#include <set>
 #include <string>
 #include <variant>
 #include <vector>
@@ -54,6 +55,10 @@ class FusionPlugin : public fw::Plugin {
         publish(fusion_.addOmniFrame(omni->stamp.source_time_s, omni->balls));
         updated = true;
       } else if (const auto* message = std::get_if<fw::TeamMessage>(&measurement)) {
+        if (fusion_.ignores(message->robot_name) && said_ignored_.insert(message->robot_id).second) {
+          fw::logInfo(name_, "teammate " + message->robot_name + " (robot " + std::to_string(message->robot_id) +
+                                 ") heard; its observations are not used (fusion.team.ignore)");
+        }
         const fusion::FusionUpdate& update = fusion_.addTeamMessage(*message);
         publish(update);
         reportTeammate(message->robot_id, update.time_s);
@@ -172,6 +177,7 @@ class FusionPlugin : public fw::Plugin {
   std::uint64_t seen_version_ = 0;
   std::uint64_t cursor_ = 0;                 // what was read of the measurements (fw::WorldState)
   std::map<int, bool> teammate_discounted_;  // as last said, by robot id
+  std::set<int> said_ignored_;               // teammates fusion.team.ignore names, heard and said so
   std::optional<double> said_latency_s_;     // the omni latency last said
 };
 

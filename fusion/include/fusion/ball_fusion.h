@@ -43,6 +43,9 @@ struct TeammateStanding {
   int examples = 0;                 // its balls judged against this robot's own view (the newest are kept)
   double median_mahalanobis = 0.0;  // of those
   double median_gap_m = 0.0;        // and how far they lay from this robot's ball
+  // When it was last discounted: the median gap, and its balls' median distance from it.
+  double discounted_gap_m = 0.0;
+  double discounted_from_m = 0.0;
 };
 
 // The world after one source frame, at that frame's (corrected) time.
@@ -99,6 +102,8 @@ class BallFusion {
   // reference clock), each of its frames in turn. A message without the teammate's pose is not used
   // (its localisation error cannot be added).
   const FusionUpdate& addTeamMessage(const fw::TeamMessage& message);
+  // Whether fusion.team.ignore names this teammate: its observations are never used.
+  bool ignores(const std::string& teammate) const;
   // Every teammate heard, by robot id.
   const std::map<int, TeammateStanding>& teammates() const { return state_.teammates; }
 
@@ -120,6 +125,8 @@ class BallFusion {
   struct Judgement {
     double mahalanobis = 0.0;
     double gap_m = 0.0;
+    double sigma_m = 0.0;          // the judgement's resolution: one sigma, in metres, in the gap's direction
+    double from_teammate_m = 0.0;  // the teammate's ball from where it believes it stands
   };
   struct Candidate;
   // A bearing in the robot frame (from +y, counter-clockwise, as the omni camera gives it) and its error.
@@ -213,14 +220,19 @@ class BallFusion {
   std::vector<Candidate> candidatesOf(const Frame& frame, const fw::RobotPose& pose) const;
   void startTrack(const Candidate& candidate, double t_s);
   // Every teammate in frame by its observation that best matches the ball this robot's own sensors
-  // support now (none: nobody is judged); this robot at pose.
-  void judgeTeammates(const Frame& frame, const std::vector<Candidate>& candidates,
-                      const std::vector<std::vector<Hypothesis>>& branches, const fw::RobotPose& pose, double t_s);
+  // support now (none: nobody is judged); this robot at pose. Where that ball lies when its own
+  // sensors place it (its Kinect, or its omni camera near enough: omniPlaces).
+  std::optional<Eigen::Vector2d> judgeTeammates(const Frame& frame, const std::vector<Candidate>& candidates,
+                                                const std::vector<std::vector<Hypothesis>>& branches,
+                                                const fw::RobotPose& pose, double t_s);
   // How far a teammate's ball or ray lies from this robot's ball (own, its branches at t_s), when
   // this robot's own sensors support that ball well enough to judge by.
   std::optional<Judgement> judge(const Candidate& candidate, const Track& own,
                                  const std::vector<Hypothesis>& own_branches, const fw::RobotPose& pose,
                                  double t_s) const;
+  // This robot's omni camera, of its own, places own's ball on the floor well enough to judge by:
+  // it supported it just now, near enough that its distance error is small.
+  bool omniPlaces(const Track& own, const fw::RobotPose& pose, double t_s) const;
   // The teammate's standing after one more such judgement.
   void recordJudgement(int teammate, const Judgement& judgement);
   const std::string& nameOf(Source source) const;  // this robot's own sources

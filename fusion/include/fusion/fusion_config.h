@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <string>
+#include <vector>
 
 #include "framework_api/config.h"
 
@@ -80,6 +81,10 @@ struct TeamConfig {
   // A teammate's world ball is this robot's, as a weak prior, while nothing else gives it one, up to
   // this long after the last measurement that supported it (0: never).
   double prior_max_age_s = 1.0;
+  // Teammates (their host.robot_name) whose observations are never used, as if discounted from the
+  // start: one known to be broken, or a replay asking what one teammate changed (the team report's
+  // "moved by the keeper").
+  std::vector<std::string> ignore;
 };
 
 struct FusionConfig {
