@@ -580,7 +580,7 @@ TEST(TeamWorlds, EveryRobotOfAWorldSeesTheSameBall) {
     }
     EXPECT_GE(robots, 2) << world.path();
   }
-  EXPECT_EQ(worlds, 4) << "team, team5, team_hop and team_hop3";
+  EXPECT_EQ(worlds, 5) << "team, team_rest, team5, team_hop and team_hop3";
 }
 
 TEST(TeamWorlds, TheTeamReportNamesAWorldFileItCannotFind) {
@@ -604,7 +604,7 @@ TEST(TeamWorlds, TheTeamReportPlaysOnlyTheWorldsNamedAndRefusesOneItDoesNotHave)
       << output;
   const auto [unknown_status, unknown_output] = runCommand(command + " --scenes team,team7 2>&1");
   EXPECT_NE(unknown_status, 0);
-  EXPECT_NE(unknown_output.find("'team7' is not a world of the team report (team,team5,team_hop,team_hop3)"),
+  EXPECT_NE(unknown_output.find("'team7' is not a world of the team report (team,team_rest,team5,team_hop,team_hop3)"),
             std::string::npos)
       << unknown_output;
   EXPECT_FALSE(std::filesystem::exists(dir.path() / "report.md"));

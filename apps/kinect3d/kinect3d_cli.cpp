@@ -321,7 +321,7 @@ void addReport(CLI::App& app) {
   command->add_option("--runs", options->team.runs, "team: live runs per world and network")->capture_default_str();
   command
       ->add_option("--worlds", options->team.worlds_dir,
-                   "team: the folder holding the team worlds (team/, team5/, team_hop/, team_hop3/)")
+                   "team: the folder holding the team worlds (team/, team_rest/, team5/, team_hop/, team_hop3/)")
       ->default_val("tests/data/scenes");
   command->add_option("--keep", options->keep,
                       "fusion: keep every case's input files and fused output here; calibration: every session; "

@@ -36,6 +36,7 @@ namespace fs = std::filesystem;
 constexpr double kInTheAirAbove_m = 0.1;      // truth: in the air when the centre is this far above rest ...
 constexpr double kOnTheGroundBelow_m = 0.01;  // ... on the ground below this; the 10 cm between are not scored
 constexpr double kHeldWithin_m = 0.5;         // a world ball this close to the truth holds the ball
+constexpr double kMovedBeyond_m = 0.2;        // the bound on what a mislocalised teammate may move
 constexpr double kWorldStartsAfter_s = 2.0;   // time for every host to load its plugins before the world's time 0
 constexpr int kPort = 50470;                  // the report's own (the tests use 50431-50436)
 
@@ -53,6 +54,10 @@ struct World {
 const std::vector<World> kWorlds = {
     {"team",
      "three robots: a lob kicked high over the defender, which only the keeper's Kinect sees",
+     {{"keeper", true}, {"defender", false}, {"striker", false}}},
+    {"team_rest",
+     "three robots: the ball lies still for 2 s where the keeper's Kinect and every omni camera see it, then a lob "
+     "past the defender",
      {{"keeper", true}, {"defender", false}, {"striker", false}}},
     {"team5",
      "five robots: the same lob, seen by the keeper's Kinect and the wing's",
@@ -72,14 +77,17 @@ struct Network {
 };
 std::vector<Network> networksOf(const World& world) {
   const UdpImpairment::Faults lossy{0.2, 0.2, 0.05};
-  std::vector<Network> networks{{"perfect", {0.0, 0.0, 0.0}, {}}};
-  const bool the_three = world.folder == "team";
-  if (the_three) {
+  // The lob only the keeper sees through every fault; the keeper mislocalised there, and where the
+  // others can judge it before the lob (team_rest, whose lossy network is the reference).
+  const bool every_fault = world.folder == "team", judged = world.folder == "team_rest";
+  std::vector<Network> networks;
+  if (!judged) networks.push_back({"perfect", {0.0, 0.0, 0.0}, {}});
+  if (every_fault) {
     networks.push_back({"20 % lost", {0.2, 0.0, 0.0}, {}});
     networks.push_back({"up to 200 ms late", {0.0, 0.2, 0.0}, {}});
   }
   networks.push_back({"lossy (20 % lost, up to 200 ms late, 5 % twice)", lossy, {}});
-  if (the_three) {
+  if (every_fault || judged) {
     networks.push_back({"lossy, the keeper's localisation 1 m off", lossy, {"localisation.sim.bias_x_m=1.0"}});
     networks.push_back(
         {"lossy, the keeper's localisation turned 20 deg", lossy, {"localisation.sim.bias_theta_deg=20"}});
@@ -93,6 +101,11 @@ struct Score {
   int air_updates = 0, air_held = 0, ground_updates = 0, ground_held = 0;
   std::vector<double> air_medians_m;  // one per run
   int discounted_first = 0;           // runs in which it said the world's first robot was mislocalised
+  // What the world's first robot changed: how far each world ball lay from the one without its
+  // messages, and the updates in which only one of the two had a world ball.
+  std::vector<double> moved_m;
+  int moved_updates = 0, held_by_one = 0;
+  double last_moved_beyond_s = -1.0;  // world time of the last update moved beyond kMovedBeyond_m (-1: none)
 
   void add(const Score& run) {
     air_m.insert(air_m.end(), run.air_m.begin(), run.air_m.end());
@@ -103,6 +116,10 @@ struct Score {
     ground_held += run.ground_held;
     air_medians_m.insert(air_medians_m.end(), run.air_medians_m.begin(), run.air_medians_m.end());
     discounted_first += run.discounted_first;
+    moved_m.insert(moved_m.end(), run.moved_m.begin(), run.moved_m.end());
+    moved_updates += run.moved_updates;
+    held_by_one += run.held_by_one;
+    last_moved_beyond_s = std::max(last_moved_beyond_s, run.last_moved_beyond_s);
   }
 };
 
@@ -140,6 +157,38 @@ Score scoreLog(const std::string& run, const sim::Scene& scene, double world_sta
   }
   if (!s.air_m.empty()) s.air_medians_m.push_back(fw::quantile(s.air_m, 0.5));
   return s;
+}
+
+// What a teammate changed in a robot's world ball: the robot's log against the same log replayed
+// without that teammate's messages (fusion.team.ignore), at each time both have a world-state update
+// (after each of the robot's own sensor frames; a teammate's message updates at its own times, and
+// an ignored one repeats the last), the last update of each time, over the world's time.
+void addMoved(const std::string& with_log, const std::string& without_log, double world_start_s, double duration_s,
+              Score& s) {
+  const auto updatesOf = [](const std::string& log) {
+    std::map<double, std::optional<Eigen::Vector3d>> updates;
+    for (const fw::JournalEntry& entry : fw::MatchLogReader(log).entries()) {
+      if (const auto* ball = std::get_if<fw::FusedBall>(&entry.item)) {
+        updates[ball->stamp.source_time_s] = ball->position_F;
+      } else if (const auto* none = std::get_if<fw::FusedBallCleared>(&entry.item)) {
+        updates[none->stamp.source_time_s] = std::nullopt;
+      }
+    }
+    return updates;
+  };
+  const auto with = updatesOf(with_log), without = updatesOf(without_log);
+  for (const auto& [time_s, ball_F] : with) {
+    const double t = time_s - world_start_s;
+    const auto other = without.find(time_s);
+    if (t < 0.0 || t > duration_s || other == without.end()) continue;
+    ++s.moved_updates;
+    if (ball_F && other->second) {
+      s.moved_m.push_back((*ball_F - *other->second).norm());
+      if (s.moved_m.back() > kMovedBeyond_m) s.last_moved_beyond_s = std::max(s.last_moved_beyond_s, t);
+    } else if (ball_F || other->second) {
+      ++s.held_by_one;
+    }
+  }
 }
 
 // The one run folder a robot's logger made in folder.
@@ -261,8 +310,21 @@ std::string row(const std::string& network, const Robot& robot, const Score& wit
                      share(alone.air_held, alone.air_updates) + " | " + metres(fw::quantile(with.ground_m, 0.5)) +
                      " | " + share(with.ground_held, with.ground_updates) + " | " +
                      metres(fw::quantile(alone.ground_m, 0.5)) + " | " + share(alone.ground_held, alone.ground_updates);
-  if (mislocalising)
-    text += " | " + (first ? std::string() : std::to_string(with.discounted_first) + " of " + std::to_string(runs));
+  if (mislocalising && first) text += " |  |  |  |";
+  if (mislocalising && !first) {
+    text += " | " + std::to_string(with.discounted_first) + " of " + std::to_string(runs) + " | ";
+    if (with.moved_m.empty()) {
+      text += "- | - | -";
+    } else {
+      const int beyond = static_cast<int>(
+          std::count_if(with.moved_m.begin(), with.moved_m.end(), [](double m) { return m > kMovedBeyond_m; }));
+      char last[32];
+      std::snprintf(last, sizeof last, " (the last at %.2f s)", with.last_moved_beyond_s);
+      text += metres(fw::quantile(with.moved_m, 0.5)) + " / " + metres(fw::quantile(with.moved_m, 0.9)) + " / " +
+              metres(fw::quantile(with.moved_m, 1.0)) + " | " + share(beyond, with.moved_updates) +
+              (beyond > 0 ? last : "") + " | " + share(with.held_by_one, with.moved_updates);
+    }
+  }
   return text + " |\n";
 }
 
@@ -291,9 +353,10 @@ void writeTeamReport(const TeamReportOptions& options, const std::string& out_pa
     for (const Robot& robot : world.robots) {
       const fs::path file = fs::path(options.worlds_dir) / world.folder / (robot.name + ".yaml");
       if (!fs::exists(file)) {
-        throw std::runtime_error("report team: " + file.string() +
-                                 " missing (--worlds is the folder holding team/, team5/, team_hop/ and team_hop3/, "
-                                 "tests/data/scenes in the repository)");
+        throw std::runtime_error(
+            "report team: " + file.string() +
+            " missing (--worlds is the folder holding team/, team_rest/, team5/, team_hop/ and team_hop3/, "
+            "tests/data/scenes in the repository)");
       }
     }
   }
@@ -331,6 +394,15 @@ void writeTeamReport(const TeamReportOptions& options, const std::string& out_pa
           replayMatch(log, options.defaults_dir, "", {"fusion.team.use=false"}, alone_dir.string());
           with[i].add(scoreLog(log, scene, played.world_start_s, world.robots.front().name));
           alone[i].add(scoreLog(theRunIn(alone_dir), scene, played.world_start_s, world.robots.front().name));
+          if (!network.first_robot_overrides.empty() && i > 0) {
+            // The same log without the mislocalised robot's messages: what it moved.
+            const std::string& first = world.robots.front().name;
+            const fs::path without_dir = dir / ("without_" + first) / world.robots[i].name;
+            replayMatch(log, options.defaults_dir, "", {"fusion.team.ignore=[" + first + "]"}, without_dir.string());
+            Score moved;
+            addMoved(log, theRunIn(without_dir), played.world_start_s, scene.duration_s, moved);
+            with[i].add(moved);
+          }
         }
       }
       for (std::size_t i = 0; i < world.robots.size(); ++i) {
@@ -341,8 +413,12 @@ void writeTeamReport(const TeamReportOptions& options, const std::string& out_pa
                 "| network | robot | in the air, with teammates: median / p90 (m) | per run: median (m) | held | "
                 "alone: median / p90 (m) | held | on the ground, with teammates: median (m) | held | alone: median (m) "
                 "| held |" +
-                (mislocalising ? " discounted the keeper |" : "") + "\n|---|---|---|---|---|---|---|---|---|---|---|" +
-                (mislocalising ? "---|" : "") + "\n" + table;
+                (mislocalising ? " discounted the keeper | moved by the keeper: median / p90 / max (m) | moved more "
+                                 "than 0.2 m | held by one "
+                                 "only |"
+                               : "") +
+                "\n|---|---|---|---|---|---|---|---|---|---|---|" + (mislocalising ? "---|---|---|---|" : "") + "\n" +
+                table;
     char line[256];
     std::snprintf(line, sizeof line, "| %s | %zu | %.0f | %.1f |\n", world.folder.c_str(), world.robots.size(),
                   bytes_per_packet, bytes_per_robot_s / 1000.0);
@@ -355,7 +431,8 @@ void writeTeamReport(const TeamReportOptions& options, const std::string& out_pa
       << "Generated by `kinect3d report team --out " << out_path << " --runs " << options.runs
       << (options.worlds.empty() ? "" : " --scenes " + joined(options.worlds))
       << "`, run from the repository's root (the worlds are read from `--worlds`, tests/data/scenes: "
-         "team/, team5/, team_hop/ and team_hop3/; docs/team.md explains the plugin and what the fusion does with "
+         "team/, team_rest/, team5/, team_hop/ and team_hop3/; docs/team.md explains the plugin and what the fusion "
+         "does with "
          "teammates). Each world is played "
       << options.runs
       << " times per network, live: every robot is a host with its own simulated sensors (localisation 3 cm and 1 "
@@ -374,7 +451,14 @@ void writeTeamReport(const TeamReportOptions& options, const std::string& out_pa
          "elsewhere, does not hold it); the errors are those of the world balls there were. In the mislocalised "
          "networks the keeper's localisation is off (`localisation.sim.bias_x_m`, `bias_theta_deg`): its own "
          "rows are its own view, and *discounted the keeper* counts the runs in which the robot said so (a "
-         "`teammate_discounted` event).\n"
+         "`teammate_discounted` event). *Moved by the keeper*: how far each of the robot's world balls over the "
+         "world's time lay from the one it gives when its log is replayed with `fusion.team.ignore=[keeper]` (the "
+         "same data, the keeper's messages not used; the striker's world ball, a weak prior, may still carry the "
+         "keeper's), over the updates in which both had one; *moved more than 0.2 m* (the issue's bound): the share "
+         "of updates in which it did, and the world's time of the last (a robot judges the keeper on its first "
+         "observations of a ball it "
+         "sees too, and the sensors start at the world's time 0); *held by one only*: the share of updates in "
+         "which only one of the two had a world ball.\n"
       << sections
       << "\n## Bandwidth\n\nWhat the links carried on the perfect network, over the whole run (the robots send "
          "from the moment they start, 2 s before the world's time 0): each robot sends every message to each "
