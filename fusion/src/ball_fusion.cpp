@@ -51,6 +51,8 @@ constexpr double kOmniPlacesWithin_m = 0.25;
 constexpr int kFirstJudgements = 3;
 // A discounted teammate is trusted again once its median falls below this share of the discount's.
 constexpr double kTrustAgainShare = 0.5;
+// A teammate's ball nearer than this to it is at it (no share of its distance to scale by).
+constexpr double kAtTheTeammate_m = 0.1;
 // A Kinect ball (this robot's or a teammate's) that moves a track's likeliest ball by more than this
 // found a ball the track had lost. The update's velocity is kept, but not its confidence in it: it
 // comes from where and when the track last knew the ball, and the "when" is a guess. A lob last
@@ -427,7 +429,7 @@ void BallFusion::process(const Frame& frame) {
   // move it until it is found out. (What lies farther is another object to the judge, perhaps the
   // ball where this robot's own view is an orange shirt.)
   const std::optional<Eigen::Vector2d> own_placed_F = judgeTeammates(frame, candidates, branches, pose, t);
-  std::vector<bool> discounted(candidates.size(), false);
+  std::vector<bool> withheld(candidates.size(), false);
   for (std::size_t c = 0; c < candidates.size(); ++c) {
     if (candidates[c].source != Source::kTeammate) continue;
     const TeammateStanding& standing = state.teammates[candidates[c].teammate];
@@ -436,7 +438,7 @@ void BallFusion::process(const Frame& frame) {
         (standing.examples < kFirstJudgements || standing.median_mahalanobis > config_.team.discount_sigma);
     const bool judgeable =
         own_placed_F && (candidates[c].p_F.head<2>() - *own_placed_F).norm() <= kMaxMislocalisation_m;
-    discounted[c] = standing.discounted || (judgeable && unproven);
+    withheld[c] = standing.discounted || (judgeable && unproven);
   }
   struct Pair {
     double log_likelihood;
@@ -447,7 +449,7 @@ void BallFusion::process(const Frame& frame) {
     for (std::size_t k = 0; k < state.tracks.size(); ++k) {
       const Track& track = state.tracks[k];
       // A ball the colour image rejected is not followed; a static floater only continues a confirmed flight.
-      if (candidates[c].colour == fw::ColourVerdict::kRejected || discounted[c]) continue;
+      if (candidates[c].colour == fw::ColourVerdict::kRejected || withheld[c]) continue;
       if (candidates[c].is_static && !(track.confirmed && track.flying())) continue;
       const MeasurementFit fit = BallFilter::fit(branches[k], *candidates[c].measurement);
       if (fit.mahalanobis <= config_.track.gate_sigma) pairs.push_back({fit.log_likelihood, c, k});
@@ -492,10 +494,10 @@ void BallFusion::process(const Frame& frame) {
     }
   }
   // What no track took starts one, but a ball the colour image rejected, a static floater (the match
-  // log has both verdicts in its ball rows) and a discounted teammate's (its event says so).
+  // log has both verdicts in its ball rows) and a withheld teammate's (a discounted one's event says so).
   for (std::size_t c = 0; c < candidates.size(); ++c) {
     if (candidate_used[c] || candidates[c].colour == fw::ColourVerdict::kRejected || candidates[c].is_static ||
-        discounted[c]) {
+        withheld[c]) {
       continue;
     }
     startTrack(candidates[c], t);
@@ -687,7 +689,8 @@ void BallFusion::recordJudgement(int teammate, const Judgement& judgement) {
   // teammate's error grows with the ball's distance from it (20 degrees: 1.7 m at 5 m, 0.2 m at
   // 0.6 m), so that error is taken to shrink with the distance; a shifted one's would not.
   const double error_now_m =
-      standing.discounted_gap_m * std::min(1.0, median_from_teammate_m / std::max(standing.discounted_from_m, 0.1));
+      standing.discounted_gap_m *
+      std::min(1.0, median_from_teammate_m / std::max(standing.discounted_from_m, kAtTheTeammate_m));
   if (standing.discounted && standing.median_mahalanobis < kTrustAgainShare * config_.team.discount_sigma &&
       error_now_m >= config_.team.discount_sigma * median_sigma_m) {
     standing.discounted = false;
