@@ -102,7 +102,7 @@ struct Score {
   std::vector<double> air_medians_m;  // one per run
   int discounted_first = 0;           // runs in which it said the world's first robot was mislocalised
   // What the world's first robot changed: how far each world ball lay from the one without its
-  // messages, and the updates in which only one of the two had a world ball.
+  // observations, and the updates in which only one of the two had a world ball.
   std::vector<double> moved_m;
   int moved_updates = 0, held_by_one = 0;
   double last_moved_beyond_s = -1.0;  // world time of the last update moved beyond kMovedBeyond_m (-1: none)
@@ -160,9 +160,8 @@ Score scoreLog(const std::string& run, const sim::Scene& scene, double world_sta
 }
 
 // What a teammate changed in a robot's world ball: the robot's log against the same log replayed
-// without that teammate's messages (fusion.team.ignore), at each time both have a world-state update
-// (after each of the robot's own sensor frames; a teammate's message updates at its own times, and
-// an ignored one repeats the last), the last update of each time, over the world's time.
+// without that teammate's observations (fusion.team.ignore: its messages still step the fusion), at
+// each time both have a world-state update, the last update of each time, over the world's time.
 void addMoved(const std::string& with_log, const std::string& without_log, double world_start_s, double duration_s,
               Score& s) {
   const auto updatesOf = [](const std::string& log) {
@@ -453,7 +452,7 @@ void writeTeamReport(const TeamReportOptions& options, const std::string& out_pa
          "rows are its own view, and *discounted the keeper* counts the runs in which the robot said so (a "
          "`teammate_discounted` event). *Moved by the keeper*: how far each of the robot's world balls over the "
          "world's time lay from the one it gives when its log is replayed with `fusion.team.ignore=[keeper]` (the "
-         "same data, the keeper's messages not used; the striker's world ball, a weak prior, may still carry the "
+         "same data, the keeper's observations not used; the striker's world ball, a weak prior, may still carry the "
          "keeper's), over the updates in which both had one; *moved more than 0.2 m* (the issue's bound): the share "
          "of updates in which it did, and the world's time of the last (a robot judges the keeper on its first "
          "observations of a ball it "
