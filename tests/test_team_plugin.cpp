@@ -533,6 +533,37 @@ TEST(TeamPlugin, TheRecordedHopWhoseFirstHopWentWideIsPlacedByTheStrikersRays) {
               fw::quantile(one.errors_m, 0.5));
 }
 
+TEST(TeamPlugin, TheRecordedRunWhoseMislocalisedKeeperSawTheBallFirstHasItFoundOut) {
+  // tests/data/team_run/keeper_off_defender/: the defender's match log from a run of the team report's
+  // team_rest world, the keeper's localisation a metre off, that a busy machine slowed: the keeper's
+  // first ball reached the defender a millisecond before its omni camera's first. The ball's track
+  // started from the teammates' balls; judged against it, the keeper agreed with itself, was used,
+  // and held the defender's world ball a metre off (1.1 m in the median) until the end. Teammates are
+  // now judged against what this robot's own sensors see alone.
+  const ScopedTempDir dir;
+  const std::string replayed = replayInto(std::string(TEST_DATA_DIR) + "/team_run/keeper_off_defender", dir.path());
+  const double world_start_s = worldStartOf(replayed);
+  const Eigen::Vector3d resting_F(0.0, 2.0, 0.11);  // tests/data/scenes/team_rest/: until the kick at 2 s
+  std::vector<double> errors_m;
+  int with_keeper = 0;
+  bool discounted = false;
+  for (const fw::JournalEntry& entry : fw::MatchLogReader(replayed).entries()) {
+    if (const auto* event = std::get_if<fw::Event>(&entry.item)) {
+      discounted |= event->kind == "teammate_discounted" && event->message.find("keeper") != std::string::npos;
+    }
+    const auto* ball = std::get_if<fw::FusedBall>(&entry.item);
+    if (ball == nullptr) continue;
+    const double t_s = ball->stamp.source_time_s - world_start_s;
+    if (t_s < 1.1 || t_s > 1.9) continue;  // a second after the keeper's first ball, and before the kick
+    errors_m.push_back((ball->position_F - resting_F).norm());
+    with_keeper += std::count(ball->sources.begin(), ball->sources.end(), "team:keeper") > 0 ? 1 : 0;
+  }
+  EXPECT_TRUE(discounted);
+  ASSERT_GE(errors_m.size(), 20u);
+  EXPECT_LE(fw::quantile(errors_m, 0.9), 0.2);
+  EXPECT_EQ(with_keeper, 0);
+}
+
 TEST(TeamPlugin, ARobotFileWithoutItsIdOrKeyIsRefusedNamingTheKey) {
   const auto error = [](const std::vector<std::string>& overrides) {
     std::vector<std::string> all{"host.plugins=[team]", "team.peers=[127.0.0.2]"};

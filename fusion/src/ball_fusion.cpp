@@ -423,12 +423,18 @@ void BallFusion::process(const Frame& frame) {
   std::vector<std::vector<Hypothesis>> branches;
   for (const Track& track : state.tracks) branches.push_back(track.filter.branchesAt(t));
   // Teammates are judged against this robot's own view first. A discounted teammate's observations
-  // are not used; nor, while this robot's own sensors place the ball, are those of a teammate not yet
-  // judged on judge_examples of them that lie near enough to be judged by it, unless its first few
-  // lie within discount_sigma: this robot sees the ball itself, and a mislocalised teammate would
-  // move it until it is found out. (What lies farther is another object to the judge, perhaps the
-  // ball where this robot's own view is an orange shirt.)
-  const std::optional<Eigen::Vector2d> own_placed_F = judgeTeammates(frame, candidates, branches, pose, t);
+  // are not used; nor are those of a teammate not yet judged on judge_examples of them that lie near
+  // enough to a ball this robot's own sensors place to be judged by it, unless its first few lie
+  // within discount_sigma: this robot sees the ball itself, and a mislocalised teammate would move
+  // it until it is found out. Any ball they place counts, confirmed or not: a teammate's observation
+  // that joined this robot's ball before it was confirmed would be judged against itself, and would
+  // pass. (What lies farther is another object to the judge, perhaps the ball where this robot's own
+  // view is an orange shirt.)
+  judgeTeammates(frame, candidates, pose, t);
+  std::vector<Eigen::Vector2d> own_placed_F;
+  for (const Track& track : state.tracks) {
+    if (ownPlaces(track, pose, t)) own_placed_F.push_back(track.own_view->best().x.head<2>());
+  }
   std::vector<bool> withheld(candidates.size(), false);
   for (std::size_t c = 0; c < candidates.size(); ++c) {
     if (candidates[c].source != Source::kTeammate) continue;
@@ -436,8 +442,9 @@ void BallFusion::process(const Frame& frame) {
     const bool unproven =
         standing.examples < config_.team.judge_examples &&
         (standing.examples < kFirstJudgements || standing.median_mahalanobis > config_.team.discount_sigma);
-    const bool judgeable =
-        own_placed_F && (candidates[c].p_F.head<2>() - *own_placed_F).norm() <= kMaxMislocalisation_m;
+    const bool judgeable = std::any_of(own_placed_F.begin(), own_placed_F.end(), [&](const Eigen::Vector2d& placed_F) {
+      return (candidates[c].p_F.head<2>() - placed_F).norm() <= kMaxMislocalisation_m;
+    });
     withheld[c] = standing.discounted || (judgeable && unproven);
   }
   struct Pair {
@@ -477,6 +484,14 @@ void BallFusion::process(const Frame& frame) {
     }
     const Eigen::Vector3d before_F = BallFilter::likeliest(branches[pair.track]).x.head<3>();
     track.filter.update(branches[pair.track], t, *c.measurement);
+    if (c.source != Source::kTeammate) {
+      const bool own_lost = t - std::max(track.last_kinect_s, track.last_omni_s) > kSourceRecent_s;
+      if (!track.own_view || own_lost) {
+        track.own_view = BallFilter(config_.motion, t, initialHypotheses(c));
+      } else {
+        track.own_view->update(track.own_view->branchesAt(t), t, *c.measurement);
+      }
+    }
     const bool reacquired = c.locates() && (track.filter.best().x.head<3>() - before_F).norm() > kReacquireJump_m;
     if (reacquired) track.filter.forgetVelocity(config_.track.initial_speed_sigma_mps);
     ++track.updates;
@@ -487,10 +502,13 @@ void BallFusion::process(const Frame& frame) {
   // ball is less likely (a ball gone from its view after a kick has most likely flown above it).
   if (frame.source == Source::kOmni) {
     const OmniConfig& omni = config_.omni;
+    const auto seen_probability = [&omni](const Hypothesis& h) {
+      return omni.detection_probability * omniVisibleProbability(h, omni);
+    };
     for (std::size_t k = 0; k < state.tracks.size(); ++k) {
       if (track_used[k]) continue;
-      state.tracks[k].filter.notSeen(
-          t, [&omni](const Hypothesis& h) { return omni.detection_probability * omniVisibleProbability(h, omni); });
+      state.tracks[k].filter.notSeen(t, seen_probability);
+      if (state.tracks[k].own_view) state.tracks[k].own_view->notSeen(t, seen_probability);
     }
   }
   // What no track took starts one, but a ball the colour image rejected, a static floater (the match
@@ -531,9 +549,8 @@ void BallFusion::Track::supportedBy(const Candidate& candidate, double t_s) {
   }
 }
 
-std::optional<Eigen::Vector2d> BallFusion::judgeTeammates(const Frame& frame, const std::vector<Candidate>& candidates,
-                                                          const std::vector<std::vector<Hypothesis>>& branches,
-                                                          const fw::RobotPose& pose, double t_s) {
+void BallFusion::judgeTeammates(const Frame& frame, const std::vector<Candidate>& candidates, const fw::RobotPose& pose,
+                                double t_s) {
   State& state = state_;
   for (const TeammateBall& mate : frame.team) state.teammates[mate.robot_id].name = mate.name;
   for (const TeammateRay& mate : frame.team_rays) state.teammates[mate.robot_id].name = mate.name;
@@ -543,25 +560,20 @@ std::optional<Eigen::Vector2d> BallFusion::judgeTeammates(const Frame& frame, co
   // objects: orange shirts, a second ball).
   const auto ownSupport_s = [](const Track& track) { return std::max(track.last_kinect_s, track.last_omni_s); };
   const Track* own = nullptr;
-  const std::vector<Hypothesis>* own_branches = nullptr;
-  for (std::size_t k = 0; k < state.tracks.size(); ++k) {
-    const Track& track = state.tracks[k];
+  for (const Track& track : state.tracks) {
     if (!track.confirmed || t_s - ownSupport_s(track) > kJudgeOwnSupportWithin_s) continue;
     const bool better =
         !own || track.id == state.world_id || (own->id != state.world_id && ownSupport_s(track) > ownSupport_s(*own));
-    if (better) {
-      own = &track;
-      own_branches = &branches[k];
-    }
+    if (better) own = &track;
   }
-  if (own == nullptr) return std::nullopt;
+  if (own == nullptr) return;
   // A ball another teammate supported lately may rest on that teammate rather than on this robot's
   // sensors (a far omni ball, uncertain by metres, joins a teammate's Kinect ball a metre off): unless
   // this robot's own sensors place it (its Kinect, or its omni camera a ball on the floor near enough),
   // a teammate is judged against it only if every other teammate that supported it has been judged
   // and found good. Else a mislocalised keeper would have its honest teammates discounted; and two
   // teammates that see the ball this robot sees would wait for each other for ever.
-  const bool own_places = t_s - own->last_kinect_s <= kJudgeOwnSupportWithin_s || omniPlaces(*own, pose, t_s);
+  const bool own_places = ownPlaces(*own, pose, t_s);
   const auto vouched = [&](int id) {
     const auto standing = state.teammates.find(id);
     return standing != state.teammates.end() && standing->second.examples >= config_.team.judge_examples &&
@@ -575,7 +587,7 @@ std::optional<Eigen::Vector2d> BallFusion::judgeTeammates(const Frame& frame, co
   std::map<int, Judgement> closest;
   for (const Candidate& candidate : candidates) {
     if (candidate.source != Source::kTeammate || (!own_places && restsOnOthers(candidate.teammate))) continue;
-    std::optional<Judgement> judged = judge(candidate, *own, *own_branches, pose, t_s);
+    std::optional<Judgement> judged = judge(candidate, *own, pose, t_s);
     if (judged) judged->from_teammate_m = (candidate.p_F.head<2>() - candidate.teammate_xy_F).norm();
     const auto found = closest.find(candidate.teammate);
     if (judged && (found == closest.end() || judged->mahalanobis < found->second.mahalanobis)) {
@@ -583,12 +595,9 @@ std::optional<Eigen::Vector2d> BallFusion::judgeTeammates(const Frame& frame, co
     }
   }
   for (const auto& [teammate, judgement] : closest) recordJudgement(teammate, judgement);
-  if (!own_places) return std::nullopt;
-  return own->filter.best().x.head<2>();
 }
 
 std::optional<BallFusion::Judgement> BallFusion::judge(const Candidate& candidate, const Track& own,
-                                                       const std::vector<Hypothesis>& own_branches,
                                                        const fw::RobotPose& pose, double t_s) const {
   // Only against what this robot's own sensors place: its Kinect's ball; the world's ball on the
   // floor, which its omni camera holds (a teammate's ray); or the ball its omni camera holds where the
@@ -596,6 +605,7 @@ std::optional<BallFusion::Judgement> BallFusion::judge(const Candidate& candidat
   const bool own_kinect = t_s - own.last_kinect_s <= kJudgeOwnSupportWithin_s;
   const bool own_omni = t_s - own.last_omni_s <= kJudgeOwnSupportWithin_s;
   if (!own_kinect && !own_omni) return std::nullopt;
+  const std::vector<Hypothesis> own_branches = own.own_view->branchesAt(t_s);
   const Hypothesis& best =
       *std::max_element(own_branches.begin(), own_branches.end(),
                         [](const Hypothesis& a, const Hypothesis& b) { return a.weight < b.weight; });
@@ -617,7 +627,7 @@ std::optional<BallFusion::Judgement> BallFusion::judge(const Candidate& candidat
     // An omni ray by its bearing alone (a ball in the air lies on the bearing of its phantom). A ray
     // does not say whether the ball is in the air: against a ball this robot's omni camera alone holds,
     // only the world's on the floor (another may be an orange shirt, or a phantom).
-    if (!own_kinect && (own.id != state_.world_id || own.flying())) return std::nullopt;
+    if (!own_kinect && (own.id != state_.world_id || own.ownViewFlies())) return std::nullopt;
     return byBearing(candidate.ray_origin_F->head<2>(), candidate.p_F.head<2>(),
                      candidate.measurement->noise(candidate.p_F)(0, 0));
   }
@@ -633,7 +643,7 @@ std::optional<BallFusion::Judgement> BallFusion::judge(const Candidate& candidat
     // the ball on the floor near enough to know: there is one ball, and a teammate that puts it
     // where this robot sees none is off (its localisation, or its eyes).
     const double own_m = (own_F.head<2>() - camera).norm();
-    if (own.flying() != candidate.in_air || candidate.p_F.z() > config_.omni.max_height_m ||
+    if (own.ownViewFlies() != candidate.in_air || candidate.p_F.z() > config_.omni.max_height_m ||
         (std::abs(own_m - d) > std::max(kSameBallAlong_m, kSameBallAlongShare * d) && !omniPlaces(own, pose, t_s))) {
       return std::nullopt;
     }
@@ -657,9 +667,13 @@ std::optional<BallFusion::Judgement> BallFusion::judge(const Candidate& candidat
 }
 
 bool BallFusion::omniPlaces(const Track& own, const fw::RobotPose& pose, double t_s) const {
-  const double distance_m = (own.filter.best().x.head<2>() - Eigen::Vector2d(pose.x_m, pose.y_m)).norm();
-  return t_s - own.last_omni_s <= kJudgeOwnSupportWithin_s && !own.flying() &&
-         config_.omni.distance_sigma_m + config_.omni.distance_sigma_fraction * distance_m <= kOmniPlacesWithin_m;
+  if (t_s - own.last_omni_s > kJudgeOwnSupportWithin_s || own.ownViewFlies()) return false;
+  const double distance_m = (own.own_view->best().x.head<2>() - Eigen::Vector2d(pose.x_m, pose.y_m)).norm();
+  return config_.omni.distance_sigma_m + config_.omni.distance_sigma_fraction * distance_m <= kOmniPlacesWithin_m;
+}
+
+bool BallFusion::ownPlaces(const Track& own, const fw::RobotPose& pose, double t_s) const {
+  return t_s - own.last_kinect_s <= kJudgeOwnSupportWithin_s || omniPlaces(own, pose, t_s);
 }
 
 void BallFusion::recordJudgement(int teammate, const Judgement& judgement) {
@@ -729,6 +743,24 @@ void BallFusion::learnLatency(const Track& track, const Candidate& candidate, do
   state_.latency.add(residual, variance, rate, applied_s);
 }
 
+std::vector<Hypothesis> BallFusion::initialHypotheses(const Candidate& candidate) const {
+  Hypothesis h;
+  h.x.head<3>() = candidate.p_F;
+  h.P.setZero();
+  h.P.topLeftCorner<3, 3>() = candidate.covariance_F;
+  h.P.bottomRightCorner<3, 3>() = std::pow(config_.track.initial_speed_sigma_mps, 2) * Eigen::Matrix3d::Identity();
+  if (candidate.in_air) {
+    h.mode = fw::BallState::kAir;
+    return {h};
+  }
+  // On the floor by its looks; a ball just kicked looks the same for a frame.
+  h.weight = 0.9;
+  Hypothesis kicked = h;
+  kicked.mode = fw::BallState::kAir;
+  kicked.weight = 0.1;
+  return {h, kicked};
+}
+
 void BallFusion::startTrack(const Candidate& candidate, double t_s) {
   if (state_.tracks.size() >= kMaxTracks) {
     const auto oldest_tentative =
@@ -736,24 +768,8 @@ void BallFusion::startTrack(const Candidate& candidate, double t_s) {
     if (oldest_tentative == state_.tracks.end()) return;  // eight confirmed balls: no room for a ninth
     state_.tracks.erase(oldest_tentative);
   }
-  Hypothesis h;
-  h.x.head<3>() = candidate.p_F;
-  h.P.setZero();
-  h.P.topLeftCorner<3, 3>() = candidate.covariance_F;
-  h.P.bottomRightCorner<3, 3>() = std::pow(config_.track.initial_speed_sigma_mps, 2) * Eigen::Matrix3d::Identity();
-  std::vector<Hypothesis> hypotheses;
-  if (candidate.in_air) {
-    h.mode = fw::BallState::kAir;
-    hypotheses.push_back(h);
-  } else {
-    // On the floor by its looks; a ball just kicked looks the same for a frame.
-    h.weight = 0.9;
-    hypotheses.push_back(h);
-    h.mode = fw::BallState::kAir;
-    h.weight = 0.1;
-    hypotheses.push_back(h);
-  }
-  Track track{state_.next_id++, BallFilter(config_.motion, t_s, hypotheses)};
+  Track track{state_.next_id++, BallFilter(config_.motion, t_s, initialHypotheses(candidate))};
+  if (candidate.source != Source::kTeammate) track.own_view = track.filter;
   track.updates = 1;
   track.born_s = t_s;
   track.supportedBy(candidate, t_s);

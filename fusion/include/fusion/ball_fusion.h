@@ -149,6 +149,11 @@ class BallFusion {
     bool omni_born = false;                      // started by an omni ball: perhaps the phantom of a ball in the air
     bool colour_confirmed = false;               // the colour image confirmed one of its Kinect balls
     bool confirmed = false;
+    // The same ball as this robot's own sensors alone see it (since they last found it): teammates
+    // are judged against it. The track's filter will not do: a teammate's observations in it would
+    // be judged against themselves, and a mislocalised one that reached this robot's ball first
+    // would pass.
+    std::optional<BallFilter> own_view = std::nullopt;
     // This robot's Kinect balls of it, the newest kKinectBearingsKept, oldest first: their bearings in
     // the robot frame time the omni camera.
     std::array<KinectBearing, kKinectBearingsKept> kinect_bearings = {};
@@ -156,6 +161,8 @@ class BallFusion {
 
     // The air mode explains more of the data than the ground mode.
     bool flying() const { return filter.airProbability() > 0.5; }
+    // The same, as this robot's own sensors see it.
+    bool ownViewFlies() const { return own_view && own_view->airProbability() > 0.5; }
     // The candidate's measurement (a teammate's: of that robot) supported it at t_s; a Kinect's also
     // located it.
     void supportedBy(const Candidate& candidate, double t_s);
@@ -219,20 +226,21 @@ class BallFusion {
   void process(const Frame& frame);
   std::vector<Candidate> candidatesOf(const Frame& frame, const fw::RobotPose& pose) const;
   void startTrack(const Candidate& candidate, double t_s);
+  // The hypotheses a track (or its own view) starts from with candidate.
+  std::vector<Hypothesis> initialHypotheses(const Candidate& candidate) const;
   // Every teammate in frame by its observation that best matches the ball this robot's own sensors
-  // support now (none: nobody is judged); this robot at pose. Where that ball lies when its own
-  // sensors place it (its Kinect, or its omni camera near enough: omniPlaces).
-  std::optional<Eigen::Vector2d> judgeTeammates(const Frame& frame, const std::vector<Candidate>& candidates,
-                                                const std::vector<std::vector<Hypothesis>>& branches,
-                                                const fw::RobotPose& pose, double t_s);
-  // How far a teammate's ball or ray lies from this robot's ball (own, its branches at t_s), when
-  // this robot's own sensors support that ball well enough to judge by.
-  std::optional<Judgement> judge(const Candidate& candidate, const Track& own,
-                                 const std::vector<Hypothesis>& own_branches, const fw::RobotPose& pose,
+  // support now (none: nobody is judged); this robot at pose.
+  void judgeTeammates(const Frame& frame, const std::vector<Candidate>& candidates, const fw::RobotPose& pose,
+                      double t_s);
+  // How far a teammate's ball or ray lies from this robot's ball (own's own view), when this robot's
+  // own sensors support that ball well enough to judge by.
+  std::optional<Judgement> judge(const Candidate& candidate, const Track& own, const fw::RobotPose& pose,
                                  double t_s) const;
   // This robot's omni camera, of its own, places own's ball on the floor well enough to judge by:
   // it supported it just now, near enough that its distance error is small.
   bool omniPlaces(const Track& own, const fw::RobotPose& pose, double t_s) const;
+  // This robot's own sensors place own's ball: its Kinect supported it just now, or omniPlaces.
+  bool ownPlaces(const Track& own, const fw::RobotPose& pose, double t_s) const;
   // The teammate's standing after one more such judgement.
   void recordJudgement(int teammate, const Judgement& judgement);
   const std::string& nameOf(Source source) const;  // this robot's own sources
