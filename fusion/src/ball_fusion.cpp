@@ -424,16 +424,15 @@ void BallFusion::process(const Frame& frame) {
   for (const Track& track : state.tracks) branches.push_back(track.filter.branchesAt(t));
   // Teammates are judged against this robot's own view first. A discounted teammate's observations
   // are not used; nor are those of a teammate not yet judged on judge_examples of them that lie near
-  // enough to a ball this robot's own sensors place to be judged by it, unless its first few lie
-  // within discount_sigma: this robot sees the ball itself, and a mislocalised teammate would move
-  // it until it is found out. Any ball they place counts, confirmed or not: a teammate's observation
-  // that joined this robot's ball before it was confirmed would be judged against itself, and would
-  // pass. (What lies farther is another object to the judge, perhaps the ball where this robot's own
-  // view is an orange shirt.)
+  // enough to a confirmed ball this robot's own sensors place to be judged by it, unless its first
+  // few lie within discount_sigma: this robot sees the ball itself, and a mislocalised teammate would
+  // move it until it is found out. (What lies farther is another object to the judge, perhaps the
+  // ball where this robot's own view is an orange shirt; an unconfirmed ball may be the phantom of a
+  // ball in the air, which the teammate's Kinect places.)
   judgeTeammates(frame, candidates, pose, t);
   std::vector<Eigen::Vector2d> own_placed_F;
   for (const Track& track : state.tracks) {
-    if (ownPlaces(track, pose, t)) own_placed_F.push_back(track.own_view->best().x.head<2>());
+    if (track.confirmed && ownPlaces(track, pose, t)) own_placed_F.push_back(track.own_view->best().x.head<2>());
   }
   std::vector<bool> withheld(candidates.size(), false);
   for (std::size_t c = 0; c < candidates.size(); ++c) {
@@ -555,8 +554,9 @@ void BallFusion::judgeTeammates(const Frame& frame, const std::vector<Candidate>
   for (const TeammateBall& mate : frame.team) state.teammates[mate.robot_id].name = mate.name;
   for (const TeammateRay& mate : frame.team_rays) state.teammates[mate.robot_id].name = mate.name;
   // Each teammate by the one of its observations that best matches this robot's own ball: the
-  // confirmed track its own sensors support now (the world's ball when they do; it may rest on the
-  // teammate itself), and of the teammate's observations the closest (its others may be other
+  // confirmed track its own sensors support now (the world's ball when they do), as they alone see
+  // it (its own view: whoever else supports the track, no teammate is judged against itself or
+  // against another), and of the teammate's observations the closest (its others may be other
   // objects: orange shirts, a second ball).
   const auto ownSupport_s = [](const Track& track) { return std::max(track.last_kinect_s, track.last_omni_s); };
   const Track* own = nullptr;
@@ -567,26 +567,9 @@ void BallFusion::judgeTeammates(const Frame& frame, const std::vector<Candidate>
     if (better) own = &track;
   }
   if (own == nullptr) return;
-  // A ball another teammate supported lately may rest on that teammate rather than on this robot's
-  // sensors (a far omni ball, uncertain by metres, joins a teammate's Kinect ball a metre off): unless
-  // this robot's own sensors place it (its Kinect, or its omni camera a ball on the floor near enough),
-  // a teammate is judged against it only if every other teammate that supported it has been judged
-  // and found good. Else a mislocalised keeper would have its honest teammates discounted; and two
-  // teammates that see the ball this robot sees would wait for each other for ever.
-  const bool own_places = ownPlaces(*own, pose, t_s);
-  const auto vouched = [&](int id) {
-    const auto standing = state.teammates.find(id);
-    return standing != state.teammates.end() && standing->second.examples >= config_.team.judge_examples &&
-           !standing->second.discounted;
-  };
-  const auto restsOnOthers = [&](int teammate) {
-    return std::any_of(own->last_teammate_s.begin(), own->last_teammate_s.end(), [&](const auto& support) {
-      return support.first != teammate && t_s - support.second <= kSourceRecent_s && !vouched(support.first);
-    });
-  };
   std::map<int, Judgement> closest;
   for (const Candidate& candidate : candidates) {
-    if (candidate.source != Source::kTeammate || (!own_places && restsOnOthers(candidate.teammate))) continue;
+    if (candidate.source != Source::kTeammate) continue;
     std::optional<Judgement> judged = judge(candidate, *own, pose, t_s);
     if (judged) judged->from_teammate_m = (candidate.p_F.head<2>() - candidate.teammate_xy_F).norm();
     const auto found = closest.find(candidate.teammate);
@@ -627,7 +610,7 @@ std::optional<BallFusion::Judgement> BallFusion::judge(const Candidate& candidat
     // An omni ray by its bearing alone (a ball in the air lies on the bearing of its phantom). A ray
     // does not say whether the ball is in the air: against a ball this robot's omni camera alone holds,
     // only the world's on the floor (another may be an orange shirt, or a phantom).
-    if (!own_kinect && (own.id != state_.world_id || own.ownViewFlies())) return std::nullopt;
+    if (!own_kinect && (own.id != state_.world_id || own.mayFly())) return std::nullopt;
     return byBearing(candidate.ray_origin_F->head<2>(), candidate.p_F.head<2>(),
                      candidate.measurement->noise(candidate.p_F)(0, 0));
   }
@@ -643,7 +626,7 @@ std::optional<BallFusion::Judgement> BallFusion::judge(const Candidate& candidat
     // the ball on the floor near enough to know: there is one ball, and a teammate that puts it
     // where this robot sees none is off (its localisation, or its eyes).
     const double own_m = (own_F.head<2>() - camera).norm();
-    if (own.ownViewFlies() != candidate.in_air || candidate.p_F.z() > config_.omni.max_height_m ||
+    if (own.mayFly() != candidate.in_air || candidate.p_F.z() > config_.omni.max_height_m ||
         (std::abs(own_m - d) > std::max(kSameBallAlong_m, kSameBallAlongShare * d) && !omniPlaces(own, pose, t_s))) {
       return std::nullopt;
     }
@@ -667,7 +650,7 @@ std::optional<BallFusion::Judgement> BallFusion::judge(const Candidate& candidat
 }
 
 bool BallFusion::omniPlaces(const Track& own, const fw::RobotPose& pose, double t_s) const {
-  if (t_s - own.last_omni_s > kJudgeOwnSupportWithin_s || own.ownViewFlies()) return false;
+  if (t_s - own.last_omni_s > kJudgeOwnSupportWithin_s || own.mayFly()) return false;
   const double distance_m = (own.own_view->best().x.head<2>() - Eigen::Vector2d(pose.x_m, pose.y_m)).norm();
   return config_.omni.distance_sigma_m + config_.omni.distance_sigma_fraction * distance_m <= kOmniPlacesWithin_m;
 }

@@ -161,8 +161,9 @@ class BallFusion {
 
     // The air mode explains more of the data than the ground mode.
     bool flying() const { return filter.airProbability() > 0.5; }
-    // The same, as this robot's own sensors see it.
-    bool ownViewFlies() const { return own_view && own_view->airProbability() > 0.5; }
+    // The track's filter or this robot's own view says the ball is in the air (its omni camera alone
+    // takes a ball hopping after a lob for one on the floor, farther out).
+    bool mayFly() const { return flying() || (own_view && own_view->airProbability() > 0.5); }
     // The candidate's measurement (a teammate's: of that robot) supported it at t_s; a Kinect's also
     // located it.
     void supportedBy(const Candidate& candidate, double t_s);
