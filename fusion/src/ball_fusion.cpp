@@ -46,11 +46,13 @@ constexpr double kSameBallAlongShare = 0.3;
 // else supports it, while its distance error is within this (5 cm + 5 % of the distance by default:
 // 4 m). A farther ball is placed by whoever joins it.
 constexpr double kOmniPlacesWithin_m = 0.25;
-// A teammate not yet judged on judge_examples of its observations is used beside this robot's own
-// view once this many agree with it (their median within discount_sigma).
-constexpr int kFirstJudgements = 3;
 // A discounted teammate is trusted again once its median falls below this share of the discount's.
 constexpr double kTrustAgainShare = 0.5;
+// A teammate not yet judged on judge_examples of its observations is used beside this robot's own
+// view once this many agree with it as well as a discounted one must to be trusted again (their
+// median within kTrustAgainShare of discount_sigma). Within discount_sigma itself, a keeper a metre
+// off passed on three judgements against a ball its own first balls had pulled its way.
+constexpr int kFirstJudgements = 3;
 // A teammate's ball nearer than this to it is at it (no share of its distance to scale by).
 constexpr double kAtTheTeammate_m = 0.1;
 // A Kinect ball (this robot's or a teammate's) that moves a track's likeliest ball by more than this
@@ -438,9 +440,9 @@ void BallFusion::process(const Frame& frame) {
   for (std::size_t c = 0; c < candidates.size(); ++c) {
     if (candidates[c].source != Source::kTeammate) continue;
     const TeammateStanding& standing = state.teammates[candidates[c].teammate];
-    const bool unproven =
-        standing.examples < config_.team.judge_examples &&
-        (standing.examples < kFirstJudgements || standing.median_mahalanobis > config_.team.discount_sigma);
+    const bool unproven = standing.examples < config_.team.judge_examples &&
+                          (standing.examples < kFirstJudgements ||
+                           standing.median_mahalanobis > kTrustAgainShare * config_.team.discount_sigma);
     const bool judgeable = std::any_of(own_placed_F.begin(), own_placed_F.end(), [&](const Eigen::Vector2d& placed_F) {
       return (candidates[c].p_F.head<2>() - placed_F).norm() <= kMaxMislocalisation_m;
     });
