@@ -427,7 +427,7 @@ void BallFusion::process(const Frame& frame) {
   // Teammates are judged against this robot's own view first. A discounted teammate's observations
   // are not used; nor are those of a teammate not yet judged on judge_examples of them that lie near
   // enough to a confirmed ball this robot's own sensors place to be judged by it, unless its first
-  // few lie within discount_sigma: this robot sees the ball itself, and a mislocalised teammate would
+  // few pass (kFirstJudgements): this robot sees the ball itself, and a mislocalised teammate would
   // move it until it is found out. (What lies farther is another object to the judge, perhaps the
   // ball where this robot's own view is an orange shirt; an unconfirmed ball may be the phantom of a
   // ball in the air, which the teammate's Kinect places.)
