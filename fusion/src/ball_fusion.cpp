@@ -569,10 +569,11 @@ void BallFusion::judgeTeammates(const Frame& frame, const std::vector<Candidate>
     if (better) own = &track;
   }
   if (own == nullptr) return;
+  const std::vector<Hypothesis> own_branches = own->own_view->branchesAt(t_s);
   std::map<int, Judgement> closest;
   for (const Candidate& candidate : candidates) {
     if (candidate.source != Source::kTeammate) continue;
-    std::optional<Judgement> judged = judge(candidate, *own, pose, t_s);
+    std::optional<Judgement> judged = judge(candidate, *own, own_branches, pose, t_s);
     if (judged) judged->from_teammate_m = (candidate.p_F.head<2>() - candidate.teammate_xy_F).norm();
     const auto found = closest.find(candidate.teammate);
     if (judged && (found == closest.end() || judged->mahalanobis < found->second.mahalanobis)) {
@@ -583,6 +584,7 @@ void BallFusion::judgeTeammates(const Frame& frame, const std::vector<Candidate>
 }
 
 std::optional<BallFusion::Judgement> BallFusion::judge(const Candidate& candidate, const Track& own,
+                                                       const std::vector<Hypothesis>& own_branches,
                                                        const fw::RobotPose& pose, double t_s) const {
   // Only against what this robot's own sensors place: its Kinect's ball; the world's ball on the
   // floor, which its omni camera holds (a teammate's ray); or the ball its omni camera holds where the
@@ -590,7 +592,6 @@ std::optional<BallFusion::Judgement> BallFusion::judge(const Candidate& candidat
   const bool own_kinect = t_s - own.last_kinect_s <= kJudgeOwnSupportWithin_s;
   const bool own_omni = t_s - own.last_omni_s <= kJudgeOwnSupportWithin_s;
   if (!own_kinect && !own_omni) return std::nullopt;
-  const std::vector<Hypothesis> own_branches = own.own_view->branchesAt(t_s);
   const Hypothesis& best =
       *std::max_element(own_branches.begin(), own_branches.end(),
                         [](const Hypothesis& a, const Hypothesis& b) { return a.weight < b.weight; });

@@ -233,9 +233,10 @@ class BallFusion {
   // support now (none: nobody is judged); this robot at pose.
   void judgeTeammates(const Frame& frame, const std::vector<Candidate>& candidates, const fw::RobotPose& pose,
                       double t_s);
-  // How far a teammate's ball or ray lies from this robot's ball (own's own view), when this robot's
-  // own sensors support that ball well enough to judge by.
-  std::optional<Judgement> judge(const Candidate& candidate, const Track& own, const fw::RobotPose& pose,
+  // How far a teammate's ball or ray lies from this robot's ball (own's own view, its branches at
+  // t_s), when this robot's own sensors support that ball well enough to judge by.
+  std::optional<Judgement> judge(const Candidate& candidate, const Track& own,
+                                 const std::vector<Hypothesis>& own_branches, const fw::RobotPose& pose,
                                  double t_s) const;
   // This robot's omni camera, of its own, places own's ball on the floor well enough to judge by:
   // it supported it just now, near enough that its distance error is small.
