@@ -251,6 +251,31 @@ TEST(MatchLog, ThePosesOdometryIsKeptAndAVersion7LogsPosesReadWithout) {
   EXPECT_FALSE(pose.odometry);
 }
 
+TEST(MatchLog, TheRobotsAnOmniImageSawAreKeptAndAVersion8LogsImagesReadWithout) {
+  ScopedTempDir dir;
+  {
+    fw::MatchLogWriter writer(dir.path().string(), {});
+    fw::OmniFrame image{{10.0, 10.01}, {}, "omni"};
+    image.robots = {{0.4, 3.5, 0.17, 0.01}, {-2.0, 6.25, 0.28, 0.01}};
+    writer.write({1.0, image});
+  }
+  {
+    const std::vector<fw::JournalEntry> read = fw::MatchLogReader(dir.path().string()).entries();
+    ASSERT_EQ(read.size(), 1u);
+    const auto& robots = std::get<fw::OmniFrame>(read[0].item).robots;
+    ASSERT_EQ(robots.size(), 2u);
+    EXPECT_DOUBLE_EQ(robots[1].bearing_rad, -2.0);
+    EXPECT_DOUBLE_EQ(robots[1].distance_m, 6.25);
+    EXPECT_DOUBLE_EQ(robots[1].distance_sigma_m, 0.28);
+    EXPECT_DOUBLE_EQ(robots[1].bearing_sigma_rad, 0.01);
+  }
+  // Made as version 8 wrote it: no table of robots.
+  ASSERT_NO_FATAL_FAILURE(rewriteAsOlderVersion(dir.path(), "DROP TABLE omni_robot; PRAGMA user_version=8"));
+  const std::vector<fw::JournalEntry> read = fw::MatchLogReader(dir.path().string()).entries();
+  ASSERT_EQ(read.size(), 1u);
+  EXPECT_TRUE(std::get<fw::OmniFrame>(read[0].item).robots.empty());
+}
+
 TEST(MatchLog, AVersion4LogWithItsDepthAsPngStillReads) {
   ScopedTempDir dir;
   {
@@ -363,7 +388,7 @@ TEST(MatchLog, ABadLogIsNamedWithItsFileAndWhatIsWrong) {
   sqlite3_exec(db, "PRAGMA user_version=99", nullptr, nullptr, nullptr);
   sqlite3_close(db);
   EXPECT_NE(
-      errorOf(dir.path().string()).find(file.string() + ": schema version 99, this program reads versions 2 to 8"),
+      errorOf(dir.path().string()).find(file.string() + ": schema version 99, this program reads versions 2 to 9"),
       std::string::npos)
       << errorOf(dir.path().string());
 }
@@ -495,7 +520,17 @@ TEST_F(LoggedDemo, ExportsTheFilesTheOtherCommandsRead) {
             0);
   const fw::MatchLogReader log(folder_);
   const auto entries = log.entries();
-  EXPECT_EQ(fusion::readOmniFile(omni.string(), "omni").size(), itemsOf<fw::OmniFrame>(entries).size());
+  const std::vector<fw::OmniFrame> omni_read = fusion::readOmniFile(omni.string(), "omni");
+  ASSERT_EQ(omni_read.size(), itemsOf<fw::OmniFrame>(entries).size());
+  // The robots each image saw go with its balls (the demo's lob_over_robot has a robot driving by).
+  const std::vector<fw::OmniFrame> omni_logged = itemsOf<fw::OmniFrame>(entries);
+  std::size_t robots_logged = 0, robots_read = 0;
+  for (std::size_t i = 0; i < omni_read.size(); ++i) {
+    robots_logged += omni_logged[i].robots.size();
+    robots_read += omni_read[i].robots.size();
+  }
+  EXPECT_GT(robots_logged, omni_read.size() / 2);
+  EXPECT_EQ(robots_read, robots_logged);
   EXPECT_EQ(fusion::readPoseFile(pose.string()).size(), itemsOf<fw::RobotPose>(entries).size());
   // The simulated localisation publishes the wheels' odometry, and the pose file carries it on.
   EXPECT_TRUE(fusion::readPoseFile(pose.string()).back().odometry);

@@ -387,6 +387,40 @@ TEST(Simulator, AnotherKinectFacingOursHolesItsViewAndAddsFalseDepth) {
   EXPECT_LT(holes + false_depth, static_cast<int>(clean.depth_mm.size() / 8)) << "only where the patterns overlap";
 }
 
+TEST(Simulator, TheOmniCameraSeesTheOtherRobotsWhereTheyStandAsFarAsItReaches) {
+  // The team world as the defender sees it: it drives sideways at y = 0; the keeper stands 6 m
+  // behind it, the striker 3 m to its right and 3 m ahead (tests/data/scenes/team/defender.yaml).
+  const Scene scene = kinect3d::sim::loadScene(std::string(TEST_DATA_DIR) + "/scenes/team/defender.yaml");
+  const std::vector<Eigen::Vector2d> robots_F{{1.5, -6.0}, {3.0, 3.0}};
+  kinect3d::sim::OmniCameraModel model;
+  model.miss_probability = 0.0;
+  model.false_rate_hz = 0.0;
+  for (const double reach_m : {9.0, 4.5}) {
+    model.max_distance_m = reach_m;
+    const kinect3d::sim::OmniCameraSimulator camera(scene, model);
+    std::vector<double> errors_sigma;
+    for (int i = 0; i < camera.frameCount(); ++i) {
+      const fw::OmniFrame frame = camera.frame(i);
+      const fw::RobotPose pose = scene.robot.poseAt(camera.captureTime_s(i) - scene.start_time_s);
+      std::size_t in_reach = 0;
+      for (const Eigen::Vector2d& robot_F : robots_F) {
+        in_reach += (robot_F - Eigen::Vector2d(pose.x_m, pose.y_m)).norm() < reach_m - 0.5 ? 1 : 0;
+      }
+      EXPECT_GE(frame.robots.size(), in_reach) << "image " << i << ", reach " << reach_m;
+      EXPECT_LE(frame.robots.size(), reach_m > 7.0 ? 2u : 1u) << "image " << i << ", the keeper beyond reach";
+      for (const fw::OmniRobotObservation& robot : frame.robots) {
+        const Eigen::Vector2d seen_F = pose.fieldFromRobot(robot.groundPoint_R()).head<2>();
+        double nearest_m = 1e9;
+        for (const Eigen::Vector2d& robot_F : robots_F) nearest_m = std::min(nearest_m, (seen_F - robot_F).norm());
+        errors_sigma.push_back(nearest_m / robot.distance_sigma_m);
+      }
+    }
+    ASSERT_GT(errors_sigma.size(), 50u);
+    EXPECT_LT(fw::quantile(errors_sigma, 0.5), 1.5) << "where they stand, with the camera's noise";
+    EXPECT_LT(fw::quantile(errors_sigma, 0.99), 4.5);
+  }
+}
+
 TEST(Simulator, TheWheelsOdometryFollowsTheTrueMotionOffByItsDrawnError) {
   // pass_on_ground's robot drives a metre and turns as it goes.
   const Scene scene = kinect3d::sim::loadScene("pass_on_ground");

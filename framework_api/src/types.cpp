@@ -105,10 +105,16 @@ bool BallObservation::isApprox(const BallObservation& other, double tol_m) const
          (covariance_m2 - other.covariance_m2).cwiseAbs().maxCoeff() <= tol_m * tol_m;
 }
 
-Eigen::Vector3d OmniBallObservation::groundPoint_R() const {
-  // Bearing 0 looks along +y; positive turns towards -x (counter-clockwise seen from above).
+namespace {
+// Bearing 0 looks along +y; positive turns towards -x (counter-clockwise seen from above).
+Eigen::Vector3d omniGroundPoint_R(double bearing_rad, double distance_m) {
   return {-distance_m * std::sin(bearing_rad), distance_m * std::cos(bearing_rad), 0.0};
 }
+}  // namespace
+
+Eigen::Vector3d OmniBallObservation::groundPoint_R() const { return omniGroundPoint_R(bearing_rad, distance_m); }
+
+Eigen::Vector3d OmniRobotObservation::groundPoint_R() const { return omniGroundPoint_R(bearing_rad, distance_m); }
 
 void BallTrajectory::propagate(double t_s, Eigen::Vector3d& p, Eigen::Vector3d& v) const {
   p = position_m;

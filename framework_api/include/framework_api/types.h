@@ -135,6 +135,17 @@ struct OmniBallObservation {
   Eigen::Vector3d groundPoint_R() const;
 };
 
+// A robot the omni camera sees (a teammate or an opponent: it cannot tell them apart): its centre on
+// the floor as a bearing and a distance in the robot frame, as for a ball on the floor.
+struct OmniRobotObservation {
+  double bearing_rad = 0.0;  // from the robot's +y axis, positive towards -x (counter-clockwise)
+  double distance_m = 0.0;
+  double distance_sigma_m = 0.0;
+  double bearing_sigma_rad = 0.0;
+
+  Eigen::Vector3d groundPoint_R() const;
+};
+
 // One depth frame's balls as the detector reported them (robot frame), one stamp.
 struct BallFrame {
   Stamp stamp;
@@ -142,11 +153,13 @@ struct BallFrame {
   std::string source;  // the plugin that published it (a frame may hold no ball)
 };
 
-// One image of the omni camera: every ball it saw (none, the ball, orange shirts), one stamp.
+// One image of the omni camera: every ball it saw (none, the ball, orange shirts), one stamp, and the
+// robots it saw (teammates judge each other's localisation by them: docs/team.md).
 struct OmniFrame {
   Stamp stamp;
   std::vector<OmniBallObservation> balls;
   std::string source;  // the plugin that published it
+  std::vector<OmniRobotObservation> robots = {};
 };
 
 // Where a ball in flight will land: the centre's ground point when its height comes down to

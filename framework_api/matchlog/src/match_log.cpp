@@ -32,6 +32,8 @@ CREATE TABLE omni_frame (seq INTEGER PRIMARY KEY, wall_time_s REAL NOT NULL, sou
 CREATE TABLE omni_ball (seq INTEGER NOT NULL, ball_index INTEGER NOT NULL, source TEXT NOT NULL,
   bearing_rad REAL, distance_m REAL, bearing_sigma_rad REAL, distance_sigma_m REAL,
   PRIMARY KEY (seq, ball_index));
+CREATE TABLE omni_robot (seq INTEGER NOT NULL, robot_index INTEGER NOT NULL, bearing_rad REAL, distance_m REAL,
+  bearing_sigma_rad REAL, distance_sigma_m REAL, PRIMARY KEY (seq, robot_index));
 CREATE TABLE trajectory (seq INTEGER PRIMARY KEY, wall_time_s REAL NOT NULL, source TEXT NOT NULL,
   lost INTEGER NOT NULL, time_s REAL, state TEXT, x_m REAL, y_m REAL, z_m REAL, vx_mps REAL, vy_mps REAL,
   vz_mps REAL, gravity_mps2 REAL, drag_per_m REAL, curve_radps REAL, rolling_decel_mps2 REAL,
@@ -347,6 +349,12 @@ void MatchLogWriter::write(const fw::JournalEntry& entry) {
               insert.run(seq, static_cast<int>(i), b.source, b.bearing_rad, b.distance_m, b.bearing_sigma_rad,
                          b.distance_sigma_m);
             }
+            Statement& insert_robot = statement("INSERT INTO omni_robot VALUES (?, ?, ?, ?, ?, ?)");
+            for (std::size_t i = 0; i < frame.robots.size(); ++i) {
+              const fw::OmniRobotObservation& r = frame.robots[i];
+              insert_robot.run(seq, static_cast<int>(i), r.bearing_rad, r.distance_m, r.bearing_sigma_rad,
+                               r.distance_sigma_m);
+            }
           },
           [&](const fw::BallTrajectory& t) {
             Statement& insert = statement(
@@ -649,6 +657,24 @@ std::vector<fw::JournalEntry> MatchLogReader::entries(std::int64_t after_seq, st
       b.distance_sigma_m = balls.real(5);
       b.stamp = frame.stamp;
       frame.balls.push_back(b);
+    }
+    if (schema_ >= 9) {  // version 9 added the robots the omni camera saw
+      const auto omni_robots = query(
+          "SELECT seq, bearing_rad, distance_m, bearing_sigma_rad, distance_sigma_m FROM omni_robot WHERE seq > ? "
+          "ORDER BY seq, robot_index");
+      Statement& robots = *omni_robots;
+      while (robots.row()) {
+        auto found = by_seq.find(robots.integer(0));
+        if (found == by_seq.end() || !std::holds_alternative<fw::OmniFrame>(found->second.item)) {
+          fail("omni_robot row " + std::to_string(robots.integer(0)) + " has no omni_frame");
+        }
+        fw::OmniRobotObservation robot;
+        robot.bearing_rad = robots.real(1);
+        robot.distance_m = robots.real(2);
+        robot.bearing_sigma_rad = robots.real(3);
+        robot.distance_sigma_m = robots.real(4);
+        std::get<fw::OmniFrame>(found->second.item).robots.push_back(robot);
+      }
     }
   }
   {

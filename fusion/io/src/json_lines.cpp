@@ -57,15 +57,22 @@ void requireOnlyKeys(const json& object, const std::vector<std::string>& allowed
 }
 
 // Calls parse(item, where) for every object in the line's "balls" list; where names the item.
+// Each object of the line's list under key ("balls": required; others may be left out).
+void forEachItem(const json& line, const std::string& key, const std::string& where,
+                 const std::function<void(const json&, const std::string&)>& parse, bool required = false) {
+  const auto items = line.find(key);
+  if (items == line.end() && !required) return;
+  if (items == line.end() || !items->is_array()) throw std::runtime_error(where + ": \"" + key + "\" must be a list");
+  for (std::size_t i = 0; i < items->size(); ++i) {
+    const std::string at = where + ": " + key + "[" + std::to_string(i) + "]";
+    if (!(*items)[i].is_object()) throw std::runtime_error(at + ": expected an object");
+    parse((*items)[i], at);
+  }
+}
+
 void forEachBall(const json& line, const std::string& where,
                  const std::function<void(const json&, const std::string&)>& parse) {
-  const auto balls = line.find("balls");
-  if (balls == line.end() || !balls->is_array()) throw std::runtime_error(where + ": \"balls\" must be a list");
-  for (std::size_t i = 0; i < balls->size(); ++i) {
-    const std::string at = where + ": balls[" + std::to_string(i) + "]";
-    if (!(*balls)[i].is_object()) throw std::runtime_error(at + ": expected an object");
-    parse((*balls)[i], at);
-  }
+  forEachItem(line, "balls", where, parse, true);
 }
 
 // Times are seconds on the source's clock; anything before 0 or past the year 2100 is a unit slip.
@@ -85,7 +92,7 @@ json vector3(const Eigen::Vector3d& v) { return json::array({v.x(), v.y(), v.z()
 std::vector<fw::OmniFrame> readOmniFile(const std::string& path, const std::string& source) {
   std::vector<fw::OmniFrame> frames;
   forEachLine(path, [&](const json& object, const std::string& where) {
-    requireOnlyKeys(object, {"t", "balls"}, where);
+    requireOnlyKeys(object, {"t", "balls", "robots"}, where);
     fw::OmniFrame frame;
     frame.stamp.source_time_s = frame.stamp.receive_time_s = number(object, "t", where, 0.0, kMaxTime_s);
     forEachBall(object, where, [&](const json& item, const std::string& at) {
@@ -98,6 +105,15 @@ std::vector<fw::OmniFrame> readOmniFile(const std::string& path, const std::stri
       ball.source = source;
       ball.stamp = frame.stamp;
       frame.balls.push_back(ball);
+    });
+    forEachItem(object, "robots", where, [&](const json& item, const std::string& at) {
+      requireOnlyKeys(item, {"bearing_rad", "distance_m", "sigma_bearing_rad", "sigma_distance_m"}, at);
+      fw::OmniRobotObservation robot;
+      robot.bearing_rad = number(item, "bearing_rad", at, -2.0 * M_PI, 2.0 * M_PI);
+      robot.distance_m = number(item, "distance_m", at, 0.0, 100.0);
+      robot.bearing_sigma_rad = optionalNumber(item, "sigma_bearing_rad", at, 0.0, M_PI);
+      robot.distance_sigma_m = optionalNumber(item, "sigma_distance_m", at, 0.0, 100.0);
+      frame.robots.push_back(robot);
     });
     frames.push_back(std::move(frame));
   });
@@ -138,14 +154,18 @@ std::vector<fw::BallFrame> readDetectionsFile(const std::string& path, const std
 void writeOmniFile(const std::string& path, const std::vector<fw::OmniFrame>& frames) {
   std::vector<json> lines;
   for (const fw::OmniFrame& frame : frames) {
-    json balls = json::array();
-    for (const fw::OmniBallObservation& ball : frame.balls) {
-      json item{{"bearing_rad", ball.bearing_rad}, {"distance_m", ball.distance_m}};
-      if (ball.bearing_sigma_rad > 0.0) item["sigma_bearing_rad"] = ball.bearing_sigma_rad;
-      if (ball.distance_sigma_m > 0.0) item["sigma_distance_m"] = ball.distance_sigma_m;
-      balls.push_back(item);
-    }
-    lines.push_back({{"t", frame.stamp.source_time_s}, {"balls", balls}});
+    const auto sighting = [](const auto& seen) {
+      json item{{"bearing_rad", seen.bearing_rad}, {"distance_m", seen.distance_m}};
+      if (seen.bearing_sigma_rad > 0.0) item["sigma_bearing_rad"] = seen.bearing_sigma_rad;
+      if (seen.distance_sigma_m > 0.0) item["sigma_distance_m"] = seen.distance_sigma_m;
+      return item;
+    };
+    json balls = json::array(), robots = json::array();
+    for (const fw::OmniBallObservation& ball : frame.balls) balls.push_back(sighting(ball));
+    for (const fw::OmniRobotObservation& robot : frame.robots) robots.push_back(sighting(robot));
+    json line{{"t", frame.stamp.source_time_s}, {"balls", balls}};
+    if (!robots.empty()) line["robots"] = robots;
+    lines.push_back(line);
   }
   writeLines(path, lines);
 }

@@ -96,6 +96,22 @@ fw::OmniFrame OmniCameraSimulator::frame(int index) const {
       observe({orange.p_F.x(), orange.p_F.y(), r});
     }
   }
+  // The other robots, by their centres on the floor, with the ball's noise and misses (drawn after the
+  // ball's, so that its noise does not depend on how many robots stand around). Their hulls hide
+  // nothing here: a robot behind another is seen as well.
+  for (const SceneObject& object : scene_.objects) {
+    if (object.type != "robot") continue;
+    const Eigen::Vector3d centre_F = object.shapes.front().center_m + object.displacementAt(t);
+    const Eigen::Vector3d p_R = pose.T_F_R().inverse() * Eigen::Vector3d(centre_F.x(), centre_F.y(), 0.0);
+    const double d = p_R.head<2>().norm();
+    fw::OmniRobotObservation robot;
+    robot.bearing_sigma_rad = model_.bearing_sigma_rad;
+    robot.distance_sigma_m = model_.distance_sigma_m + model_.distance_sigma_fraction * d;
+    robot.bearing_rad = std::atan2(-p_R.x(), p_R.y()) + robot.bearing_sigma_rad * normal(random);
+    robot.distance_m = std::max(0.0, d + robot.distance_sigma_m * normal(random));
+    const bool missed = uniform(random) < model_.miss_probability;
+    if (!missed && robot.distance_m <= model_.max_distance_m) frame.robots.push_back(robot);
+  }
   return frame;
 }
 

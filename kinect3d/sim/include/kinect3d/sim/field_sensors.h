@@ -33,8 +33,8 @@ class OmniCameraSimulator {
  public:
   OmniCameraSimulator(const Scene& scene, const OmniCameraModel& model);
   int frameCount() const;
-  // Image i: stamp (source clock, late by stamp_late_s) and the balls seen, with bearing and distance
-  // sigmas as the camera's model states them.
+  // Image i: stamp (source clock, late by stamp_late_s), the balls and the other robots seen, with
+  // bearing and distance sigmas as the camera's model states them.
   fw::OmniFrame frame(int index) const;
   // When image i was really taken, on the scene's source clock.
   double captureTime_s(int index) const;
