@@ -49,6 +49,11 @@ fw::TeamMessage fullMessage() {
   ray.view_top_m = 0.6;
   ray.time_s = 1700000000.22;
   m.omni_rays = {ray};
+  fw::SeenRobot robot;
+  robot.position_F = {-1.0, 2.5};
+  robot.covariance_m2 << 0.04, 0.005, 0.005, 0.002;
+  robot.time_s = 1700000000.22;
+  m.robots_seen = {robot};
   fw::FusedBall world;
   world.position_F = {0.6, 2.1, 1.0};
   world.velocity_F = {0.5, 4.0, 2.0};
@@ -117,6 +122,10 @@ TEST(TeamMessage, EveryFieldSurvivesTheWire) {
   EXPECT_TRUE(got.omni_rays[0].direction_F.isApprox(sent.omni_rays[0].direction_F, 1e-12));
   EXPECT_DOUBLE_EQ(got.omni_rays[0].elevation_sigma_rad, 0.01);
   EXPECT_DOUBLE_EQ(got.omni_rays[0].view_top_m, 0.6);
+  ASSERT_EQ(got.robots_seen.size(), 1u);
+  EXPECT_EQ(got.robots_seen[0].position_F, sent.robots_seen[0].position_F);
+  EXPECT_EQ(got.robots_seen[0].covariance_m2, sent.robots_seen[0].covariance_m2);
+  EXPECT_DOUBLE_EQ(got.robots_seen[0].time_s, 1700000000.22);
   ASSERT_TRUE(got.world_ball);
   EXPECT_TRUE(got.world_ball->velocity_F.isApprox(sent.world_ball->velocity_F));
   EXPECT_TRUE(got.world_ball->covariance_F.isApprox(sent.world_ball->covariance_F));
@@ -157,6 +166,10 @@ TEST(TeamMessage, AMessageWithoutPoseOrBallsIsValid) {
   EXPECT_FALSE(got.pose);
   EXPECT_FALSE(got.world_ball);
   EXPECT_TRUE(got.kinect_balls.empty());
+  // A sender from before the robots were shared leaves their key out.
+  const fw::TeamMessage older = unpack(withKey("robots_seen", nullptr));
+  EXPECT_TRUE(older.robots_seen.empty());
+  EXPECT_EQ(older.omni_rays.size(), 1u);
 }
 
 TEST(TeamMessage, ABadBodyIsRefusedNamingTheField) {
@@ -178,6 +191,10 @@ TEST(TeamMessage, ABadBodyIsRefusedNamingTheField) {
   fw::TeamMessage negative = fullMessage();
   negative.kinect_balls[1].covariance_m2(0, 0) = -0.01;
   EXPECT_NE(errorOf(fw::packTeamMessage(negative)).find("'kinect_balls[1].cov': expected a covariance"),
+            std::string::npos);
+  fw::TeamMessage backwards = fullMessage();
+  backwards.robots_seen[0].covariance_m2(1, 1) = -0.002;
+  EXPECT_NE(errorOf(fw::packTeamMessage(backwards)).find("'robots_seen[0].cov': expected a covariance"),
             std::string::npos);
   fw::TeamMessage far = fullMessage();
   far.world_ball->position_F.x() = 1e9;
@@ -204,6 +221,7 @@ TEST(TeamMessage, ShiftingTimesMovesEveryTimeButTheEchoedSendersOwn) {
   EXPECT_DOUBLE_EQ(m.pose->stamp.source_time_s, original.pose->stamp.source_time_s - 2.0);
   EXPECT_DOUBLE_EQ(m.kinect_balls[0].stamp.source_time_s, original.kinect_balls[0].stamp.source_time_s - 2.0);
   EXPECT_DOUBLE_EQ(m.omni_rays[0].time_s, original.omni_rays[0].time_s - 2.0);
+  EXPECT_DOUBLE_EQ(m.robots_seen[0].time_s, original.robots_seen[0].time_s - 2.0);
   EXPECT_DOUBLE_EQ(m.world_ball->stamp.source_time_s, original.world_ball->stamp.source_time_s - 2.0);
   EXPECT_DOUBLE_EQ(m.world_ball->goal_crossing->time_s, original.world_ball->goal_crossing->time_s - 2.0);
   EXPECT_DOUBLE_EQ(m.touchdown->time_s, original.touchdown->time_s - 2.0);

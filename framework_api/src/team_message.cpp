@@ -17,6 +17,7 @@ void TeamMessage::shiftTimes(double delta_s) {
   if (pose) pose->stamp.source_time_s += delta_s;
   for (BallObservation& ball : kinect_balls) ball.stamp.source_time_s += delta_s;
   for (BallRay& ray : omni_rays) ray.time_s += delta_s;
+  for (SeenRobot& robot : robots_seen) robot.time_s += delta_s;
   if (world_ball) {
     world_ball->stamp.source_time_s += delta_s;
     if (world_ball->goal_crossing) world_ball->goal_crossing->time_s += delta_s;
@@ -81,6 +82,16 @@ void packRay(Packer& pk, const BallRay& r) {
   packEntry(pk, "sigma_bearing", r.bearing_sigma_rad);
   packEntry(pk, "sigma_elevation", r.elevation_sigma_rad);
   packEntry(pk, "view_top", r.view_top_m);
+  packEntry(pk, "t", r.time_s);
+}
+
+void packSeenRobot(Packer& pk, const SeenRobot& r) {
+  pk.pack_map(3);
+  packKey(pk, "p");
+  packVector(pk, r.position_F.data(), 2);
+  packKey(pk, "cov");  // xx, xy, yy
+  const double upper[3] = {r.covariance_m2(0, 0), r.covariance_m2(0, 1), r.covariance_m2(1, 1)};
+  packVector(pk, upper, 3);
   packEntry(pk, "t", r.time_s);
 }
 
@@ -202,14 +213,25 @@ class Reader {
     const std::vector<double> u = numbers(6);
     Eigen::Matrix3d c;
     c << u[0], u[1], u[2], u[1], u[3], u[4], u[2], u[4], u[5];
-    const Eigen::Vector3d eigenvalues = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(c).eigenvalues();
+    return checkedCovariance(c);
+  }
+  // The same on the floor: xx, xy, yy.
+  Eigen::Matrix2d covariance2() const {
+    const std::vector<double> u = numbers(3);
+    Eigen::Matrix2d c;
+    c << u[0], u[1], u[1], u[2];
+    return checkedCovariance(c);
+  }
+  static constexpr double kMaxCoordinate = 1e4;  // metres, metres per second
+  static constexpr double kMaxVariance = 1e4;    // m^2
+  template <typename Matrix>
+  Matrix checkedCovariance(const Matrix& c) const {
+    const auto eigenvalues = Eigen::SelfAdjointEigenSolver<Matrix>(c).eigenvalues();
     if (!(eigenvalues.minCoeff() >= -1e-12) || eigenvalues.maxCoeff() > kMaxVariance) {
       fail("a covariance (positive semi-definite, variances up to " + std::to_string(kMaxVariance) + ")");
     }
     return c;
   }
-  static constexpr double kMaxCoordinate = 1e4;  // metres, metres per second
-  static constexpr double kMaxVariance = 1e4;    // m^2
   [[noreturn]] void fail(const std::string& expected) const {
     throw TeamMessageError("team message field '" + path_ + "': expected " + expected);
   }
@@ -279,7 +301,7 @@ BallObservation readKinectBall(const Reader& reader) {
 std::string packTeamMessage(const TeamMessage& m) {
   msgpack::sbuffer buffer;
   Packer pk(&buffer);
-  const int entries = 5 + (m.pose ? 1 : 0) + (m.world_ball ? 2 : 0) + (m.touchdown ? 1 : 0);
+  const int entries = 6 + (m.pose ? 1 : 0) + (m.world_ball ? 2 : 0) + (m.touchdown ? 1 : 0);
   pk.pack_map(static_cast<std::uint32_t>(entries));
   packKey(pk, "name");
   pk.pack(m.robot_name);
@@ -294,6 +316,9 @@ std::string packTeamMessage(const TeamMessage& m) {
   packKey(pk, "omni_rays");
   pk.pack_array(static_cast<std::uint32_t>(m.omni_rays.size()));
   for (const BallRay& r : m.omni_rays) packRay(pk, r);
+  packKey(pk, "robots_seen");
+  pk.pack_array(static_cast<std::uint32_t>(m.robots_seen.size()));
+  for (const SeenRobot& r : m.robots_seen) packSeenRobot(pk, r);
   if (m.world_ball) {
     packKey(pk, "world_ball");
     packWorldBall(pk, *m.world_ball);
@@ -359,6 +384,17 @@ TeamMessage unpackTeamMessage(const std::uint8_t* data, std::size_t size) {
     ray.time_s = e["t"].number();
     m.omni_rays.push_back(ray);
   }
+  // Added within wire version 1: older senders leave it out.
+  root.ifPresent("robots_seen", [&](const Reader& list) {
+    for (const Reader& r : list.items()) {
+      const auto e = r.entries();
+      const std::vector<double> p = e["p"].numbers(2);
+      for (const double x : p) {
+        if (std::abs(x) > Reader::kMaxCoordinate) e["p"].fail("a point within the field's bounds");
+      }
+      m.robots_seen.push_back({{p[0], p[1]}, e["cov"].covariance2(), e["t"].number()});
+    }
+  });
   root.ifPresent("world_ball", [&](const Reader& r) {
     const auto e = r.entries();
     FusedBall b;

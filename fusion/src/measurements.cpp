@@ -100,13 +100,17 @@ double omniVisibleProbability(const Hypothesis& h, const OmniConfig& omni) {
   return 0.5 * std::erfc((h.x.z() - omni.max_height_m) / (sigma_z * std::sqrt(2.0)));
 }
 
-double omniBearingSigma_rad(const fw::OmniBallObservation& observation, const OmniConfig& omni) {
-  return observation.bearing_sigma_rad > 0.0 ? observation.bearing_sigma_rad : omni.bearing_sigma_rad;
-}
-
-double omniDistanceSigma_m(const fw::OmniBallObservation& observation, const OmniConfig& omni, double distance_m) {
-  return observation.distance_sigma_m > 0.0 ? observation.distance_sigma_m
-                                            : omni.distance_sigma_m + omni.distance_sigma_fraction * distance_m;
+fw::SeenRobot seenRobot_F(const fw::OmniRobotObservation& robot, const fw::RobotPose& pose, const OmniConfig& omni,
+                          double time_s) {
+  const Eigen::Vector3d p_F = pose.fieldFromRobot(robot.groundPoint_R());
+  const Eigen::Vector2d from(pose.x_m, pose.y_m);
+  const double d = robot.distance_m;
+  const Eigen::Vector2d along = d > 1e-6 ? Eigen::Vector2d((p_F.head<2>() - from) / d) : Eigen::Vector2d::UnitY();
+  const Eigen::Vector2d across(-along.y(), along.x());
+  const double sigma_along = omniDistanceSigma_m(robot, omni, d), sigma_across = d * omniBearingSigma_rad(robot, omni);
+  const Eigen::Matrix2d covariance =
+      sigma_along * sigma_along * along * along.transpose() + sigma_across * sigma_across * across * across.transpose();
+  return {p_F.head<2>(), covariance, time_s};
 }
 
 }  // namespace fusion

@@ -3,9 +3,10 @@
 // arrived (refusing, and counting, those from outside the team, replayed or malformed), publishes
 // each teammate's message into the world state with its times moved onto this host's clock, then
 // sends this robot's own message: its pose with the localisation's uncertainty, its Kinect's balls
-// and its omni camera's ball rays since the last message (field frame), its world ball and the
-// touchdown its Kinect predicts, and the clock exchange's echoes. From a match log (log:<folder>,
-// what `kinect3d replay` sets) it hands out the messages the robot received, and sends nothing.
+// and its omni camera's ball rays since the last message and the robots its newest omni image
+// showed (field frame), its world ball and the touchdown its Kinect predicts, and the clock
+// exchange's echoes. From a match log (log:<folder>, what `kinect3d replay` sets) it hands out the
+// messages the robot received, and sends nothing.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -238,6 +239,13 @@ class TeamNetwork {
         if (omni->source != fusion_.omni.source) continue;
         omni_clock_.add(omni->stamp);
         for (const fw::OmniBallObservation& ball : omni->balls) omni_rays_.push_back(rayOf(ball, omni->stamp));
+        // The robots of its newest image only: teammates judge this robot's localisation by them.
+        const double seen_s = omni->stamp.source_time_s - fusion_.omni.latency_s;
+        robots_seen_.clear();
+        for (const fw::OmniRobotObservation& robot : omni->robots) {
+          robots_seen_.push_back(
+              fusion::seenRobot_F(robot, poses_.at(seen_s), fusion_.omni, omni_clock_.toHost(seen_s)));
+        }
       }
     }
     keepNewest(kinect_balls_);
@@ -297,6 +305,7 @@ class TeamNetwork {
     }
     message.kinect_balls.swap(kinect_balls_);
     message.omni_rays.swap(omni_rays_);
+    message.robots_seen.swap(robots_seen_);
     // The world ball and its goal-line crossing are on the fusion's clock (the Kinect's, else the omni
     // camera's), the touchdown on the Kinect's.
     if (std::optional<fw::FusedBall> ball = world_.fusedBall(); ball && fusionClock() != nullptr) {
@@ -355,6 +364,7 @@ class TeamNetwork {
   fw::HostClockOf pose_clock_, kinect_clock_, omni_clock_;
   std::vector<fw::BallObservation> kinect_balls_;  // since the last message, field frame, host clock
   std::vector<fw::BallRay> omni_rays_;
+  std::vector<fw::SeenRobot> robots_seen_;
 
   std::map<team::Refusal, std::uint64_t> refused_;
   std::set<std::pair<team::Refusal, std::string>> said_;

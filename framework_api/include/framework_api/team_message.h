@@ -25,6 +25,15 @@ struct BallRay {
   double time_s = 0.0;
 };
 
+// A robot the sender's omni camera saw (a teammate or an opponent): its centre on the floor, field
+// frame, the sender's pose applied, with its covariance without the pose's error (the receiver adds
+// it). A teammate that sees this robot elsewhere than this robot stands is mislocalised (docs/team.md).
+struct SeenRobot {
+  Eigen::Vector2d position_F = Eigen::Vector2d::Zero();
+  Eigen::Matrix2d covariance_m2 = Eigen::Matrix2d::Zero();
+  double time_s = 0.0;
+};
+
 // The clock exchange: a robot echoes the newest message it received from each teammate (when it was
 // sent and when it arrived), which bounds that teammate's clock offset from above; every message's
 // own send time bounds it from below (plugins/team, TeammateClock).
@@ -52,6 +61,7 @@ struct TeamMessage {
   // covariance without the pose's error, which the receiver adds from pose_sigma_*).
   std::vector<BallObservation> kinect_balls;
   std::vector<BallRay> omni_rays;
+  std::vector<SeenRobot> robots_seen;  // by its omni camera
   std::optional<FusedBall> world_ball;
   std::optional<Touchdown> touchdown;  // of the flight its Kinect follows, field frame
   std::vector<ClockEcho> echoes;

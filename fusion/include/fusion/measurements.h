@@ -2,6 +2,7 @@
 // ball centre p_F, given where the robot stood when the sensor looked.
 #pragma once
 
+#include "framework_api/team_message.h"
 #include "framework_api/types.h"
 #include "fusion/ball_filter.h"
 
@@ -65,7 +66,20 @@ double omniVisibleProbability(const Hypothesis& h, const OmniConfig& omni);
 
 // The omni camera's noise for a ground ball distance_m away: the observation's own sigmas where it
 // carries them, else the configured model (the distance's growing with the distance).
-double omniBearingSigma_rad(const fw::OmniBallObservation& observation, const OmniConfig& omni);
-double omniDistanceSigma_m(const fw::OmniBallObservation& observation, const OmniConfig& omni, double distance_m);
+// (A robot the camera sees is measured alike.)
+template <typename OmniObservation>
+double omniBearingSigma_rad(const OmniObservation& observation, const OmniConfig& omni) {
+  return observation.bearing_sigma_rad > 0.0 ? observation.bearing_sigma_rad : omni.bearing_sigma_rad;
+}
+template <typename OmniObservation>
+double omniDistanceSigma_m(const OmniObservation& observation, const OmniConfig& omni, double distance_m) {
+  return observation.distance_sigma_m > 0.0 ? observation.distance_sigma_m
+                                            : omni.distance_sigma_m + omni.distance_sigma_fraction * distance_m;
+}
+
+// A robot the omni camera saw, placed in the field frame from pose (the robot's own at the image's
+// time), its covariance from the camera's noise alone, at time_s.
+fw::SeenRobot seenRobot_F(const fw::OmniRobotObservation& robot, const fw::RobotPose& pose, const OmniConfig& omni,
+                          double time_s);
 
 }  // namespace fusion
