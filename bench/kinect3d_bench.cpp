@@ -308,7 +308,7 @@ std::vector<double> runFusion(const kinect3d::sim::Scene& scene, const std::vect
         fusion.addKinectFrame(kinect[k].first, kinect[k].second);
         ++k;
       } else {
-        fusion.addOmniFrame(omni[o].stamp.source_time_s, omni[o].balls);
+        fusion.addOmniFrame(omni[o].stamp.source_time_s, omni[o].balls, omni[o].robots);
         ++o;
       }
       update_s.push_back(since_s(start));

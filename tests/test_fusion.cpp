@@ -1067,6 +1067,95 @@ TEST(Fusion, AWellLocalisedTeammateSeeingTheSameBallIsUsedBesideThisRobotsSensor
   EXPECT_LT(standing.median_gap_m, 0.15);
 }
 
+// A robot at p_F (its centre on the floor) as the omni camera of a robot at pose sees it, with the
+// camera's noise (0.01 rad of bearing; 3 cm + 4 % of the distance along it).
+fw::OmniRobotObservation omniRobotView(const Eigen::Vector2d& p_F, const fw::RobotPose& pose, std::mt19937& random) {
+  const Eigen::Vector3d p_R = pose.T_F_R().inverse() * Eigen::Vector3d(p_F.x(), p_F.y(), 0.0);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  fw::OmniRobotObservation robot;
+  robot.bearing_sigma_rad = 0.01;
+  robot.distance_sigma_m = 0.03 + 0.04 * p_R.head<2>().norm();
+  robot.bearing_rad = std::atan2(-p_R.x(), p_R.y()) + robot.bearing_sigma_rad * normal(random);
+  robot.distance_m = p_R.head<2>().norm() + robot.distance_sigma_m * normal(random);
+  return robot;
+}
+
+TEST(Fusion, ATeammateThatSeesTheRobotsElsewhereIsDiscountedBeforeItsBallIsEverUsed) {
+  // This robot stands at the origin, a striker 3 m to its right and 3 m ahead, the keeper 7 m ahead
+  // facing it; every omni camera sees the other robots. A ball lies 3 m ahead, which only the
+  // keeper's Kinect sees. The keeper believes it stands where it does, a metre to the side, or
+  // turned by twenty degrees, and tells what it sees every 50 ms, 0.1 s late; the striker tells
+  // where it stands. Nothing this robot sees of the ball can judge the keeper: it must be found out
+  // by where it puts the robots, before its first ball is used. Once by where it puts this robot;
+  // once with this robot hidden from it (behind the striker, say): then by where it puts the
+  // striker, who says where it stands and whom this robot's own camera sees there.
+  const Eigen::Vector2d striker(3.0, 3.0);
+  const Eigen::Vector3d ball(1.0, 3.0, kRadius);
+  const fw::RobotPose keeper = poseAt(0.5, 7.0, M_PI, kT0);
+  for (const bool keeper_sees_this_robot : {true, false}) {
+    for (const fw::RobotPose& believed : {keeper, poseAt(1.5, 7.0, M_PI, kT0), poseAt(0.5, 7.0, M_PI + 0.35, kT0)}) {
+      const bool mislocalised = believed.x_m != keeper.x_m || believed.theta_rad != keeper.theta_rad;
+      const std::string what = std::string(mislocalised ? "a mislocalised" : "a well localised") + " keeper " +
+                               (keeper_sees_this_robot ? "seeing this robot" : "seeing only the striker");
+      fusion::BallFusion fusion(testConfig());
+      std::mt19937 random(17);
+      std::vector<std::pair<double, fw::TeamMessage>> in_flight;  // arrival time, message
+      std::vector<fusion::FusionUpdate> updates;
+      for (int i = 0; i < 60; ++i) {
+        const double t = kT0 + i / 30.0;
+        for (auto it = in_flight.begin(); it != in_flight.end();) {
+          if (it->first > t) {
+            ++it;
+            continue;
+          }
+          updates.push_back(fusion.addTeamMessage(it->second));
+          it = in_flight.erase(it);
+        }
+        fusion.addPose(standingAtOrigin(t));
+        updates.push_back(fusion.addKinectFrame(t, {}));
+        const double t_omni = t + 0.01;
+        fusion.addPose(standingAtOrigin(t_omni));
+        updates.push_back(
+            fusion.addOmniFrame(t_omni, {},
+                                {omniRobotView(striker, standingAtOrigin(t_omni), random),
+                                 omniRobotView({keeper.x_m, keeper.y_m}, standingAtOrigin(t_omni), random)}));
+        if (i % 3 == 1) continue;  // a message every 50 ms from each
+        fw::TeamMessage from_striker;
+        from_striker.robot_id = 2;
+        from_striker.robot_name = "striker";
+        from_striker.pose = poseAt(striker.x(), striker.y(), M_PI / 2, t);
+        from_striker.pose_sigma_xy_m = 0.03;
+        from_striker.pose_sigma_theta_rad = 0.0175;
+        in_flight.emplace_back(t + 0.1, from_striker);
+        fw::TeamMessage from_keeper =
+            teammateMessage(keeper, poseAt(believed.x_m, believed.y_m, believed.theta_rad, t), {{t, ball}}, random);
+        std::vector<Eigen::Vector2d> seen_by_keeper{striker};
+        if (keeper_sees_this_robot) seen_by_keeper.emplace_back(0.0, 0.0);
+        for (const Eigen::Vector2d& robot : seen_by_keeper) {
+          from_keeper.robots_seen.push_back(
+              fusion::seenRobot_F(omniRobotView(robot, keeper, random), *from_keeper.pose, testConfig().omni, t_omni));
+        }
+        in_flight.emplace_back(t + 0.1, from_keeper);
+      }
+      ASSERT_EQ(fusion.teammates().count(4), 1u) << what;
+      const fusion::TeammateStanding& standing = fusion.teammates().at(4);
+      EXPECT_EQ(standing.examples, testConfig().team.judge_examples) << what;
+      EXPECT_EQ(standing.discounted, mislocalised)
+          << what << ": median " << standing.median_mahalanobis << " sigma, " << standing.median_gap_m << " m";
+      EXPECT_EQ(standing.median_gap_m > 0.7, mislocalised) << what << ": " << standing.median_gap_m << " m";
+      EXPECT_EQ(standing.median_mahalanobis < 2.0, !mislocalised) << what << ": " << standing.median_mahalanobis;
+      int with_keeper = 0;
+      for (const fusion::FusionUpdate& update : updates) {
+        with_keeper +=
+            update.ball && std::count(update.ball->sources.begin(), update.ball->sources.end(), "team:keeper") > 0;
+      }
+      EXPECT_EQ(with_keeper > 0, !mislocalised) << what << ": " << with_keeper << " world balls from its balls";
+      const std::optional<fw::FusedBall>& last = updates.back().ball;
+      EXPECT_EQ(last && (last->position_F - ball).norm() < 0.15, !mislocalised) << what << ": the ball, by its balls";
+    }
+  }
+}
+
 // An omni camera's view of p_F with its noise: 1.5 degrees of bearing, 5 cm and 5 % of distance.
 fw::OmniBallObservation noisyOmniView(const Eigen::Vector3d& p_F, const fw::RobotPose& pose, std::mt19937& random) {
   std::normal_distribution<double> unit(0.0, 1.0);

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <optional>
 
 #include "framework_api/log.h"
@@ -53,6 +54,21 @@ constexpr double kTrustAgainShare = 0.5;
 // median within kTrustAgainShare of discount_sigma). Within discount_sigma itself, a keeper a metre
 // off passed on three judgements against a ball its own first balls had pulled its way.
 constexpr int kFirstJudgements = 3;
+// This robot's omni images are kept this long: a teammate's robots are judged against the one
+// nearest in time, and never against one farther apart than this (two cameras at 30 Hz).
+constexpr double kSeenRobotsKept_s = 1.0;
+constexpr double kSightingsApart_s = 0.05;
+// A robot moves at most this fast (MSL robots reach 3-4 m/s; most of a match is slower): two
+// sightings of it that far apart in time are that much apart.
+constexpr double kRobotSpeed_mps = 3.0;
+// An omni camera sees a robot's near side and puts its centre behind it (half a robot is 0.26 m).
+constexpr double kRobotCentreSigma_m = 0.1;
+// A robot this robot sees within this many sigmas of where a teammate believes it stands is it.
+constexpr double kSameRobot_sigma = 3.0;
+// A teammate's observations wait this long after its first for its first judgements (the robots it
+// sees are judged within a few messages): until then a mislocalised one is not yet found out. One
+// that cannot be judged so soon is used as it is after this.
+constexpr double kProbation_s = 0.5;
 // A teammate's ball nearer than this to it is at it (no share of its distance to scale by).
 constexpr double kAtTheTeammate_m = 0.1;
 // A Kinect ball (this robot's or a teammate's) that moves a track's likeliest ball by more than this
@@ -211,13 +227,20 @@ const FusionUpdate& BallFusion::addKinectFrame(double stamp_s, const std::vector
   return insert(Frame{Source::kKinect, stamp_s - config_.kinect.latency_s, 0.0, 0.0, balls_R, {}, {}, {}, {}});
 }
 
-const FusionUpdate& BallFusion::addOmniFrame(double stamp_s, const std::vector<fw::OmniBallObservation>& balls) {
+const FusionUpdate& BallFusion::addOmniFrame(double stamp_s, const std::vector<fw::OmniBallObservation>& balls,
+                                             const std::vector<fw::OmniRobotObservation>& robots) {
   if (!onTimeLine(Source::kOmni, stamp_s, stamp_s - config_.omni.latency_s)) return state_.update;
   const std::optional<LatencyEstimator::Fit> learnt = omniLatency();
   const double learnt_s = learnt ? learnt->latency_s : 0.0;
   const double timing_sigma_s = learnt ? std::max(learnt->sigma_s, kMinTimingSigma_s) : config_.omni.timing_sigma_s;
-  return insert(Frame{
-      Source::kOmni, stamp_s - config_.omni.latency_s - learnt_s, learnt_s, timing_sigma_s, {}, balls, {}, {}, {}});
+  const double t = stamp_s - config_.omni.latency_s - learnt_s;
+  if (!poses_.empty()) {
+    for (const fw::OmniRobotObservation& robot : robots) {
+      seen_robots_.push_back(seenRobot_F(robot, poses_.at(t), config_.omni, t));
+    }
+  }
+  while (!seen_robots_.empty() && seen_robots_.front().time_s < t - kSeenRobotsKept_s) seen_robots_.pop_front();
+  return insert(Frame{Source::kOmni, t, learnt_s, timing_sigma_s, {}, balls, {}, {}, {}});
 }
 
 const FusionUpdate& BallFusion::addTeamMessage(const fw::TeamMessage& message) {
@@ -258,6 +281,20 @@ const FusionUpdate& BallFusion::addTeamMessage(const fw::TeamMessage& message) {
     mate.omni.max_height_m = std::min(ray.view_top_m, ray.origin_F.z());
     frameAt(ray.time_s).team_rays.push_back(mate);
   }
+  if (!ignores(message.robot_name)) {
+    TeammatePoses& believed = teammate_poses_[message.robot_id];
+    believed.poses.add(*message.pose);
+    believed.newest_s = std::max(believed.newest_s, message.pose->stamp.source_time_s);
+    believed.error = pose_error;
+  }
+  for (const fw::SeenRobot& robot : message.robots_seen) {
+    std::optional<TeammateSightings>& sightings = frameAt(robot.time_s).team_sightings;
+    if (!sightings) {
+      sightings = TeammateSightings{
+          message.robot_id, message.robot_name, {}, Eigen::Vector2d(message.pose->x_m, message.pose->y_m), pose_error};
+    }
+    sightings->robots.push_back(robot);
+  }
   if (message.world_ball && !onlyAPrior(*message.world_ball) && config_.team.prior_max_age_s > 0.0) {
     frameAt(message.world_ball->stamp.source_time_s).team_world_ball =
         TeammateWorldBall{message.robot_id, message.robot_name, *message.world_ball,
@@ -270,6 +307,7 @@ const FusionUpdate& BallFusion::addTeamMessage(const fw::TeamMessage& message) {
       frame.team.clear();
       frame.team_rays.clear();
       frame.team_world_ball.reset();
+      frame.team_sightings.reset();
     }
   }
   for (auto& [t, frame] : frames) {
@@ -424,14 +462,20 @@ void BallFusion::process(const Frame& frame) {
   // Gate every candidate against every track's branches at t, then pair them most likely first.
   std::vector<std::vector<Hypothesis>> branches;
   for (const Track& track : state.tracks) branches.push_back(track.filter.branchesAt(t));
-  // Teammates are judged against this robot's own view first. A discounted teammate's observations
-  // are not used; nor are those of a teammate not yet judged on judge_examples of them that lie near
-  // enough to a confirmed ball this robot's own sensors place to be judged by it, unless its first
-  // few pass (kFirstJudgements): this robot sees the ball itself, and a mislocalised teammate would
-  // move it until it is found out. (What lies farther is another object to the judge, perhaps the
-  // ball where this robot's own view is an orange shirt; an unconfirmed ball may be the phantom of a
-  // ball in the air, which the teammate's Kinect places.)
+  // Teammates are judged against this robot's own view first (and by the robots they see). A
+  // discounted teammate's observations are not used; nor are those of a teammate not yet judged on
+  // judge_examples of them whose first few (kFirstJudgements) fail, nor, before those few pass, those
+  // that lie near enough to a confirmed ball this robot's own sensors place to be judged by it: this
+  // robot sees the ball itself, and a mislocalised teammate would move it until it is found out.
+  // (What lies farther is another object to the judge, perhaps the ball where this robot's own view
+  // is an orange shirt; an unconfirmed ball may be the phantom of a ball in the air, which the
+  // teammate's Kinect places.)
+  for (const Candidate& candidate : candidates) {
+    if (candidate.source == Source::kTeammate) firstObserved(candidate.teammate, t);
+  }
+  if (frame.team_sightings) firstObserved(frame.team_sightings->robot_id, t);
   judgeTeammates(frame, candidates, pose, t);
+  if (frame.team_sightings) judgeTeammateBySight(*frame.team_sightings, t);
   std::vector<Eigen::Vector2d> own_placed_F;
   for (const Track& track : state.tracks) {
     if (track.confirmed && ownPlaces(track, pose, t)) own_placed_F.push_back(track.own_view->best().x.head<2>());
@@ -446,7 +490,9 @@ void BallFusion::process(const Frame& frame) {
     const bool judgeable = std::any_of(own_placed_F.begin(), own_placed_F.end(), [&](const Eigen::Vector2d& placed_F) {
       return (candidates[c].p_F.head<2>() - placed_F).norm() <= kMaxMislocalisation_m;
     });
-    withheld[c] = standing.discounted || (judgeable && unproven);
+    const bool suspect = unproven && standing.examples >= kFirstJudgements;
+    const bool on_probation = standing.examples < kFirstJudgements && t - *standing.first_observed_s < kProbation_s;
+    withheld[c] = standing.discounted || suspect || on_probation || (judgeable && unproven);
   }
   struct Pair {
     double log_likelihood;
@@ -650,6 +696,82 @@ std::optional<BallFusion::Judgement> BallFusion::judge(const Candidate& candidat
   const double sigma_b = config_.omni.bearing_sigma_rad;
   return byBearing(camera, candidate.p_F.head<2>(),
                    sigma_b * sigma_b + across.dot(candidate.covariance_F.topLeftCorner<2, 2>() * across) / (d * d));
+}
+
+void BallFusion::firstObserved(int teammate, double t_s) {
+  std::optional<double>& first_s = state_.teammates[teammate].first_observed_s;
+  if (!first_s || t_s < *first_s) first_s = t_s;
+}
+
+void BallFusion::judgeTeammateBySight(const TeammateSightings& sightings, double t_s) {
+  state_.teammates[sightings.robot_id].name = sightings.name;
+  // Where robots stand, as this robot knows it: itself; its teammates not discounted, where they
+  // believe they stand; and the robots its omni camera saw in its image nearest in time (each place
+  // with its variance, the pose errors included).
+  struct Place {
+    Eigen::Vector2d xy_F;
+    Eigen::Matrix2d covariance_m2;
+  };
+  const fw::RobotPose own_pose = poses_.at(t_s);
+  const Eigen::Vector2d own_xy(own_pose.x_m, own_pose.y_m);
+  const auto poseVariance_m2 = [](const PoseConfig& error, double distance_m) {
+    return error.sigma_xy_m * error.sigma_xy_m + std::pow(distance_m * error.sigma_theta_rad, 2);
+  };
+  std::vector<Place> places{{own_xy, poseVariance_m2(config_.pose, 0.0) * Eigen::Matrix2d::Identity()}};
+  for (const auto& [robot_id, believed] : teammate_poses_) {
+    const auto standing = state_.teammates.find(robot_id);
+    const bool discounted = standing != state_.teammates.end() && standing->second.discounted;
+    if (robot_id == sightings.robot_id || discounted ||
+        t_s - believed.newest_s > fw::PoseHistory::kMaxExtrapolation_s) {
+      continue;
+    }
+    const fw::RobotPose pose = believed.poses.at(t_s);
+    places.push_back(
+        {Eigen::Vector2d(pose.x_m, pose.y_m), poseVariance_m2(believed.error, 0.0) * Eigen::Matrix2d::Identity()});
+  }
+  double nearest_image_s = std::numeric_limits<double>::infinity();
+  for (const fw::SeenRobot& seen : seen_robots_) {
+    if (std::abs(seen.time_s - t_s) < std::abs(nearest_image_s - t_s)) nearest_image_s = seen.time_s;
+  }
+  if (std::abs(nearest_image_s - t_s) <= kSightingsApart_s) {
+    for (const fw::SeenRobot& seen : seen_robots_) {
+      if (seen.time_s != nearest_image_s) continue;
+      const double moved_m = kRobotSpeed_mps * std::abs(seen.time_s - t_s);
+      const double variance_m2 = poseVariance_m2(config_.pose, (seen.position_F - own_xy).norm()) +
+                                 kRobotCentreSigma_m * kRobotCentreSigma_m + moved_m * moved_m;
+      const Place place{seen.position_F, seen.covariance_m2 + variance_m2 * Eigen::Matrix2d::Identity()};
+      // A robot seen where a teammate believes it stands is that teammate, placed better by its belief.
+      const bool known = std::any_of(places.begin(), places.end(), [&](const Place& other) {
+        const Eigen::Vector2d gap = place.xy_F - other.xy_F;
+        return gap.dot((place.covariance_m2 + other.covariance_m2).ldlt().solve(gap)) <=
+               kSameRobot_sigma * kSameRobot_sigma;
+      });
+      if (!known) places.push_back(place);
+    }
+  }
+  // Each place by the teammate's sighting nearest to it (a robot it saw farther off is another
+  // robot, or none it saw); the teammate by the place it agrees with best: a robot it did not see
+  // and an opponent it saw beside it make places it disagrees with however well it is localised.
+  std::optional<Judgement> best;
+  for (const Place& place : places) {
+    const fw::SeenRobot* nearest = nullptr;
+    for (const fw::SeenRobot& seen : sightings.robots) {
+      if (!nearest || (seen.position_F - place.xy_F).norm() < (nearest->position_F - place.xy_F).norm()) {
+        nearest = &seen;
+      }
+    }
+    const Eigen::Vector2d gap = nearest->position_F - place.xy_F;
+    if (gap.norm() > kMaxMislocalisation_m) continue;
+    const double from_teammate_m = (nearest->position_F - sightings.teammate_xy).norm();
+    const Eigen::Matrix2d S =
+        place.covariance_m2 + nearest->covariance_m2 +
+        (poseVariance_m2(sightings.pose_error, from_teammate_m) + kRobotCentreSigma_m * kRobotCentreSigma_m) *
+            Eigen::Matrix2d::Identity();
+    const double mahalanobis = std::sqrt(gap.dot(S.ldlt().solve(gap)));
+    const double sigma_m = gap.norm() > 1e-6 ? gap.norm() / mahalanobis : std::sqrt(S.trace() / 2.0);
+    if (!best || mahalanobis < best->mahalanobis) best = Judgement{mahalanobis, gap.norm(), sigma_m, from_teammate_m};
+  }
+  if (best) recordJudgement(sightings.robot_id, *best);
 }
 
 bool BallFusion::omniPlaces(const Track& own, const fw::RobotPose& pose, double t_s) const {

@@ -52,7 +52,7 @@ class FusionPlugin : public fw::Plugin {
       } else if (const auto* omni = std::get_if<fw::OmniFrame>(&measurement)) {
         if (omni->source != config_.omni.source) continue;
         if (alignmentCheck()) alignment_->addOmniFrame(omni->stamp.source_time_s, omni->balls);
-        publish(fusion_.addOmniFrame(omni->stamp.source_time_s, omni->balls));
+        publish(fusion_.addOmniFrame(omni->stamp.source_time_s, omni->balls, omni->robots));
         updated = true;
       } else if (const auto* message = std::get_if<fw::TeamMessage>(&measurement)) {
         if (fusion_.ignores(message->robot_name) && said_ignored_.insert(message->robot_id).second) {
@@ -138,8 +138,9 @@ class FusionPlugin : public fw::Plugin {
     std::snprintf(
         text, sizeof text,
         standing.discounted
-            ? "teammate %s (robot %d) puts the ball %.2f m from where this robot sees it (median of its last "
-              "%d observations, %.1f sigma): its localisation is off; its observations are not used"
+            ? "teammate %s (robot %d) puts the ball or the robots it sees %.2f m from where this robot sees them "
+              "(median of its last %d observations, %.1f sigma): its localisation is off; its observations are not "
+              "used"
             : "teammate %s (robot %d) agrees again with this robot (median %.2f m of its last %d observations, "
               "%.1f sigma): its observations are used",
         standing.name.c_str(), robot_id, standing.median_gap_m, standing.examples, standing.median_mahalanobis);

@@ -35,14 +35,16 @@
 
 namespace fusion {
 
-// Whether a teammate's Kinect balls agree with what this robot's own sensors see of the ball: a
-// teammate whose localisation is off (a metre, twenty degrees) puts the ball elsewhere.
+// Whether a teammate's observations agree with what this robot's own sensors see: a teammate whose
+// localisation is off (a metre, twenty degrees) puts the ball, and the robots it sees (this one
+// among them), elsewhere.
 struct TeammateStanding {
   std::string name;
-  bool discounted = false;          // its balls are not used while this holds
-  int examples = 0;                 // its balls judged against this robot's own view (the newest are kept)
-  double median_mahalanobis = 0.0;  // of those
-  double median_gap_m = 0.0;        // and how far they lay from this robot's ball
+  bool discounted = false;                 // its balls are not used while this holds
+  int examples = 0;                        // its observations judged against this robot's own (the newest are kept)
+  double median_mahalanobis = 0.0;         // of those
+  double median_gap_m = 0.0;               // and how far they lay from where this robot sees the same
+  std::optional<double> first_observed_s;  // the time of its first observation (a ball, a ray, robots seen)
   // When it was last discounted: the median gap, and its balls' median distance from it.
   double discounted_gap_m = 0.0;
   double discounted_from_m = 0.0;
@@ -97,10 +99,12 @@ class BallFusion {
   // One frame of a source: every ball it saw at one time (possibly none), stamps on its own clock.
   // Each returns the world after that frame (for a late frame, after re-processing those after it).
   const FusionUpdate& addKinectFrame(double stamp_s, const std::vector<fw::BallObservation>& balls_R);
-  const FusionUpdate& addOmniFrame(double stamp_s, const std::vector<fw::OmniBallObservation>& balls);
-  // A teammate's Kinect balls and omni rays (plugins/team; field frame, times already on the
-  // reference clock), each of its frames in turn. A message without the teammate's pose is not used
-  // (its localisation error cannot be added).
+  // The omni image's robots (teammates and opponents) are kept to judge teammates' localisation by.
+  const FusionUpdate& addOmniFrame(double stamp_s, const std::vector<fw::OmniBallObservation>& balls,
+                                   const std::vector<fw::OmniRobotObservation>& robots = {});
+  // A teammate's Kinect balls, omni rays and the robots its omni camera saw (plugins/team; field
+  // frame, times already on the reference clock), each of its frames in turn. A message without the
+  // teammate's pose is not used (its localisation error cannot be added).
   const FusionUpdate& addTeamMessage(const fw::TeamMessage& message);
   // Whether fusion.team.ignore names this teammate: its observations are never used.
   bool ignores(const std::string& teammate) const;
@@ -205,6 +209,14 @@ class BallFusion {
     PoseConfig pose_error;
     double timing_sigma_s = 0.0;
   };
+  // The robots a teammate's omni camera saw in one image, and where that teammate stood.
+  struct TeammateSightings {
+    int robot_id = 0;
+    std::string name;
+    std::vector<fw::SeenRobot> robots;
+    Eigen::Vector2d teammate_xy = Eigen::Vector2d::Zero();
+    PoseConfig pose_error;
+  };
   struct Frame {
     Source source;
     double time_s;                   // corrected onto the reference clock
@@ -215,6 +227,7 @@ class BallFusion {
     std::vector<TeammateBall> team;
     std::vector<TeammateRay> team_rays;
     std::optional<TeammateWorldBall> team_world_ball;
+    std::optional<TeammateSightings> team_sightings = std::nullopt;
   };
 
   // Teaches the latency estimator from an omni ball (at corrected time t, corrected by applied_s) on
@@ -233,6 +246,11 @@ class BallFusion {
   // support now (none: nobody is judged); this robot at pose.
   void judgeTeammates(const Frame& frame, const std::vector<Candidate>& candidates, const fw::RobotPose& pose,
                       double t_s);
+  // The teammate made an observation at t_s (its standing keeps the earliest).
+  void firstObserved(int teammate, double t_s);
+  // A teammate by the robots its omni camera saw: do they stand where this robot stands, where the
+  // teammates not discounted believe they stand, and where its own omni camera sees robots?
+  void judgeTeammateBySight(const TeammateSightings& sightings, double t_s);
   // How far a teammate's ball or ray lies from this robot's ball (own's own view, its branches at
   // t_s), when this robot's own sensors support that ball well enough to judge by.
   std::optional<Judgement> judge(const Candidate& candidate, const Track& own,
@@ -255,6 +273,15 @@ class BallFusion {
   FusionConfig config_;
   PoseBlend pose_blend_;
   fw::PoseHistory poses_;  // blended (pose_blend_), on the reference clock
+  // The robots this robot's omni camera saw in the last second, field frame, oldest first.
+  std::deque<fw::SeenRobot> seen_robots_;
+  // Where each teammate (not ignored) believes it stands, by robot id, and how far that may be off.
+  struct TeammatePoses {
+    fw::PoseHistory poses;
+    double newest_s = 0.0;
+    PoseConfig error;
+  };
+  std::map<int, TeammatePoses> teammate_poses_;
   State state_;
   // Frames of the last max_delay_s with the state before each, to re-process after a late one.
   std::deque<std::pair<Frame, State>> recent_;
