@@ -699,18 +699,18 @@ TEST(TeamPlugin, AnOmniRayIsPlacedWithThePoseWhenItsImageWasTakenNotWhenItWasSta
 
 }  // namespace
 
-TEST(TeamWorlds, TheTeamReportsMislocalisedKeeperIsDiscountedAndMovesNoBallInMostUpdates) {
-  // The bound, as the team report measures it (docs/team-report.md): in team_rest every robot
-  // sees the ball the keeper sees before the lob; with the keeper a metre off or turned by 20
-  // degrees, through the lossy network, the defender and the striker discount it, and the keeper
-  // moves their world ball (against the same log replayed without it) by at most 0.2 m in most
-  // updates (the median; before they have judged it, and in a run's chance divergences, it may
-  // move more: the report counts those).
+TEST(TeamWorlds, AMislocalisedKeeperIsDiscountedAndMovesNoWorldBallEvenWhereItAloneSeesTheLob) {
+  // The bound, as the team report measures it (docs/team-report.md), in both worlds of three
+  // robots: in team the keeper alone sees the lob and nobody sees a ball it sees before; in team_rest
+  // every robot sees the ball it sees. With the keeper a metre off or turned by 20 degrees, through
+  // the lossy network, the defender and the striker discount it (by where it sees the robots), and
+  // the keeper moves their world ball (against the same log replayed without it) by more than 0.2 m
+  // in fewer than a tenth of the updates (the 90th percentile; the report counts every one).
   const ScopedTempDir dir;
   const std::string report = (dir.path() / "report.md").string();
   const auto [status, output] =
-      runCommand(std::string(KINECT3D_EXE) + " report team --scenes team_rest --runs 1 --out " + report + " --worlds " +
-                 TEST_DATA_DIR + "/scenes 2>&1");
+      runCommand(std::string(KINECT3D_EXE) + " report team --scenes team,team_rest --runs 1 --out " + report +
+                 " --worlds " + TEST_DATA_DIR + "/scenes 2>&1");
   ASSERT_EQ(status, 0) << output;
   std::ifstream in(report);
   int rows = 0;
@@ -725,8 +725,9 @@ TEST(TeamWorlds, TheTeamReportsMislocalisedKeeperIsDiscountedAndMovesNoBallInMos
     ++rows;
     EXPECT_EQ(cells[11], "1 of 1") << line;
     // "median / p90 / max"
-    ASSERT_NE(cells[12].find(" / "), std::string::npos) << line;
-    EXPECT_LE(std::stod(cells[12]), 0.2) << line;
+    const std::size_t p90_at = cells[12].find(" / ");
+    ASSERT_NE(p90_at, std::string::npos) << line;
+    EXPECT_LE(std::stod(cells[12].substr(p90_at + 3)), 0.2) << line;
   }
-  EXPECT_EQ(rows, 4) << "the defender and the striker, the keeper a metre off and turned";
+  EXPECT_EQ(rows, 8) << "the defender and the striker, the keeper a metre off and turned, in both worlds";
 }

@@ -58,6 +58,9 @@ constexpr int kFirstJudgements = 3;
 // nearest in time, and never against one farther apart than this (two cameras at 30 Hz).
 constexpr double kSeenRobotsKept_s = 1.0;
 constexpr double kSightingsApart_s = 0.05;
+// Teammates' robots seen wait for this robot's next own frame; at most this many (a second of
+// four teammates' messages) wait while its own sensors are silent.
+constexpr std::size_t kPendingSightings = 80;
 // A robot moves at most this fast (MSL robots reach 3-4 m/s; most of a match is slower): two
 // sightings of it that far apart in time are that much apart.
 constexpr double kRobotSpeed_mps = 3.0;
@@ -224,7 +227,9 @@ void BallFusion::addPose(const fw::RobotPose& pose) {
 
 const FusionUpdate& BallFusion::addKinectFrame(double stamp_s, const std::vector<fw::BallObservation>& balls_R) {
   if (!onTimeLine(Source::kKinect, stamp_s, stamp_s - config_.kinect.latency_s)) return state_.update;
-  return insert(Frame{Source::kKinect, stamp_s - config_.kinect.latency_s, 0.0, 0.0, balls_R, {}, {}, {}, {}});
+  Frame frame{Source::kKinect, stamp_s - config_.kinect.latency_s, 0.0, 0.0, balls_R, {}, {}, {}, {}};
+  frame.team_sightings.swap(pending_sightings_);
+  return insert(std::move(frame));
 }
 
 const FusionUpdate& BallFusion::addOmniFrame(double stamp_s, const std::vector<fw::OmniBallObservation>& balls,
@@ -240,7 +245,9 @@ const FusionUpdate& BallFusion::addOmniFrame(double stamp_s, const std::vector<f
     }
   }
   while (!seen_robots_.empty() && seen_robots_.front().time_s < t - kSeenRobotsKept_s) seen_robots_.pop_front();
-  return insert(Frame{Source::kOmni, t, learnt_s, timing_sigma_s, {}, balls, {}, {}, {}});
+  Frame frame{Source::kOmni, t, learnt_s, timing_sigma_s, {}, balls, {}, {}, {}};
+  frame.team_sightings.swap(pending_sightings_);
+  return insert(std::move(frame));
 }
 
 const FusionUpdate& BallFusion::addTeamMessage(const fw::TeamMessage& message) {
@@ -287,13 +294,12 @@ const FusionUpdate& BallFusion::addTeamMessage(const fw::TeamMessage& message) {
     believed.newest_s = std::max(believed.newest_s, message.pose->stamp.source_time_s);
     believed.error = pose_error;
   }
-  for (const fw::SeenRobot& robot : message.robots_seen) {
-    std::optional<TeammateSightings>& sightings = frameAt(robot.time_s).team_sightings;
-    if (!sightings) {
-      sightings = TeammateSightings{
-          message.robot_id, message.robot_name, {}, Eigen::Vector2d(message.pose->x_m, message.pose->y_m), pose_error};
-    }
-    sightings->robots.push_back(robot);
+  if (!message.robots_seen.empty() && !ignores(message.robot_name)) {
+    // One image's robots: a message carries the newest image's.
+    pending_sightings_.push_back({message.robot_id, message.robot_name, message.robots_seen.front().time_s,
+                                  message.robots_seen, Eigen::Vector2d(message.pose->x_m, message.pose->y_m),
+                                  pose_error});
+    if (pending_sightings_.size() > kPendingSightings) pending_sightings_.erase(pending_sightings_.begin());
   }
   if (message.world_ball && !onlyAPrior(*message.world_ball) && config_.team.prior_max_age_s > 0.0) {
     frameAt(message.world_ball->stamp.source_time_s).team_world_ball =
@@ -307,7 +313,6 @@ const FusionUpdate& BallFusion::addTeamMessage(const fw::TeamMessage& message) {
       frame.team.clear();
       frame.team_rays.clear();
       frame.team_world_ball.reset();
-      frame.team_sightings.reset();
     }
   }
   for (auto& [t, frame] : frames) {
@@ -473,9 +478,9 @@ void BallFusion::process(const Frame& frame) {
   for (const Candidate& candidate : candidates) {
     if (candidate.source == Source::kTeammate) firstObserved(candidate.teammate, t);
   }
-  if (frame.team_sightings) firstObserved(frame.team_sightings->robot_id, t);
+  for (const TeammateSightings& sightings : frame.team_sightings) firstObserved(sightings.robot_id, sightings.time_s);
   judgeTeammates(frame, candidates, pose, t);
-  if (frame.team_sightings) judgeTeammateBySight(*frame.team_sightings, t);
+  for (const TeammateSightings& sightings : frame.team_sightings) judgeTeammateBySight(sightings);
   std::vector<Eigen::Vector2d> own_placed_F;
   for (const Track& track : state.tracks) {
     if (track.confirmed && ownPlaces(track, pose, t)) own_placed_F.push_back(track.own_view->best().x.head<2>());
@@ -703,7 +708,8 @@ void BallFusion::firstObserved(int teammate, double t_s) {
   if (!first_s || t_s < *first_s) first_s = t_s;
 }
 
-void BallFusion::judgeTeammateBySight(const TeammateSightings& sightings, double t_s) {
+void BallFusion::judgeTeammateBySight(const TeammateSightings& sightings) {
+  const double t_s = sightings.time_s;
   state_.teammates[sightings.robot_id].name = sightings.name;
   // Where robots stand, as this robot knows it: itself; its teammates not discounted, where they
   // believe they stand; and the robots its omni camera saw in its image nearest in time (each place

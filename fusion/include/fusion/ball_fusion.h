@@ -209,10 +209,11 @@ class BallFusion {
     PoseConfig pose_error;
     double timing_sigma_s = 0.0;
   };
-  // The robots a teammate's omni camera saw in one image, and where that teammate stood.
+  // The robots a teammate's omni camera saw in one image (at time_s), and where that teammate stood.
   struct TeammateSightings {
     int robot_id = 0;
     std::string name;
+    double time_s = 0.0;
     std::vector<fw::SeenRobot> robots;
     Eigen::Vector2d teammate_xy = Eigen::Vector2d::Zero();
     PoseConfig pose_error;
@@ -227,7 +228,9 @@ class BallFusion {
     std::vector<TeammateBall> team;
     std::vector<TeammateRay> team_rays;
     std::optional<TeammateWorldBall> team_world_ball;
-    std::optional<TeammateSightings> team_sightings = std::nullopt;
+    // Teammates' robots seen, judged with this frame, whatever their own time: they change no ball,
+    // and a frame of their own, inserted late, would have every frame after it processed again.
+    std::vector<TeammateSightings> team_sightings = {};
   };
 
   // Teaches the latency estimator from an omni ball (at corrected time t, corrected by applied_s) on
@@ -250,7 +253,7 @@ class BallFusion {
   void firstObserved(int teammate, double t_s);
   // A teammate by the robots its omni camera saw: do they stand where this robot stands, where the
   // teammates not discounted believe they stand, and where its own omni camera sees robots?
-  void judgeTeammateBySight(const TeammateSightings& sightings, double t_s);
+  void judgeTeammateBySight(const TeammateSightings& sightings);
   // How far a teammate's ball or ray lies from this robot's ball (own's own view, its branches at
   // t_s), when this robot's own sensors support that ball well enough to judge by.
   std::optional<Judgement> judge(const Candidate& candidate, const Track& own,
@@ -275,6 +278,9 @@ class BallFusion {
   fw::PoseHistory poses_;  // blended (pose_blend_), on the reference clock
   // The robots this robot's omni camera saw in the last second, field frame, oldest first.
   std::deque<fw::SeenRobot> seen_robots_;
+  // Teammates' robots seen since this robot's last own frame, which takes them (at most
+  // kPendingSightings, the newest).
+  std::vector<TeammateSightings> pending_sightings_;
   // Where each teammate (not ignored) believes it stands, by robot id, and how far that may be off.
   struct TeammatePoses {
     fw::PoseHistory poses;
