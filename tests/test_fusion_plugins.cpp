@@ -173,6 +173,14 @@ TEST(FuseCommand, ABadInputLineIsNamedWithItsFileAndLine) {
   const auto [omni_status, omni_out] = runCommand(exe + " fuse --omni " + omni + " --output /dev/null 2>&1");
   EXPECT_EQ(omni_status, 2);
   EXPECT_NE(omni_out.find(omni + ":2: balls[0]: \"distance_m\" = -3 is outside"), std::string::npos) << omni_out;
+  const std::string robots = (dir.path() / "robots.jsonl").string();
+  std::ofstream(robots)
+      << "{\"t\": 1700000000.0, \"balls\": [], \"robots\": [{\"bearing_rad\": 0.1, \"distance_m\": 4}]}\n"
+      << "{\"t\": 1700000000.033, \"balls\": [], \"robots\": [{\"bearing_rad\": 0.1}]}\n";
+  const auto [robots_status, robots_out] = runCommand(exe + " fuse --omni " + robots + " --output /dev/null 2>&1");
+  EXPECT_EQ(robots_status, 2);
+  EXPECT_NE(robots_out.find(robots + ":2: robots[0]: "), std::string::npos) << robots_out;
+  EXPECT_NE(robots_out.find("distance_m"), std::string::npos) << robots_out;
   const std::string no_balls = (dir.path() / "no_balls.jsonl").string();
   std::ofstream(no_balls) << "{\"t\": 1700000000.0, \"balls\": []}\n";
   const auto [pose_status, pose_out] =

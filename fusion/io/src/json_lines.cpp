@@ -75,6 +75,18 @@ void forEachBall(const json& line, const std::string& where,
   forEachItem(line, "balls", where, parse, true);
 }
 
+// A ball or a robot the omni camera saw: its bearing and distance, and their sigmas when given.
+template <typename OmniObservation>
+OmniObservation omniSighting(const json& item, const std::string& at) {
+  requireOnlyKeys(item, {"bearing_rad", "distance_m", "sigma_bearing_rad", "sigma_distance_m"}, at);
+  OmniObservation seen;
+  seen.bearing_rad = number(item, "bearing_rad", at, -2.0 * M_PI, 2.0 * M_PI);
+  seen.distance_m = number(item, "distance_m", at, 0.0, 100.0);
+  seen.bearing_sigma_rad = optionalNumber(item, "sigma_bearing_rad", at, 0.0, M_PI);
+  seen.distance_sigma_m = optionalNumber(item, "sigma_distance_m", at, 0.0, 100.0);
+  return seen;
+}
+
 // Times are seconds on the source's clock; anything before 0 or past the year 2100 is a unit slip.
 constexpr double kMaxTime_s = 4.1e9;
 
@@ -96,24 +108,13 @@ std::vector<fw::OmniFrame> readOmniFile(const std::string& path, const std::stri
     fw::OmniFrame frame;
     frame.stamp.source_time_s = frame.stamp.receive_time_s = number(object, "t", where, 0.0, kMaxTime_s);
     forEachBall(object, where, [&](const json& item, const std::string& at) {
-      requireOnlyKeys(item, {"bearing_rad", "distance_m", "sigma_bearing_rad", "sigma_distance_m"}, at);
-      fw::OmniBallObservation ball;
-      ball.bearing_rad = number(item, "bearing_rad", at, -2.0 * M_PI, 2.0 * M_PI);
-      ball.distance_m = number(item, "distance_m", at, 0.0, 100.0);
-      ball.bearing_sigma_rad = optionalNumber(item, "sigma_bearing_rad", at, 0.0, M_PI);
-      ball.distance_sigma_m = optionalNumber(item, "sigma_distance_m", at, 0.0, 100.0);
+      fw::OmniBallObservation ball = omniSighting<fw::OmniBallObservation>(item, at);
       ball.source = source;
       ball.stamp = frame.stamp;
       frame.balls.push_back(ball);
     });
     forEachItem(object, "robots", where, [&](const json& item, const std::string& at) {
-      requireOnlyKeys(item, {"bearing_rad", "distance_m", "sigma_bearing_rad", "sigma_distance_m"}, at);
-      fw::OmniRobotObservation robot;
-      robot.bearing_rad = number(item, "bearing_rad", at, -2.0 * M_PI, 2.0 * M_PI);
-      robot.distance_m = number(item, "distance_m", at, 0.0, 100.0);
-      robot.bearing_sigma_rad = optionalNumber(item, "sigma_bearing_rad", at, 0.0, M_PI);
-      robot.distance_sigma_m = optionalNumber(item, "sigma_distance_m", at, 0.0, 100.0);
-      frame.robots.push_back(robot);
+      frame.robots.push_back(omniSighting<fw::OmniRobotObservation>(item, at));
     });
     frames.push_back(std::move(frame));
   });
