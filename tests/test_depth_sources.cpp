@@ -6,7 +6,9 @@
 
 #include <filesystem>
 #include <fstream>
+#include <thread>
 
+#include "framework_api/types.h"
 #include "kinect3d/depth_source.h"
 #include "kinect3d/kinect_disparity.h"
 #include "kinect3d/sim/kinect_simulator.h"
@@ -247,6 +249,40 @@ TEST(SimSource, DeliversTheSceneThenEnds) {
   EXPECT_EQ(frames, 90u);
   EXPECT_NEAR(frame.source_time_s - first_t, 89.0 / 30.0, 1e-6);  // epoch-scale doubles
   EXPECT_EQ(frame.sensor_id, "sim:hung_3m");
+}
+
+// In a world several hosts simulate side by side, the simulated Kinect is a live sensor on the wall
+// clock: a host that reads it late gets its newest frame, not a backlog, and what it missed is dropped.
+TEST(SimSource, InASharedWorldAHostThatReadsLateGetsTheNewestFrameAndTheMissedOnesAreDropped) {
+  kinect3d::SourceOptions options;
+  options.realtime = true;
+  const double frame_s = 1.0 / 30.0;  // hung_3m's rate
+  const double opened_s = fw::wallClockNow_s();
+  options.sim_world_start_wall_s = opened_s - 1.5;  // frames 0-45 were taken before this host looked
+  auto source = kinect3d::sim::sourcesWithSimulator().open("sim:hung_3m", options);
+  DepthFrame frame;
+  ASSERT_EQ(source->read(frame), ReadResult::kFrame);
+  EXPECT_GE(frame.index, 45u);
+  EXPECT_GE(frame.source_time_s, opened_s - frame_s);
+  EXPECT_EQ(source->counters().dropped, 0u);  // frames before the host first read are not its losses
+
+  // The host busy for four frames' time: the next read is the newest frame again.
+  const std::uint64_t first = frame.index;
+  while (fw::wallClockNow_s() < frame.source_time_s + 4 * frame_s) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+  ASSERT_EQ(source->read(frame), ReadResult::kFrame);
+  EXPECT_GE(frame.index, first + 4);
+  EXPECT_EQ(source->counters().dropped, frame.index - first - 1);
+
+  // Every frame to the scene's end is delivered or dropped, in order.
+  std::uint64_t last = frame.index;
+  while (source->read(frame) == ReadResult::kFrame) {
+    EXPECT_GT(frame.index, last);
+    last = frame.index;
+  }
+  EXPECT_EQ(last, 89u);
+  EXPECT_EQ(source->counters().frames + source->counters().dropped, 90u - first);
 }
 
 TEST(SimSource, WrittenSequenceReadsBackIdentically) {
