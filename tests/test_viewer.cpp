@@ -294,7 +294,8 @@ TEST(ViewedLog, TheFusedBallIsHeldUntilTheFusionClearsIt) {
 
 TEST(ViewedLog, TeammatesAreDrawnInThisRobotsFrameWhereTheirMessagesPutThem) {
   // From frame 5 this robot stands at (1, 2) in the field facing the field's -x; the keeper at (1, 4)
-  // facing +y sees a ball at (0, 4, 0.5) with its Kinect and one with its omni camera at (2, 4).
+  // facing +y sees a ball at (0, 4, 0.5) with its Kinect and one with its omni camera at (2, 4), and
+  // this robot at (1, 2.1) with its omni camera.
   ScopedTempDir dir;
   const std::string folder = smallLog(dir.path(), [](fw::MatchLogWriter& writer, const fw::DepthImage& image) {
     if (image.index < 5) return;
@@ -311,6 +312,9 @@ TEST(ViewedLog, TeammatesAreDrawnInThisRobotsFrameWhereTheirMessagesPutThem) {
     ray.origin_F = {1.0, 4.0, 0.75};
     ray.direction_F = (Eigen::Vector3d(2.0, 4.0, 0.11) - ray.origin_F).normalized();
     message.omni_rays = {ray};
+    fw::SeenRobot robot;
+    robot.position_F = {1.0, 2.1};
+    message.robots_seen = {robot};
     writer.write({image.stamp.receive_time_s, message});
   });
   ServedView view({folder});
@@ -325,6 +329,7 @@ TEST(ViewedLog, TeammatesAreDrawnInThisRobotsFrameWhereTheirMessagesPutThem) {
   ASSERT_EQ(keeper["rays"].size(), 1u);
   EXPECT_EQ(keeper["rays"][0][0], nlohmann::json({2.0, 0.0, 0.75}));
   EXPECT_EQ(keeper["rays"][0][1], nlohmann::json({2.0, -1.0, 0.11}));
+  EXPECT_EQ(keeper["robots_seen"], nlohmann::json({{0.1, 0.0, 0.0}})) << "0.1 m to this robot's right";
   EXPECT_EQ(view.stop(), 0);
 }
 

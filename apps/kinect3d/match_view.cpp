@@ -323,7 +323,8 @@ std::optional<json> MatchView::frame(std::size_t frame) {
   if (pose != nullptr) scene["pose"] = {{"x_m", pose->x_m}, {"y_m", pose->y_m}, {"theta_rad", pose->theta_rad}};
 
   // Each teammate as its newest message put it (field frame), drawn in this robot's frame: where it
-  // stands, its Kinect's balls and its omni camera's rays to where they meet the resting plane.
+  // stands, its Kinect's balls, its omni camera's rays to where they meet the resting plane, and the
+  // robots its omni camera sees (a mislocalised teammate sees this robot where it does not stand).
   json teammates = json::array();
   for (const auto& [robot_id, messages] : p.team) {
     const fw::TeamMessage* message = latestAt(messages, t, kTeammateRecent_s);
@@ -337,13 +338,18 @@ std::optional<json> MatchView::frame(std::size_t frame) {
       const Eigen::Vector3d ground_F = ray.origin_F + (ray.origin_F.z() - r) / -ray.direction_F.z() * ray.direction_F;
       rays.push_back({xyz(T_R_F * ray.origin_F), xyz(T_R_F * ground_F)});
     }
+    json robots = json::array();
+    for (const fw::SeenRobot& robot : message->robots_seen) {
+      robots.push_back(xyz(T_R_F * Eigen::Vector3d(robot.position_F.x(), robot.position_F.y(), 0.0)));
+    }
     const Eigen::Vector3d at_R = T_R_F * Eigen::Vector3d(message->pose->x_m, message->pose->y_m, 0.0);
     teammates.push_back({{"robot_id", robot_id},
                          {"name", message->robot_name},
                          {"p_m", xyz(at_R)},
                          {"heading_rad", rounded(fw::wrapAngle(message->pose->theta_rad - pose->theta_rad))},
                          {"kinect", balls},
-                         {"rays", rays}});
+                         {"rays", rays},
+                         {"robots_seen", robots}});
   }
   scene["teammates"] = teammates;
 
