@@ -1156,6 +1156,40 @@ TEST(Fusion, ATeammateThatSeesTheRobotsElsewhereIsDiscountedBeforeItsBallIsEverU
   }
 }
 
+TEST(Fusion, ATeammatesRobotsSeenAreJudgedEvenWhenTheFrameTheyWaitedForComesTooLate) {
+  // The keeper, 7 m ahead and facing this robot, says every 100 ms where it sees this robot. Its
+  // sightings are judged with this robot's next own frame; one of those frames comes stamped 0.5 s
+  // behind the others (later than fusion.max_delay_s, a stalled USB transfer) and is dropped. The
+  // sightings it carried must wait for the frame after it, not vanish with it.
+  fusion::BallFusion fusion(testConfig());
+  std::mt19937 random(5);
+  const fw::RobotPose keeper = poseAt(0.5, 7.0, M_PI, kT0);
+  constexpr int kMessages = 6;
+  int heard = 0;
+  for (int i = 0; i < 3 * kMessages; ++i) {
+    const double t = kT0 + i / 30.0;
+    fusion.addPose(standingAtOrigin(t));
+    if (i % 3 == 0) {
+      fw::TeamMessage message =
+          teammateMessage(keeper, poseAt(keeper.x_m, keeper.y_m, keeper.theta_rad, t), {}, random);
+      message.robots_seen = {
+          fusion::seenRobot_F(omniRobotView({0.0, 0.0}, keeper, random), *message.pose, testConfig().omni, t)};
+      fusion.addTeamMessage(message);
+      ++heard;
+      if (heard == 3) {
+        const int dropped_before = fusion.lateFramesDropped();
+        fusion.addKinectFrame(t - 0.5, {});
+        ASSERT_EQ(fusion.lateFramesDropped(), dropped_before + 1) << "the late frame is dropped";
+      }
+    }
+    fusion.addKinectFrame(t + 0.001, {});
+  }
+  ASSERT_EQ(fusion.teammates().count(4), 1u);
+  ASSERT_LT(kMessages, testConfig().team.judge_examples);
+  EXPECT_EQ(fusion.teammates().at(4).examples, kMessages) << "every message's sightings judged";
+  EXPECT_FALSE(fusion.teammates().at(4).discounted);
+}
+
 // An omni camera's view of p_F with its noise: 1.5 degrees of bearing, 5 cm and 5 % of distance.
 fw::OmniBallObservation noisyOmniView(const Eigen::Vector3d& p_F, const fw::RobotPose& pose, std::mt19937& random) {
   std::normal_distribution<double> unit(0.0, 1.0);

@@ -374,6 +374,13 @@ const FusionUpdate& BallFusion::insert(Frame frame) {
   const double max_delay_s = frame.source == Source::kTeammate ? config_.team.max_delay_s : config_.max_delay_s;
   if (frame.time_s < newest - max_delay_s) {
     ++late_dropped_;
+    // The teammates' sightings it carried ride on the next frame instead, before those heard since.
+    auto& carried = frame.team_sightings;
+    pending_sightings_.insert(pending_sightings_.begin(), std::make_move_iterator(carried.begin()),
+                              std::make_move_iterator(carried.end()));
+    if (pending_sightings_.size() > kPendingSightings) {
+      pending_sightings_.erase(pending_sightings_.begin(), pending_sightings_.end() - kPendingSightings);
+    }
     return state_.update;
   }
   // A late frame: back to the state before the first frame after it, then everything again in order.
