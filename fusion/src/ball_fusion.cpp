@@ -61,6 +61,11 @@ constexpr double kSightingsApart_s = 0.05;
 // Teammates' robots seen wait for this robot's next own frame; at most this many (a second of
 // four teammates' messages) wait while its own sensors are silent.
 constexpr std::size_t kPendingSightings = 80;
+// Beyond that the oldest go.
+template <typename Sightings>
+void keepNewestPending(std::vector<Sightings>& pending) {
+  if (pending.size() > kPendingSightings) pending.erase(pending.begin(), pending.end() - kPendingSightings);
+}
 // A robot moves at most this fast (MSL robots reach 3-4 m/s; most of a match is slower): two
 // sightings of it that far apart in time are that much apart.
 constexpr double kRobotSpeed_mps = 3.0;
@@ -299,7 +304,7 @@ const FusionUpdate& BallFusion::addTeamMessage(const fw::TeamMessage& message) {
     pending_sightings_.push_back({message.robot_id, message.robot_name, message.robots_seen.front().time_s,
                                   message.robots_seen, Eigen::Vector2d(message.pose->x_m, message.pose->y_m),
                                   pose_error});
-    if (pending_sightings_.size() > kPendingSightings) pending_sightings_.erase(pending_sightings_.begin());
+    keepNewestPending(pending_sightings_);
   }
   if (message.world_ball && !onlyAPrior(*message.world_ball) && config_.team.prior_max_age_s > 0.0) {
     frameAt(message.world_ball->stamp.source_time_s).team_world_ball =
@@ -378,9 +383,7 @@ const FusionUpdate& BallFusion::insert(Frame frame) {
     auto& carried = frame.team_sightings;
     pending_sightings_.insert(pending_sightings_.begin(), std::make_move_iterator(carried.begin()),
                               std::make_move_iterator(carried.end()));
-    if (pending_sightings_.size() > kPendingSightings) {
-      pending_sightings_.erase(pending_sightings_.begin(), pending_sightings_.end() - kPendingSightings);
-    }
+    keepNewestPending(pending_sightings_);
     return state_.update;
   }
   // A late frame: back to the state before the first frame after it, then everything again in order.
