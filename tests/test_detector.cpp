@@ -92,6 +92,14 @@ TEST(PointProjector, KeepsSurfacesDropsFlyingPixelsAndFloor) {
   EXPECT_TRUE(projector.isSurface(frame, 500, 300));
   frame.depth_mm[300 * 640 + 500] = 0;
   EXPECT_FALSE(projector.isSurface(frame, 501, 300)) << "a neighbour with no data";
+  // Beside that hole (a dark panel's, say): which way it lies, for a pixel that is surface but for it.
+  ASSERT_TRUE(projector.holeBeside(frame, 501, 300).has_value());
+  EXPECT_EQ(*projector.holeBeside(frame, 501, 300), Eigen::Vector2i(-1, 0));
+  EXPECT_EQ(*projector.holeBeside(frame, 500, 299), Eigen::Vector2i(0, 1));
+  EXPECT_FALSE(projector.holeBeside(frame, 100, 100).has_value()) << "no hole beside it";
+  EXPECT_FALSE(projector.holeBeside(frame, 299, 200).has_value()) << "an edge, not a hole";
+  frame.depth_mm[301 * 640 + 501] = 0;
+  EXPECT_FALSE(projector.holeBeside(frame, 501, 300).has_value()) << "two neighbours with no data";
 }
 
 // ---- Occupancy grid --------------------------------------------------------------------------
@@ -417,8 +425,9 @@ TEST(BallDetector, ABallWithDarkPanelsIsFoundAndAnotherKinectMakesNoBall) {
   EXPECT_EQ(sim::scoreFrames(sim::runDetectorOnScene(facing, shippedDetector(facing)), facing, {}).reported, 0);
 }
 
-// A classic ball's black panels notch its outline where they cross the limb; another Kinect's
-// specks of false depth fall inside the ball's box beside it. Neither makes it less a ball. The
+// A classic ball's black panels notch its outline where they cross the limb and, far away, leave it
+// few pixels; another Kinect's specks of false depth fall inside the ball's box beside it. Neither
+// makes it less a ball. The
 // detector before the notch and speck rules found 81 % and 88 % of these frames.
 TEST(BallDetector, KicksOfABallWithDarkPanelsOrBesideAnotherKinectsSpecksAreFound) {
   auto scoreWith = [](const auto& change) {
@@ -441,6 +450,19 @@ TEST(BallDetector, KicksOfABallWithDarkPanelsOrBesideAnotherKinectsSpecksAreFoun
   EXPECT_GT(facing.eligible, 200);
   EXPECT_GE(facing.recall(), 0.93);
   EXPECT_EQ(facing.off_truth, 0);
+  // Beyond 5 m the surface test left a ball with dark panels too few pixels for its size: it drops
+  // those round each panel's hole. Counting them too, the lob to the goalkeeper is found in 45 of
+  // its 48 counted frames; without, in 38.
+  sim::DetectionScore far;
+  for (int seed = 1; seed <= 3; ++seed) {
+    sim::Scene scene = sim::loadScene("lob_goalkeeper");
+    scene.noise.seed = static_cast<std::uint64_t>(seed);
+    scene.ball->dark_panels = true;
+    far.add(sim::scoreFrames(sim::runDetectorOnScene(scene, shippedDetector(scene)), scene, {}));
+  }
+  EXPECT_GT(far.eligible, 40);
+  EXPECT_GE(far.recall(), 0.9);
+  EXPECT_EQ(far.off_truth, 0);
 }
 
 // A speck that another Kinect throws into a ball's box is left out (the test above); a piece of a

@@ -56,6 +56,8 @@ class BallRefiner {
   // false if too few or not in view.
   bool gatherPoints(const BallCandidate& candidate, const OccupancyGrid& grid, const DepthFrame& frame,
                     const Eigen::Isometry3d& T_R_S, const PointProjector& surface) const;
+  // Whether pixel (u, v), beside a hole, shows the ball round one of its dark panels.
+  bool besidePanelHole(const DepthFrame& frame, int u, int v, const PointProjector& surface) const;
   // Enough pixels for a ball at this range, and no wider than one.
   bool isBallSized(const Eigen::Vector3d& centroid, const Eigen::Vector3d& ray, double range, double focal_px) const;
   // The centre: the centroid moved back along the ray by the visible cap's depth.
@@ -79,6 +81,7 @@ class BallRefiner {
   mutable std::vector<bool> speck_;                        // per piece: left out
   mutable std::vector<Eigen::Vector3d> points_;
   mutable std::vector<Eigen::Vector2i> pixels_;  // where each point was seen
+  mutable int beside_panels_ = 0;                // and pixels beside a dark panel's hole, only counted
   mutable std::vector<std::pair<int, int>> row_ends_, column_ends_;
   mutable std::vector<Eigen::Vector3d> limb_rays_S_;
   mutable std::vector<bool> limb_blank_, notch_;

@@ -9,6 +9,7 @@
 
 #include <cmath>
 #include <cstdint>
+#include <optional>
 #include <vector>
 
 #include <Eigen/Geometry>
@@ -55,6 +56,9 @@ class PointProjector {
     }
     return true;
   }
+  // For a pixel that would be a surface pixel but for one of its four neighbours, which returns
+  // nothing: the step towards that neighbour. Nothing for any other pixel.
+  std::optional<Eigen::Vector2i> holeBeside(const DepthFrame& frame, int u, int v) const;
 
  private:
   // How far a neighbour may lie from depth z_mm: k steps of z^2 / (8 f b), with z in metres.
