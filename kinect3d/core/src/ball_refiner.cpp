@@ -55,14 +55,17 @@ bool BallRefiner::gatherPoints(const BallCandidate& candidate, const OccupancyGr
     const Eigen::Vector2d px = in.project(c_S);
     u0 = std::min(u0, px.x()), u1 = std::max(u1, px.x()), v0 = std::min(v0, px.y()), v1 = std::max(v1, px.y());
   }
-  // A pixel's point, if it lies on a surface, in the box and above the floor.
-  auto pointAt = [&](int u, int v) -> std::optional<Eigen::Vector3d> {
-    if (!surface.isSurface(frame, u, v)) return std::nullopt;
+  // A pixel's point, if it lies in the box and above the floor.
+  auto inBox = [&](int u, int v) -> std::optional<Eigen::Vector3d> {
     const Eigen::Vector3d p_R = T_R_S * in.backProject(u, v, frame.at(u, v) * 0.001);
     const Eigen::Vector3f p = p_R.cast<float>();
     if ((p.array() < lo.array()).any() || (p.array() > hi.array()).any()) return std::nullopt;
     if (p_R.z() < surface.config().floor_margin_m) return std::nullopt;
     return p_R;
+  };
+  // The same for a pixel on a surface.
+  auto pointAt = [&](int u, int v) -> std::optional<Eigen::Vector3d> {
+    return surface.isSurface(frame, u, v) ? inBox(u, v) : std::nullopt;
   };
   // The rectangle holds the ball's pixels and, for a 0.81 m core near the sensor, a hundred times
   // more. A coarse pass finds where the points are, and refuses what is already wider than a ball.
@@ -161,9 +164,8 @@ bool BallRefiner::gatherPoints(const BallCandidate& candidate, const OccupancyGr
   }
   const double widest_px = config_.max_size_ratio * 2.0 * config_.radius_m * in.fx / nearest_m;
   if (kCoarse_px * std::max(cu1 - cu0, cv1 - cv0) > widest_px + 2 * kCoarse_px) return false;
-  // Every surface pixel around the coarse points whose point lies in the box, and the pixels there
-  // beside a dark panel's hole (counted, not used: their depth is as good, their neighbourhood not
-  // known).
+  // Every surface pixel around the coarse points whose point lies in the box; and those in it beside
+  // a dark panel's hole, counted for the ball's size only (the fits keep to surface pixels).
   points_.clear();
   pixels_.clear();
   beside_panels_ = 0;
@@ -174,11 +176,8 @@ bool BallRefiner::gatherPoints(const BallCandidate& candidate, const OccupancyGr
       if (const std::optional<Eigen::Vector3d> p_R = pointAt(u, v)) {
         points_.push_back(*p_R);
         pixels_.emplace_back(u, v);
-      } else if (besidePanelHole(frame, u, v, surface)) {
-        const Eigen::Vector3d p_R = T_R_S * in.backProject(u, v, frame.at(u, v) * 0.001);
-        const Eigen::Vector3f p = p_R.cast<float>();
-        beside_panels_ += (p.array() >= lo.array()).all() && (p.array() <= hi.array()).all() &&
-                          p_R.z() >= surface.config().floor_margin_m;
+      } else if (besidePanelHole(frame, u, v, surface) && inBox(u, v)) {
+        ++beside_panels_;
       }
     }
   }
