@@ -37,15 +37,15 @@ class SensorCoverage {
   // Whether pixel (u, v) lies in the sensor's view: inside the image and not in an edge band.
   bool inView(int u, int v) const;
   // The farthest depth the sensor has returned (0 before any frame).
-  double farthestReturn_m() const { return farthest_return_m_; }
+  double farthestReturn_m() const { return farthest_bin_ * kRangeBin_m; }
 
  private:
   int width_ = 0, height_ = 0;
   // Per row (v) the first and last column that returned depth; per column (u) the first and last row.
   std::vector<int> row_first_, row_last_, column_first_, column_last_;
   int band_u_ = 0, band_v_ = 0;     // the learnt band's width across columns and rows
-  std::vector<int> range_samples_;  // per range bin, this frame's samples that returned a depth in it
-  double farthest_return_m_ = 0.0;
+  std::vector<int> range_samples_;  // per range bin, a frame's samples that returned a depth in it
+  int farthest_bin_ = 0;            // the range bin of the farthest return (0: none yet)
 };
 
 }  // namespace kinect3d
