@@ -14,7 +14,8 @@ OccupancyGrid::OccupancyGrid(const Config& config, double focal_px, int pixel_st
   const int across = static_cast<int>(std::ceil(2.0 * max_range_m / config.voxel_m)) + 2;
   size_ = {across, across, static_cast<int>(std::ceil(kMaxHeight_m / config.voxel_m)) + 2};
   const std::size_t cells = static_cast<std::size_t>(size_[0]) * size_[1] * size_[2];
-  counts_.assign(cells, 0);
+  counts_.assign(cells + 1, 0);  // and the spare cell, where points outside the region are counted
+  needed_.assign(cells + 1, 0);  // the spare cell's 0 is never reached: a counted cell holds 1 or more
   occupied_.assign(cells, 0);
   for (int a = 0; a < 3; ++a) blocks_[a] = (size_[a] + kBlock - 1) / kBlock;
   block_counts_.assign(static_cast<std::size_t>(blocks_[0]) * blocks_[1] * blocks_[2], 0);
@@ -31,8 +32,21 @@ void OccupancyGrid::recentre(const Eigen::Vector3f& sensor_R) {
   std::fill(counts_.begin(), counts_.end(), 0);
   std::fill(occupied_.begin(), occupied_.end(), 0);
   std::fill(block_counts_.begin(), block_counts_.end(), 0);
-  touched_.clear();
+  cells_.clear();
   occupied_list_.clear();
+  // Each voxel's threshold at its range, in whole points (a count reaches a fractional threshold
+  // when it reaches the next whole number).
+  for (int z = 0; z < size_[2]; ++z) {
+    for (int y = 0; y < size_[1]; ++y) {
+      for (int x = 0; x < size_[0]; ++x) {
+        const VoxelIndex v{x, y, z};
+        const double range = std::max(0.3, double((centerOf(v) - sensor_R).norm()));
+        const double needed =
+            std::max<double>(config_.min_points, config_.occupied_fraction * full_face_points_at_1m_ / (range * range));
+        needed_[flat(v)] = static_cast<std::uint16_t>(std::clamp<double>(std::ceil(needed), 1, UINT16_MAX));
+      }
+    }
+  }
 }
 
 namespace {
@@ -60,31 +74,36 @@ Eigen::Vector3f OccupancyGrid::centerOf(const VoxelIndex& v) const {
 
 void OccupancyGrid::update(const PointSet& points, const Eigen::Vector3f& sensor_R) {
   recentre(sensor_R);
-  // Clear last frame's counts where it had any.
-  for (const std::uint32_t i : touched_) counts_[i] = 0;
-  touched_.clear();
+  // Clear last frame's counts where it had points, and its occupancy.
+  for (const std::uint32_t i : cells_) counts_[i] = 0;
   for (const VoxelIndex& v : occupied_list_) {
     occupied_[flat(v)] = 0;
     --blockCount(v);
   }
   occupied_list_.clear();
 
-  // 1. Count points per voxel.
-  for (const Eigen::Vector3f& p : points) {
-    const VoxelIndex v = indexOf(p);
-    if (!inside(v)) continue;
-    std::uint16_t& count = counts_[flat(v)];
-    if (count == 0) touched_.push_back(static_cast<std::uint32_t>(flat(v)));
-    if (count < UINT16_MAX) ++count;
+  // 1. Each point's voxel, or the spare cell past the region's end for a point outside it. Without
+  // a branch, so that the compiler vectorises it.
+  const std::uint32_t spare = static_cast<std::uint32_t>(counts_.size() - 1);
+  const float scale = static_cast<float>(1.0 / config_.voxel_m);
+  cells_.resize(points.size());
+  for (std::size_t k = 0; k < points.size(); ++k) {
+    const Eigen::Vector3f& p = points[k];
+    const int x = floorToInt(p.x() * scale) - origin_[0], y = floorToInt(p.y() * scale) - origin_[1],
+              z = floorToInt(p.z() * scale) - origin_[2];
+    const bool inside = (x >= 0) & (y >= 0) & (z >= 0) & (x < size_[0]) & (y < size_[1]) & (z < size_[2]);
+    // Unsigned: a point outside the region may give any index, and the spare cell replaces it.
+    const std::uint32_t cell = (std::uint32_t(z) * size_[1] + std::uint32_t(y)) * size_[0] + std::uint32_t(x);
+    cells_[k] = inside ? cell : spare;
   }
 
-  // 2. Occupancy, with the threshold at each voxel's range.
-  for (const std::uint32_t i : touched_) {
-    const VoxelIndex v{int(i % size_[0]), int(i / size_[0] % size_[1]), int(i / size_[0] / size_[1])};
-    const double range = std::max(0.3, double((centerOf(v) - sensor_R).norm()));
-    const double needed =
-        std::max<double>(config_.min_points, config_.occupied_fraction * full_face_points_at_1m_ / (range * range));
-    if (counts_[i] >= needed) {
+  // 2. Count them; a voxel is occupied the moment its count reaches its threshold (the spare cell's
+  // is never reached).
+  for (const std::uint32_t i : cells_) {
+    std::uint16_t& count = counts_[i];
+    count += count != UINT16_MAX;
+    if (count == needed_[i]) {
+      const VoxelIndex v{int(i % size_[0]), int(i / size_[0] % size_[1]), int(i / size_[0] / size_[1])};
       occupied_[i] = 1;
       ++blockCount(v);
       occupied_list_.push_back(v);

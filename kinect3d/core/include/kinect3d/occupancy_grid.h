@@ -75,11 +75,12 @@ class OccupancyGrid {
   VoxelIndex size_{0, 0, 0};
   VoxelIndex origin_{0, 0, 0};  // floor(p / voxel_m) of dense index (0, 0, 0)
   Eigen::Vector3f region_centre_{Eigen::Vector3f::Constant(1e9f)};
-  std::vector<std::uint16_t> counts_;
+  std::vector<std::uint16_t> counts_;  // per voxel this frame's points, and the spare cell's last
+  std::vector<std::uint16_t> needed_;  // per voxel the points that make it occupied at its range
   std::vector<std::uint8_t> occupied_;
   VoxelIndex blocks_{0, 0, 0};
   std::vector<std::uint16_t> block_counts_;
-  std::vector<std::uint32_t> touched_;  // flat indices with a count
+  std::vector<std::uint32_t> cells_;  // per point of the frame its voxel's flat index (or the spare cell)
   std::vector<VoxelIndex> occupied_list_;
 };
 
