@@ -5,26 +5,6 @@
 
 namespace kinect3d {
 
-void BallCandidateFinder::VoxelSet::reset(std::size_t expected) {
-  std::size_t capacity = 64;
-  while (capacity < 2 * expected) capacity *= 2;
-  if (slots_.size() < capacity) slots_.resize(capacity);
-  std::fill(slots_.begin(), slots_.begin() + capacity, kEmpty);
-  mask_ = capacity - 1;
-}
-
-bool BallCandidateFinder::VoxelSet::insert(const VoxelIndex& v) {
-  const std::uint64_t key =
-      (std::uint64_t(std::uint32_t(v[2])) << 42) ^ (std::uint64_t(std::uint32_t(v[1])) << 21) ^ std::uint32_t(v[0]);
-  for (std::size_t i = (key * 0x9E3779B97F4A7C15ULL) >> 40 & mask_;; i = (i + 1) & mask_) {
-    if (slots_[i] == key) return false;
-    if (slots_[i] == kEmpty) {
-      slots_[i] = key;
-      return true;
-    }
-  }
-}
-
 BallCandidateFinder::BallCandidateFinder(const Config& config, double min_points_at_1m)
     : config_(config), min_points_at_1m_(min_points_at_1m), shell_((config.mask_voxels - config.core_voxels) / 2) {
   if (config.core_voxels < 1 || config.mask_voxels < config.core_voxels + 2 ||
@@ -37,11 +17,22 @@ void BallCandidateFinder::find(const OccupancyGrid& grid, std::vector<BallCandid
   out.clear();
   const std::vector<VoxelIndex>& occupied = grid.occupiedVoxels();
   // Group occupied voxels whose Chebyshev distance is at most the shell thickness. The grid's
-  // occupancy flags answer "is there a voxel here", a set remembers which are grouped already.
-  grouped_.reset(occupied.size());
+  // occupancy flags answer "is there a voxel here", a flag per voxel remembers which are grouped.
+  const VoxelIndex& size = grid.size();
+  grouped_.resize(static_cast<std::size_t>(size[0]) * size[1] * size[2]);
+  neighbours_.clear();
+  for (int dz = -shell_; dz <= shell_; ++dz) {
+    for (int dy = -shell_; dy <= shell_; ++dy) {
+      for (int dx = -shell_; dx <= shell_; ++dx) {
+        if (dx == 0 && dy == 0 && dz == 0) continue;
+        neighbours_.push_back({{dx, dy, dz}, (std::ptrdiff_t(dz) * size[1] + dy) * size[0] + dx});
+      }
+    }
+  }
   const int core = config_.core_voxels;
   for (const VoxelIndex& start : occupied) {
-    if (!grouped_.insert(start)) continue;
+    if (grouped_[grid.flatIndex(start)]) continue;
+    grouped_[grid.flatIndex(start)] = 1;
     BallCandidate group{start, start, 0, 0};
     bool too_big = false;
     stack_.assign(1, start);
@@ -50,19 +41,21 @@ void BallCandidateFinder::find(const OccupancyGrid& grid, std::vector<BallCandid
       stack_.pop_back();
       ++group.voxels;
       group.points += grid.count(v);
+      bool interior = true;  // all its neighbours within the shell lie inside the grid
       for (int a = 0; a < 3; ++a) {
         group.min[a] = std::min(group.min[a], v[a]);
         group.max[a] = std::max(group.max[a], v[a]);
         too_big = too_big || group.max[a] - group.min[a] + 1 > core;
+        interior = interior && v[a] >= shell_ && v[a] + shell_ < size[a];
       }
-      for (int dz = -shell_; dz <= shell_; ++dz) {
-        for (int dy = -shell_; dy <= shell_; ++dy) {
-          for (int dx = -shell_; dx <= shell_; ++dx) {
-            const VoxelIndex n{v[0] + dx, v[1] + dy, v[2] + dz};
-            if (!grid.occupied(n)) continue;
-            if (grouped_.insert(n)) stack_.push_back(n);
-          }
-        }
+      const std::size_t centre = grid.flatIndex(v);
+      for (const Neighbour& neighbour : neighbours_) {
+        const VoxelIndex n{v[0] + neighbour.step[0], v[1] + neighbour.step[1], v[2] + neighbour.step[2]};
+        if (!interior && !grid.occupied(n)) continue;  // at the grid's edge, checked against its bounds
+        const std::size_t i = centre + neighbour.offset;
+        if (grouped_[i] || !grid.occupiedAt(i)) continue;
+        grouped_[i] = 1;
+        stack_.push_back(n);
       }
     }
     if (too_big) continue;
@@ -71,6 +64,8 @@ void BallCandidateFinder::find(const OccupancyGrid& grid, std::vector<BallCandid
     if (group.points < min_points_at_1m_ / range_squared) continue;
     if (shellEmpty(grid, group)) out.push_back(group);
   }
+  // Every occupied voxel was grouped, and only those.
+  for (const VoxelIndex& v : occupied) grouped_[grid.flatIndex(v)] = 0;
 }
 
 // Whether some placement of the core around the group leaves the rest of its window (core and

@@ -8,6 +8,7 @@
 // lies below the floor, where the floor cut leaves nothing, so the same test finds ground balls.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <vector>
 
@@ -42,20 +43,14 @@ class BallCandidateFinder {
   Config config_;
   double min_points_at_1m_;
   int shell_;  // voxels of empty shell on each side
-  // An open-addressing set of voxels, reused between frames so grouping allocates nothing.
-  class VoxelSet {
-   public:
-    void reset(std::size_t expected);
-    bool insert(const VoxelIndex& v);  // false if already there
-
-   private:
-    static constexpr std::uint64_t kEmpty = ~std::uint64_t{0};
-    std::vector<std::uint64_t> slots_;
-    std::size_t mask_ = 0;
+  // Scratch for the grouping, reused between frames: per voxel of the grid whether it is grouped
+  // (all 0 between calls), and a voxel's neighbours within the shell, as steps and as flat offsets.
+  struct Neighbour {
+    VoxelIndex step;
+    std::ptrdiff_t offset;
   };
-
-  // Scratch for the grouping, reused between frames.
-  mutable VoxelSet grouped_;
+  mutable std::vector<std::uint8_t> grouped_;
+  mutable std::vector<Neighbour> neighbours_;
   mutable std::vector<VoxelIndex> stack_;
   mutable std::vector<std::uint8_t> blocked_;  // per core placement: holds something else
 };

@@ -51,6 +51,13 @@ class OccupancyGrid {
   }
   const std::vector<VoxelIndex>& occupiedVoxels() const { return occupied_list_; }
 
+  // Dense indexing, for scans that visit every neighbour of many voxels: the region's size, a
+  // voxel's flat index (the voxel inside it; a neighbour at (dx, dy, dz) lies
+  // (dz size[1] + dy) size[0] + dx further on), and occupancy by flat index.
+  const VoxelIndex& size() const { return size_; }
+  std::size_t flatIndex(const VoxelIndex& v) const { return flat(v); }
+  bool occupiedAt(std::size_t flat_index) const { return occupied_[flat_index] != 0; }
+
   VoxelIndex indexOf(const Eigen::Vector3f& p_R) const;
   Eigen::Vector3f centerOf(const VoxelIndex& v) const;
   double voxel_m() const { return config_.voxel_m; }
