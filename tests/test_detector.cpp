@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <fstream>
 #include <initializer_list>
+#include <random>
 
 #include "framework_api/config.h"
 #include "kinect3d/ball_detector.h"
@@ -103,6 +104,48 @@ TEST(PointProjector, KeepsSurfacesDropsFlyingPixelsAndFloor) {
   EXPECT_FALSE(projector.holeBeside(frame, 501, 300).has_value()) << "two neighbours with no data";
 }
 
+TEST(PointProjector, ProjectsExactlyTheSampledSurfacePixelsAboveTheFloorAtEveryStride) {
+  // A noisy wall 3-5 m away with holes, a step and flying pixels, seen by a level sensor 0.6 m up
+  // (optical z forward is the robot's y, optical y down its -z): project() against isSurface and
+  // the transform, pixel by pixel, at the default stride (the vectorised path) and at others.
+  DepthFrame frame;
+  frame.resize(kinect3d::Intrinsics{});
+  std::mt19937 random(7);
+  std::uniform_int_distribution<int> noise_mm(-30, 30), hole(0, 19);
+  for (int v = 0; v < 480; ++v) {
+    for (int u = 0; u < 640; ++u) {
+      const int wall_mm = 3000 + 4 * u + (v > 300 ? 800 : 0);
+      frame.depth_mm[v * 640 + u] = hole(random) == 0 ? 0 : static_cast<std::uint16_t>(wall_mm + noise_mm(random));
+    }
+  }
+  Eigen::Isometry3f T_R_S = Eigen::Isometry3f::Identity();
+  T_R_S.linear() << 1, 0, 0, 0, 0, 1, 0, -1, 0;
+  T_R_S.translation() = Eigen::Vector3f(0.0f, 0.0f, 0.6f);
+  for (const int stride : {1, 2, 3}) {
+    kinect3d::PointProjector::Config config;
+    config.pixel_stride = stride;
+    const kinect3d::PointProjector projector(config, frame.intrinsics);
+    kinect3d::PointSet expected, projected;
+    const int first = std::max(stride / 2, 1);
+    for (int v = first; v < 479; v += stride) {
+      for (int u = first; u < 639; u += stride) {
+        if (!projector.isSurface(frame, u, v)) continue;
+        const float z_m = frame.at(u, v) * 0.001f;
+        const kinect3d::Intrinsics& in = frame.intrinsics;
+        const Eigen::Vector3f p_S(z_m * float((u - in.cx) / in.fx), z_m * float((v - in.cy) / in.fy), z_m);
+        const Eigen::Vector3f p_R = T_R_S * p_S;
+        if (p_R.z() >= config.floor_margin_m) expected.push_back(p_R);
+      }
+    }
+    projector.project(frame, T_R_S, projected);
+    ASSERT_EQ(projected.size(), expected.size()) << "stride " << stride;
+    EXPECT_GT(expected.size(), 1000u) << "stride " << stride << ": the wall is mostly surface";
+    for (std::size_t i = 0; i < expected.size(); ++i) {
+      ASSERT_LT((projected[i] - expected[i]).norm(), 1e-4f) << "stride " << stride << ", point " << i;
+    }
+  }
+}
+
 // ---- Occupancy grid --------------------------------------------------------------------------
 
 TEST(OccupancyGrid, CountsFollowEachFrame) {
@@ -145,6 +188,10 @@ TEST(OccupancyGrid, ThresholdFallsWithRange) {
   grid.update(points, Eigen::Vector3f(0.0f, 0.0f, 0.7f));
   EXPECT_FALSE(grid.occupied(grid.indexOf({0.0f, 1.5f, 0.7f})));
   EXPECT_TRUE(grid.occupied(grid.indexOf({0.0f, 6.0f, 0.7f})));
+  // The sensor moved (new extrinsics): each voxel's threshold follows its new range.
+  grid.update(points, Eigen::Vector3f(0.0f, 4.5f, 0.7f));
+  EXPECT_TRUE(grid.occupied(grid.indexOf({0.0f, 1.5f, 0.7f}))) << "now 3 m away";
+  EXPECT_FALSE(grid.occupied(grid.indexOf({0.0f, 6.0f, 0.7f}))) << "now 1.5 m away";
 }
 
 // ---- The mask ---------------------------------------------------------------------------------

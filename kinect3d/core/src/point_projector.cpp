@@ -4,6 +4,7 @@
 #include <array>
 #include <stdexcept>
 #include <string>
+#include <type_traits>
 
 namespace kinect3d {
 
@@ -41,14 +42,21 @@ void PointProjector::project(const DepthFrame& frame, const Eigen::Isometry3f& T
     const std::uint16_t* d = &frame.depth_mm[static_cast<std::size_t>(v) * width];
     const std::uint16_t* above = d - width;
     const std::uint16_t* below = d + width;
-    // isSurface for every pixel of the row, written without branches: a loop over contiguous
-    // pixels that the compiler vectorises, cheaper than testing only the sampled ones one by one.
-    for (int u = 1; u < width - 1; ++u) {
-      const float z_mm = d[u], left = d[u - 1], right = d[u + 1], up = above[u], down = below[u];
-      const float step = std::max(std::max(std::abs(left - z_mm), std::abs(right - z_mm)),
-                                  std::max(std::abs(up - z_mm), std::abs(down - z_mm)));
-      surface[u] = (z_mm >= min_mm_) & (z_mm <= max_mm_) & (left > 0.0f) & (right > 0.0f) & (up > 0.0f) &
-                   (down > 0.0f) & (step <= toleranceAt_mm(z_mm));
+    // isSurface for the row's samples, written without branches. With the stride known when
+    // compiled (the default 2) the compiler vectorises the strided loads; any other runs scalar.
+    const auto surfaceRow = [&](auto sample_step) {
+      for (int u = first; u < width - 1; u += sample_step) {
+        const float z_mm = d[u], left = d[u - 1], right = d[u + 1], up = above[u], down = below[u];
+        const float step = std::max(std::max(std::abs(left - z_mm), std::abs(right - z_mm)),
+                                    std::max(std::abs(up - z_mm), std::abs(down - z_mm)));
+        surface[u] = (z_mm >= min_mm_) & (z_mm <= max_mm_) & (left > 0.0f) & (right > 0.0f) & (up > 0.0f) &
+                     (down > 0.0f) & (step <= toleranceAt_mm(z_mm));
+      }
+    };
+    if (stride == 2) {
+      surfaceRow(std::integral_constant<int, 2>());
+    } else {
+      surfaceRow(stride);
     }
     // The point is t + z R (x, y, 1) for the pixel's normalised coordinates: R (0, y, 1) once per row.
     // Every sample is written and the count moves on only for the kept ones.
