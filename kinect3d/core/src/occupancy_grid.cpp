@@ -74,16 +74,22 @@ Eigen::Vector3f OccupancyGrid::centerOf(const VoxelIndex& v) const {
 
 void OccupancyGrid::update(const PointSet& points, const Eigen::Vector3f& sensor_R) {
   recentre(sensor_R);
-  // Clear last frame's counts where it had points, and its occupancy.
-  for (const std::uint32_t i : cells_) counts_[i] = 0;
+  // Clear last frame's counts: all at once when it had more points than a sixteenth of the voxels
+  // (a fill is many times faster per element than scattered writes), else where it had points.
+  if (cells_.size() * 16 > counts_.size()) {
+    std::fill(counts_.begin(), counts_.end(), 0);
+  } else {
+    for (const std::uint32_t i : cells_) counts_[i] = 0;
+  }
+  // And its occupancy.
   for (const VoxelIndex& v : occupied_list_) {
     occupied_[flat(v)] = 0;
     --blockCount(v);
   }
   occupied_list_.clear();
 
-  // 1. Each point's voxel, or the spare cell past the region's end for a point outside it. Without
-  // a branch, so that the compiler vectorises it.
+  // 1. Each point's voxel, or the spare cell past the region's end for a point outside it, without
+  // a branch.
   const std::uint32_t spare = static_cast<std::uint32_t>(counts_.size() - 1);
   const float scale = static_cast<float>(1.0 / config_.voxel_m);
   cells_.resize(points.size());
