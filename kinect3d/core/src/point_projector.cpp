@@ -43,7 +43,7 @@ void PointProjector::project(const DepthFrame& frame, const Eigen::Isometry3f& T
     const std::uint16_t* above = d - width;
     const std::uint16_t* below = d + width;
     // isSurface for the row's samples, written without branches. With the stride known when
-    // compiled (the default 2) the compiler vectorises the strided loads; any other runs scalar.
+    // compiled (the default 2) the compiler vectorises the strided loads; other strides may run scalar.
     const auto surfaceRow = [&](auto sample_step) {
       for (int u = first; u < width - 1; u += sample_step) {
         const float z_mm = d[u], left = d[u - 1], right = d[u + 1], up = above[u], down = below[u];
