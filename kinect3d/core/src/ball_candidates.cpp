@@ -31,8 +31,9 @@ void BallCandidateFinder::find(const OccupancyGrid& grid, std::vector<BallCandid
   }
   const int core = config_.core_voxels;
   for (const VoxelIndex& start : occupied) {
-    if (grouped_[grid.flatIndex(start)]) continue;
-    grouped_[grid.flatIndex(start)] = 1;
+    std::uint8_t& start_grouped = grouped_[grid.flatIndex(start)];
+    if (start_grouped) continue;
+    start_grouped = 1;
     BallCandidate group{start, start, 0, 0};
     bool too_big = false;
     stack_.assign(1, start);

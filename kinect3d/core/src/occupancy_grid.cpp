@@ -88,19 +88,12 @@ void OccupancyGrid::update(const PointSet& points, const Eigen::Vector3f& sensor
   }
   occupied_list_.clear();
 
-  // 1. Each point's voxel, or the spare cell past the region's end for a point outside it, without
-  // a branch.
+  // 1. Each point's voxel, or the spare cell past the region's end for a point outside it.
   const std::uint32_t spare = static_cast<std::uint32_t>(counts_.size() - 1);
-  const float scale = static_cast<float>(1.0 / config_.voxel_m);
   cells_.resize(points.size());
   for (std::size_t k = 0; k < points.size(); ++k) {
-    const Eigen::Vector3f& p = points[k];
-    const int x = floorToInt(p.x() * scale) - origin_[0], y = floorToInt(p.y() * scale) - origin_[1],
-              z = floorToInt(p.z() * scale) - origin_[2];
-    const bool inside = (x >= 0) & (y >= 0) & (z >= 0) & (x < size_[0]) & (y < size_[1]) & (z < size_[2]);
-    // Unsigned: a point outside the region may give any index, and the spare cell replaces it.
-    const std::uint32_t cell = (std::uint32_t(z) * size_[1] + std::uint32_t(y)) * size_[0] + std::uint32_t(x);
-    cells_[k] = inside ? cell : spare;
+    const VoxelIndex v = indexOf(points[k]);
+    cells_[k] = inside(v) ? static_cast<std::uint32_t>(flat(v)) : spare;
   }
 
   // 2. Count them; a voxel is occupied the moment its count reaches its threshold (the spare cell's
