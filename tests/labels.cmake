@@ -16,15 +16,20 @@ set(scenario "^(MatchDay|LoggedDemo|ViewedDemo|ViewedLog|LiveView|Logger|HostPro
 set(heavy "^(OpenNI2Device\\.DeliversTheColourStreamPairedByTimeWithTheBallWhereTheDepthPutsIt|LoggedDemo\\..*|TeamPlugin\\.(ARobotWithoutAKinectHoldsTheLobFromItsTeammatesAndOutsidersAreRefused|ThroughALossyDelayingDuplicatingNetworkTheDefenderStillHoldsTheLob|AMislocalisedKeeperIsDiscountedByTheDefenderAndNotUsedThroughALossyNetwork|ThreeRobotsInOneWorldHoldTheLobOnlyTheKeepersKinectSees|TwoRobotsOmniCamerasAlonePlaceAHopInTheAirThroughALossyNetwork)|LiveView\\..*|CalibrationAlarm\\..*|ViewedDemo\\.(ThePageShowsTheLobInThreeDimensionsAndInTime|ASecondViewerOnTheSamePortIsRefusedNotShared)|Logger\\.AHostKilledMidRunLeavesALogThatOpensWithEveryCommittedBatch|MatchDay\\.(ALogWhoseClocksJumpReplaysInTheHostAndInReplayWithoutAStall|ADiskThatRefusesWritesMidRunIsSaidWhereRecordingResumes|LogsOpenReadOnlyOnAReadOnlyMountAndAsAnotherUserAndNothingIsWrittenBesideThem)|FusionPlugins\\.(TheDemoRobotFusesTheLobFlyingOverItWhileItDrives|TheAlignmentCheckFindsAKinectTurnedOnTheRobot)|TrajectoryScenario\\.GoalkeeperSeesWhereAShotCrossesItsLine|BallDetector\\.(FindsKicksAndShotsAndNothingElse|NoPhantomsInClutter|PeopleRoundTheRobotAreNotBallsAndABallAmongThemIsFound|KicksOfABallWithDarkPanelsOrBesideAnotherKinectsSpecksAreFound)|SceneMap\\.(WorksInTheFieldFrameAndStartsAfreshWhenAPoseAppears|FlagsABallHungInPlaceAsStaticButNeverAFlyingOne)|ColourCheck\\.(RejectsThePhantomsOfPeopleLampsAndLoudspeakersAndKeepsTheBall|TheDemoRobotsLearntBallIsConfirmedInItsOwnScene|AWhiteBallWithBlackPanelsSmearedInFlightIsNeverRejected)|BallColour\\..*|TeamWorlds\\.AMislocalisedKeeperIsDiscountedAndMovesNoWorldBallEvenWhereItAloneSeesTheLob)$")
 
 foreach(test IN LISTS framework_tests_TESTS kinect3d_tests_TESTS fusion_tests_TESTS scene_map_tests_TESTS team_tests_TESTS)
+  # ctest -j starts the costliest first: the long scenario and browser tests start at once and the
+  # quick unit tests fill the gaps, so that no long test starts last and runs alone (on a clean build,
+  # before ctest has timed any).
+  set(cost 1)
   if(test MATCHES "${browser}")
     set(labels browser)
   elseif(test MATCHES "${scenario}")
     set(labels scenario)
   else()
     set(labels unit)
+    set(cost 0)
   endif()
   if(NOT test MATCHES "${heavy}")
     list(APPEND labels sanitizer-safe)
   endif()
-  set_tests_properties("${test}" PROPERTIES LABELS "${labels}")
+  set_tests_properties("${test}" PROPERTIES LABELS "${labels}" COST ${cost})
 endforeach()
