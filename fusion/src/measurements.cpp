@@ -113,4 +113,21 @@ fw::SeenRobot seenRobot_F(const fw::OmniRobotObservation& robot, const fw::Robot
   return {p_F.head<2>(), covariance, time_s};
 }
 
+fw::BallRay omniRay_F(const fw::OmniBallObservation& ball, const fw::RobotPose& pose, const OmniConfig& omni,
+                      double radius_m, double time_s) {
+  const double h = omni.viewpoint_height_m;
+  Eigen::Vector3d centre_R = ball.groundPoint_R();
+  centre_R.z() = radius_m;
+  fw::BallRay ray;
+  ray.origin_F = pose.fieldFromRobot({0.0, 0.0, h});
+  ray.direction_F = (pose.fieldFromRobot(centre_R) - ray.origin_F).normalized();
+  ray.bearing_sigma_rad = omniBearingSigma_rad(ball, omni);
+  // A distance error along the floor turns the ray up or down by this much.
+  const double d = ball.distance_m, drop = h - radius_m;
+  ray.elevation_sigma_rad = omniDistanceSigma_m(ball, omni, d) * drop / (d * d + drop * drop);
+  ray.view_top_m = omni.max_height_m;
+  ray.time_s = time_s;
+  return ray;
+}
+
 }  // namespace fusion

@@ -269,24 +269,11 @@ class TeamNetwork {
     return ball;
   }
 
-  // The omni camera's ray through a ball it reports: from its mirror's viewpoint to the ball's centre
-  // if the ball rests on the floor.
+  // The omni camera's ray through a ball it reports, placed with the pose at the image's time.
   fw::BallRay rayOf(const fw::OmniBallObservation& ball, const fw::Stamp& stamp) const {
     const double seen_s = stamp.source_time_s - fusion_.omni.latency_s;
-    const fw::RobotPose pose = poses_.at(seen_s);
-    const double h = fusion_.omni.viewpoint_height_m, r = fusion_.motion.radius_m;
-    Eigen::Vector3d centre_R = ball.groundPoint_R();
-    centre_R.z() = r;
-    fw::BallRay ray;
-    ray.origin_F = pose.fieldFromRobot({0.0, 0.0, h});
-    ray.direction_F = (pose.fieldFromRobot(centre_R) - ray.origin_F).normalized();
-    ray.bearing_sigma_rad = fusion::omniBearingSigma_rad(ball, fusion_.omni);
-    // A distance error along the floor turns the ray up or down by this much.
-    const double d = ball.distance_m, drop = h - r;
-    ray.elevation_sigma_rad = fusion::omniDistanceSigma_m(ball, fusion_.omni, d) * drop / (d * d + drop * drop);
-    ray.view_top_m = fusion_.omni.max_height_m;
-    ray.time_s = omni_clock_.toHost(seen_s);
-    return ray;
+    return fusion::omniRay_F(ball, poses_.at(seen_s), fusion_.omni, fusion_.motion.radius_m,
+                             omni_clock_.toHost(seen_s));
   }
 
   void send() {

@@ -82,4 +82,10 @@ double omniDistanceSigma_m(const OmniObservation& observation, const OmniConfig&
 fw::SeenRobot seenRobot_F(const fw::OmniRobotObservation& robot, const fw::RobotPose& pose, const OmniConfig& omni,
                           double time_s);
 
+// The omni camera's ray through a ball it reported, as a teammate is told it: from the camera's
+// viewpoint (pose: the robot's own at the image's time) to where the ball's centre is if it rests on
+// the floor (a ball of radius_m), with the camera's noise as angles, at time_s.
+fw::BallRay omniRay_F(const fw::OmniBallObservation& ball, const fw::RobotPose& pose, const OmniConfig& omni,
+                      double radius_m, double time_s);
+
 }  // namespace fusion
