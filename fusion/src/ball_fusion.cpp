@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iterator>
 #include <limits>
 #include <optional>
 
@@ -320,17 +321,19 @@ const FusionUpdate& BallFusion::addTeamMessage(const fw::TeamMessage& message) {
       frame.team_world_ball.reset();
     }
   }
+  std::vector<Frame> usable;
+  std::optional<double> newest_s = recent_.empty() ? std::nullopt : std::optional<double>(recent_.back().first.time_s);
   for (auto& [t, frame] : frames) {
     // Its clock was moved onto the reference by the team plugin: a time far from the fusion's is a
     // clock the exchange has not caught up with yet, not a new time line.
-    const double newest_s = recent_.empty() ? t : recent_.back().first.time_s;
-    if (!std::isfinite(t) || std::abs(t - newest_s) > config_.track.lost_after_s) {
+    if (!std::isfinite(t) || (newest_s && std::abs(t - *newest_s) > config_.track.lost_after_s)) {
       ++unusable_dropped_;
       continue;
     }
-    insert(std::move(frame));
+    newest_s = std::max(newest_s.value_or(t), t);
+    usable.push_back(std::move(frame));
   }
-  return state_.update;
+  return usable.empty() ? state_.update : insert(std::move(usable));
 }
 
 bool BallFusion::onTimeLine(Source source, double stamp_s, double time_s) {
@@ -375,31 +378,55 @@ bool BallFusion::onTimeLine(Source source, double stamp_s, double time_s) {
 }
 
 const FusionUpdate& BallFusion::insert(Frame frame) {
-  const double newest = recent_.empty() ? frame.time_s : recent_.back().first.time_s;
-  const double max_delay_s = frame.source == Source::kTeammate ? config_.team.max_delay_s : config_.max_delay_s;
-  if (frame.time_s < newest - max_delay_s) {
-    ++late_dropped_;
-    // The teammates' sightings it carried ride on the next frame instead, before those heard since.
-    auto& carried = frame.team_sightings;
-    pending_sightings_.insert(pending_sightings_.begin(), std::make_move_iterator(carried.begin()),
-                              std::make_move_iterator(carried.end()));
-    keepNewestPending(pending_sightings_);
-    return state_.update;
+  std::vector<Frame> one;
+  one.push_back(std::move(frame));
+  return insert(std::move(one));
+}
+
+const FusionUpdate& BallFusion::insert(std::vector<Frame> frames) {
+  // Each frame too late to use is dropped, judged against the newest frame before it, the batch's too.
+  double newest = recent_.empty() ? frames.front().time_s : recent_.back().first.time_s;
+  std::vector<Frame> arrived;
+  for (Frame& frame : frames) {
+    const double max_delay_s = frame.source == Source::kTeammate ? config_.team.max_delay_s : config_.max_delay_s;
+    if (frame.time_s < newest - max_delay_s) {
+      ++late_dropped_;
+      // The teammates' sightings it carried ride on the next frame instead, before those heard since.
+      auto& carried = frame.team_sightings;
+      pending_sightings_.insert(pending_sightings_.begin(), std::make_move_iterator(carried.begin()),
+                                std::make_move_iterator(carried.end()));
+      keepNewestPending(pending_sightings_);
+      continue;
+    }
+    newest = std::max(newest, frame.time_s);
+    arrived.push_back(std::move(frame));
   }
-  // A late frame: back to the state before the first frame after it, then everything again in order.
+  if (arrived.empty()) return state_.update;
+  // Late frames: back to the state before the first frame after the earliest of them, then everything
+  // again in order, each arrived frame after those already held at its time. One rewind for the
+  // batch: a teammate's message carries frames at several times, and each rewind replays every frame
+  // since.
   const auto later = std::find_if(recent_.begin(), recent_.end(), [&](const std::pair<Frame, State>& entry) {
-    return entry.first.time_s > frame.time_s;
+    return entry.first.time_s > arrived.front().time_s;
   });
-  std::vector<Frame> replay{std::move(frame)};
+  std::vector<Frame> held;
   if (later != recent_.end()) {
     state_ = later->second;
-    for (auto it = later; it != recent_.end(); ++it) replay.push_back(std::move(it->first));
+    for (auto it = later; it != recent_.end(); ++it) held.push_back(std::move(it->first));
     recent_.erase(later, recent_.end());
   }
+  std::vector<Frame> replay;
+  replay.reserve(held.size() + arrived.size());
+  std::merge(std::make_move_iterator(held.begin()), std::make_move_iterator(held.end()),
+             std::make_move_iterator(arrived.begin()), std::make_move_iterator(arrived.end()),
+             std::back_inserter(replay), [](const Frame& a, const Frame& b) { return a.time_s < b.time_s; });
   for (Frame& f : replay) {
     recent_.emplace_back(std::move(f), state_);
     process(recent_.back().first);
   }
+  // The world's ball after the newest frame: what is published. Those after the replayed frames are
+  // never read, and predicting a goal-line crossing costs more than the frame.
+  state_.update.ball = worldBall(state_.update.time_s);
   // Kept for the latest any frame may come (once teammates speak, theirs over Wi-Fi later than this robot's own).
   const double keep_s =
       teammates_heard_ ? std::max(config_.max_delay_s, config_.team.max_delay_s) : config_.max_delay_s;
@@ -583,7 +610,6 @@ void BallFusion::process(const Frame& frame) {
     startTrack(candidates[c], t);
   }
   maintainTracks(t);
-  state.update.ball = worldBall(t);
 }
 
 bool BallFusion::ignores(const std::string& teammate) const {

@@ -239,7 +239,10 @@ class BallFusion {
 
   // The time-line rule for a frame of source stamped stamp_s (its own clock): true to use it.
   bool onTimeLine(Source source, double stamp_s, double time_s);
+  // The frames of one arrival (one frame, or a teammate's message), in time order.
   const FusionUpdate& insert(Frame frame);
+  const FusionUpdate& insert(std::vector<Frame> frames);
+  // One frame's measurements into the tracks; insert then takes the world's ball from them.
   void process(const Frame& frame);
   std::vector<Candidate> candidatesOf(const Frame& frame, const fw::RobotPose& pose) const;
   void startTrack(const Candidate& candidate, double t_s);
