@@ -31,6 +31,7 @@
 #include "framework_api/config.h"
 #include "framework_api/install_layout.h"
 #include "fusion/ball_fusion.h"
+#include "fusion/measurements.h"
 #include "kinect3d/ball_detector.h"
 #include "kinect3d/config_io.h"
 #include "kinect3d/kinect_disparity.h"
@@ -278,11 +279,98 @@ DetectorRun runDetector(const std::vector<DepthFrame>& frames, const kinect3d::D
   return run;
 }
 
-// The fusion's cost per update (one Kinect or omni frame), on the detections of the scene's frames
-// and its simulated omni camera (orange false balls included), fed in time order.
-std::vector<double> runFusion(const kinect3d::sim::Scene& scene, const std::vector<DepthFrame>& frames,
-                              const kinect3d::DetectorConfig& detector_config, const fw::Config& config,
-                              int repetitions) {
+// Four teammates round the field, each sending what the team plugin sends at its default rate
+// (team.rate_hz, 20 Hz): its pose, its omni camera's rays and the robots it saw, its world ball, and
+// for the keeper its Kinect's balls (this robot's detections, placed in the field). Each message
+// reaches this robot 0.1 s after it was sent (Wi-Fi).
+struct TeammateFeed {
+  std::vector<std::pair<double, fw::TeamMessage>> messages;  // arrival time, message
+};
+TeammateFeed teammatesOf(const kinect3d::sim::Scene& scene,
+                         const std::vector<std::pair<double, std::vector<fw::BallObservation>>>& kinect,
+                         const fusion::FusionConfig& fusion_config, double rate_hz) {
+  struct Mate {
+    const char* name;
+    double x_m, y_m, theta_rad;
+    bool kinect;
+  };
+  const std::vector<Mate> mates = {{"keeper", 0.0, -8.5, 0.0, true},
+                                   {"defender", -3.0, -4.0, 0.3, false},
+                                   {"wing", 4.0, 1.0, 2.0, false},
+                                   {"striker", 1.0, 5.0, 3.1, false}};
+  constexpr double kArrivesAfter_s = 0.1;
+  TeammateFeed feed;
+  for (std::size_t m = 0; m < mates.size(); ++m) {
+    kinect3d::sim::Scene view = scene;
+    view.robot = kinect3d::sim::CarrierRobot{mates[m].x_m, mates[m].y_m, mates[m].theta_rad, {}, 0.0, 0.0};
+    kinect3d::sim::OmniCameraModel model;
+    model.false_rate_hz = 2.0;
+    model.seed = 100 + m;
+    const kinect3d::sim::OmniCameraSimulator camera(view, model);
+    fw::RobotPose pose = view.robot.poseAt(0.0);
+    fw::TeamMessage message;
+    std::optional<Eigen::Vector3d> newest_F;  // its newest ball: its world ball, as a Kinect or the omni places it
+    const auto send = [&](double t_s) {
+      message.robot_id = static_cast<int>(m) + 2;
+      message.robot_name = mates[m].name;
+      pose.stamp.source_time_s = t_s;
+      message.pose = pose;
+      message.pose_sigma_xy_m = fusion_config.pose.sigma_xy_m;
+      message.pose_sigma_theta_rad = fusion_config.pose.sigma_theta_rad;
+      if (newest_F) {
+        fw::FusedBall world;
+        world.position_F = *newest_F;
+        world.covariance_F = 0.01 * Eigen::Matrix3d::Identity();
+        world.sources = {mates[m].kinect ? "kinect3d" : "omni"};
+        world.stamp.source_time_s = t_s;
+        message.world_ball = world;
+      }
+      feed.messages.emplace_back(t_s + kArrivesAfter_s, message);
+      message = fw::TeamMessage{};
+    };
+    double next_send_s = scene.start_time_s + 1.0 / rate_hz;
+    std::size_t k = 0;
+    for (int i = 0; i < camera.frameCount(); ++i) {
+      const fw::OmniFrame frame = camera.frame(i);
+      const double t_s = frame.stamp.source_time_s - fusion_config.omni.latency_s;
+      for (; mates[m].kinect && k < kinect.size() && kinect[k].first <= t_s; ++k) {
+        const fw::RobotPose own = scene.robot.poseAt(kinect[k].first - scene.start_time_s);
+        for (fw::BallObservation ball : kinect[k].second) {
+          ball.position_m = own.fieldFromRobot(ball.position_m);
+          ball.frame = fw::Frame::kField;
+          message.kinect_balls.push_back(ball);
+          newest_F = ball.position_m;
+        }
+      }
+      for (const fw::OmniBallObservation& ball : frame.balls) {
+        message.omni_rays.push_back(
+            fusion::omniRay_F(ball, pose, fusion_config.omni, fusion_config.motion.radius_m, t_s));
+        if (!mates[m].kinect) newest_F = pose.fieldFromRobot(ball.groundPoint_R());
+      }
+      message.robots_seen.clear();
+      for (const fw::OmniRobotObservation& robot : frame.robots) {
+        message.robots_seen.push_back(fusion::seenRobot_F(robot, pose, fusion_config.omni, t_s));
+      }
+      if (t_s >= next_send_s) {
+        send(t_s);
+        next_send_s += 1.0 / rate_hz;
+      }
+    }
+  }
+  std::sort(feed.messages.begin(), feed.messages.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  return feed;
+}
+
+// The fusion's cost per update (one Kinect or omni frame, or a teammate's message), on the detections
+// of the scene's frames and its simulated omni camera (orange false balls included), fed in time
+// order; with_teammates: the four of teammatesOf beside them.
+struct FusionRun {
+  std::vector<double> update_s;
+  double busy_share = 0.0;  // of one core: every update's time over the scene's duration
+};
+FusionRun runFusion(const kinect3d::sim::Scene& scene, const std::vector<DepthFrame>& frames,
+                    const kinect3d::DetectorConfig& detector_config, const fw::Config& config, bool with_teammates,
+                    int repetitions) {
   kinect3d::BallDetector detector(detector_config, "kinect3d");
   kinect3d::Detections detections;
   std::vector<std::pair<double, std::vector<fw::BallObservation>>> kinect;
@@ -296,25 +384,34 @@ std::vector<double> runFusion(const kinect3d::sim::Scene& scene, const std::vect
   std::vector<fw::OmniFrame> omni;
   for (int i = 0; i < camera.frameCount(); ++i) omni.push_back(camera.frame(i));
   const fusion::FusionConfig fusion_config = fusion::readFusionConfig(config.block("fusion"));
-  std::vector<double> update_s;
+  const TeammateFeed team =
+      with_teammates ? teammatesOf(scene, kinect, fusion_config, config.block("team").getDouble("rate_hz", 0.1, 1000.0))
+                     : TeammateFeed{};
+  FusionRun run;
+  double busy_s = 0.0;
   for (int r = 0; r < repetitions; ++r) {
     fusion::BallFusion fusion(fusion_config);
-    std::size_t k = 0, o = 0;
+    std::size_t k = 0, o = 0, m = 0;
     while (k < kinect.size() || o < omni.size()) {
-      const bool kinect_next =
-          o >= omni.size() || (k < kinect.size() && kinect[k].first <= omni[o].stamp.source_time_s);
+      const double kinect_s = k < kinect.size() ? kinect[k].first : 1e300;
+      const double omni_s = o < omni.size() ? omni[o].stamp.source_time_s : 1e300;
+      const double team_s = m < team.messages.size() ? team.messages[m].first : 1e300;
       const Clock::time_point start = Clock::now();
-      if (kinect_next) {
+      if (team_s <= std::min(kinect_s, omni_s)) {
+        fusion.addTeamMessage(team.messages[m++].second);
+      } else if (kinect_s <= omni_s) {
         fusion.addKinectFrame(kinect[k].first, kinect[k].second);
         ++k;
       } else {
         fusion.addOmniFrame(omni[o].stamp.source_time_s, omni[o].balls, omni[o].robots);
         ++o;
       }
-      update_s.push_back(since_s(start));
+      run.update_s.push_back(since_s(start));
+      busy_s += run.update_s.back();
     }
   }
-  return update_s;
+  run.busy_share = busy_s / (repetitions * scene.duration_s);
+  return run;
 }
 
 // Appends a row: label, p50 and p99 in ms (precision digits), and the allocations column.
@@ -770,8 +867,14 @@ int main(int argc, char** argv) {
         pcl_s.push_back(since_s(start));
       }
       row(table, "baseline: PCL VoxelGrid (0.05 m) + Euclidean clustering", percentiles(pcl_s), "", 1);
+      const FusionRun alone = runFusion(scene, frames, coarse, config, false, 20);
       row(table, "fusion: one update of the world's ball (a Kinect or omni frame, orange false balls in view)",
-          percentiles(runFusion(scene, frames, coarse, config, 20)));
+          percentiles(alone.update_s), format("%.2f %% of a core", 100.0 * alone.busy_share));
+      const FusionRun with_team = runFusion(scene, frames, coarse, config, true, 20);
+      row(table,
+          "fusion with four teammates: one update (also a teammate's message: its omni rays, robots seen and world "
+          "ball, the keeper's Kinect balls; 20 a second from each)",
+          percentiles(with_team.update_s), format("%.2f %% of a core", 100.0 * with_team.busy_share));
     }
     table << "\nkinect3d at 0.27 m: p50 " << format("%.3f ms", ours_p50)
           << (ours_p50 <= 1.0 ? " (target <= 1 ms: met)" : " (target <= 1 ms: **not met**)") << ", "
