@@ -766,6 +766,46 @@ FedRun feedWithTeammate(fusion::BallFusion& fusion, const Truth& truth, double d
       with_world_ball, shirts_F);
 }
 
+TEST(Fusion, ATeammatesMessageLeavesTheFusionWhereItsFramesOneByOneWould) {
+  // A message's balls at several times go in with one rewind: the world's ball must be the one that
+  // a message per time gives, each replayed after the frames already held at its time (the
+  // teammate's Kinect in step with this robot's, and half a frame after).
+  fusion::BallFusion whole(testConfig()), split(testConfig());
+  std::mt19937 own_whole(5), own_split(5), mate_whole(6), mate_split(6);
+  const Truth rolling = [](double t) { return Eigen::Vector3d(0.5, 3.0 - 1.5 * (t - kT0), kRadius); };
+  const fw::RobotPose keeper = poseAt(0.5, 7.0, M_PI, kT0);
+  std::vector<std::pair<double, Eigen::Vector3d>> unsent;
+  int compared = 0;
+  for (int i = 0; i < 60; ++i) {
+    const double t = kT0 + i / 30.0;
+    for (auto [fusion, random] : {std::pair{&whole, &own_whole}, std::pair{&split, &own_split}}) {
+      fusion->addPose(standingAtOrigin(t));
+      fusion->addKinectFrame(t, {kinectView(rolling(t), standingAtOrigin(t), *random)});
+    }
+    if (i < 6) continue;  // this robot's Kinect has confirmed the ball
+    const double between = t + 1.0 / 60.0;
+    unsent.emplace_back(t, rolling(t));
+    if (i % 2 == 1) unsent.emplace_back(between, rolling(between));
+    if (unsent.size() < 3) continue;
+    fw::RobotPose sent_pose = keeper;
+    sent_pose.stamp.source_time_s = t;
+    const fusion::FusionUpdate from_whole =
+        whole.addTeamMessage(teammateMessage(keeper, sent_pose, unsent, mate_whole));
+    fusion::FusionUpdate from_split;
+    for (const auto& seen : unsent) {
+      from_split = split.addTeamMessage(teammateMessage(keeper, sent_pose, {seen}, mate_split));
+    }
+    unsent.clear();
+    ASSERT_TRUE(from_whole.ball);
+    ASSERT_TRUE(from_split.ball);
+    EXPECT_EQ(from_whole.time_s, from_split.time_s);
+    EXPECT_EQ(from_whole.ball->position_F, from_split.ball->position_F) << "message " << compared;
+    EXPECT_EQ(from_whole.ball->covariance_F, from_split.ball->covariance_F);
+    ++compared;
+  }
+  EXPECT_GE(compared, 20);
+}
+
 TEST(Fusion, ALobOnlyATeammatesKinectSeesIsHeldInTheAirFromItsMessages) {
   fusion::BallFusion fusion(testConfig());
   // Kicked from in front of this robot over its head; the keeper, 7 m away facing it, sees it all.
