@@ -70,23 +70,4 @@ void PointProjector::project(const DepthFrame& frame, const Eigen::Isometry3f& T
   out.resize(kept);
 }
 
-std::optional<Eigen::Vector2i> PointProjector::holeBeside(const DepthFrame& frame, int u, int v) const {
-  if (u <= 0 || v <= 0 || u >= frame.width() - 1 || v >= frame.height() - 1) return std::nullopt;
-  const float z_mm = frame.at(u, v);
-  if (z_mm < min_mm_ || z_mm > max_mm_) return std::nullopt;
-  const float tolerance_mm = toleranceAt_mm(z_mm);
-  std::optional<Eigen::Vector2i> hole;
-  for (const Eigen::Vector2i& step :
-       {Eigen::Vector2i(-1, 0), Eigen::Vector2i(1, 0), Eigen::Vector2i(0, -1), Eigen::Vector2i(0, 1)}) {
-    const std::uint16_t n = frame.at(u + step.x(), v + step.y());
-    if (n == 0) {
-      if (hole) return std::nullopt;  // a second neighbour without depth
-      hole = step;
-    } else if (std::abs(float(n) - z_mm) > tolerance_mm) {
-      return std::nullopt;  // an edge
-    }
-  }
-  return hole;
-}
-
 }  // namespace kinect3d

@@ -45,24 +45,50 @@ class PointProjector {
   // Whether pixel (u, v) lies on a resolved surface: valid, in range, and all four neighbours
   // within tolerance. Border pixels are never surface pixels.
   bool isSurface(const DepthFrame& frame, int u, int v) const {
-    if (u <= 0 || v <= 0 || u >= frame.width() - 1 || v >= frame.height() - 1) return false;
-    const std::uint16_t* d = &frame.depth_mm[static_cast<std::size_t>(v) * frame.width() + u];
-    const float z_mm = d[0];
-    if (z_mm < min_mm_ || z_mm > max_mm_) return false;
-    const float tolerance_mm = toleranceAt_mm(z_mm);
-    const int stride = frame.width();
-    for (const std::uint16_t n : {d[-1], d[1], d[-stride], d[stride]}) {
-      if (n == 0 || std::abs(float(n) - z_mm) > tolerance_mm) return false;
-    }
-    return true;
+    const std::optional<Neighbours> n = neighboursOf(frame, u, v);
+    return n && n->holes == 0 && !n->edge;
   }
   // For a pixel that would be a surface pixel but for one of its four neighbours, which returns
   // nothing: the step towards that neighbour. Nothing for any other pixel.
-  std::optional<Eigen::Vector2i> holeBeside(const DepthFrame& frame, int u, int v) const;
+  std::optional<Eigen::Vector2i> holeBeside(const DepthFrame& frame, int u, int v) const {
+    const std::optional<Neighbours> n = neighboursOf(frame, u, v);
+    if (!n || n->holes != 1 || n->edge) return std::nullopt;
+    return n->hole;
+  }
 
  private:
   // How far a neighbour may lie from depth z_mm: k steps of z^2 / (8 f b), with z in metres.
   float toleranceAt_mm(float z_mm) const { return tolerance_per_m2_ * z_mm * z_mm * 1e-3f; }
+
+  // Pixel (u, v)'s four neighbours against its depth: how many return nothing (and the step to the
+  // last of them), and whether any lies beyond the tolerance. Nothing for a border pixel or a depth
+  // out of range.
+  struct Neighbours {
+    int holes = 0;
+    Eigen::Vector2i hole = Eigen::Vector2i::Zero();
+    bool edge = false;
+  };
+  std::optional<Neighbours> neighboursOf(const DepthFrame& frame, int u, int v) const {
+    if (u <= 0 || v <= 0 || u >= frame.width() - 1 || v >= frame.height() - 1) return std::nullopt;
+    const std::uint16_t* d = &frame.depth_mm[static_cast<std::size_t>(v) * frame.width() + u];
+    const float z_mm = d[0];
+    if (z_mm < min_mm_ || z_mm > max_mm_) return std::nullopt;
+    const float tolerance_mm = toleranceAt_mm(z_mm);
+    const int stride = frame.width();
+    Neighbours n;
+    for (const auto& [offset, step] :
+         {std::pair{-1, Eigen::Vector2i(-1, 0)}, std::pair{1, Eigen::Vector2i(1, 0)},
+          std::pair{-stride, Eigen::Vector2i(0, -1)}, std::pair{stride, Eigen::Vector2i(0, 1)}}) {
+      const std::uint16_t depth = d[offset];
+      if (depth == 0) {
+        ++n.holes;
+        n.hole = step;
+      } else {
+        n.edge |= std::abs(float(depth) - z_mm) > tolerance_mm;
+      }
+    }
+    return n;
+  }
 
   Config config_;
   float min_mm_ = 0, max_mm_ = 0;
