@@ -283,12 +283,10 @@ DetectorRun runDetector(const std::vector<DepthFrame>& frames, const kinect3d::D
 // (team.rate_hz, 20 Hz): its pose, its omni camera's rays and the robots it saw, its world ball, and
 // for the keeper its Kinect's balls (this robot's detections, placed in the field). Each message
 // reaches this robot 0.1 s after it was sent (Wi-Fi).
-struct TeammateFeed {
-  std::vector<std::pair<double, fw::TeamMessage>> messages;  // arrival time, message
-};
-TeammateFeed teammatesOf(const kinect3d::sim::Scene& scene,
-                         const std::vector<std::pair<double, std::vector<fw::BallObservation>>>& kinect,
-                         const fusion::FusionConfig& fusion_config, double rate_hz) {
+using TeammateMessages = std::vector<std::pair<double, fw::TeamMessage>>;  // arrival time, message
+TeammateMessages teammatesOf(const kinect3d::sim::Scene& scene,
+                             const std::vector<std::pair<double, std::vector<fw::BallObservation>>>& kinect,
+                             const fusion::FusionConfig& fusion_config, double rate_hz) {
   struct Mate {
     const char* name;
     double x_m, y_m, theta_rad;
@@ -299,7 +297,7 @@ TeammateFeed teammatesOf(const kinect3d::sim::Scene& scene,
                                    {"wing", 4.0, 1.0, 2.0, false},
                                    {"striker", 1.0, 5.0, 3.1, false}};
   constexpr double kArrivesAfter_s = 0.1;
-  TeammateFeed feed;
+  TeammateMessages feed;
   for (std::size_t m = 0; m < mates.size(); ++m) {
     kinect3d::sim::Scene view = scene;
     view.robot = kinect3d::sim::CarrierRobot{mates[m].x_m, mates[m].y_m, mates[m].theta_rad, {}, 0.0, 0.0};
@@ -325,7 +323,7 @@ TeammateFeed teammatesOf(const kinect3d::sim::Scene& scene,
         world.stamp.source_time_s = t_s;
         message.world_ball = world;
       }
-      feed.messages.emplace_back(t_s + kArrivesAfter_s, message);
+      feed.emplace_back(t_s + kArrivesAfter_s, message);
       message = fw::TeamMessage{};
     };
     double next_send_s = scene.start_time_s + 1.0 / rate_hz;
@@ -357,7 +355,7 @@ TeammateFeed teammatesOf(const kinect3d::sim::Scene& scene,
       }
     }
   }
-  std::sort(feed.messages.begin(), feed.messages.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  std::sort(feed.begin(), feed.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
   return feed;
 }
 
@@ -384,9 +382,9 @@ FusionRun runFusion(const kinect3d::sim::Scene& scene, const std::vector<DepthFr
   std::vector<fw::OmniFrame> omni;
   for (int i = 0; i < camera.frameCount(); ++i) omni.push_back(camera.frame(i));
   const fusion::FusionConfig fusion_config = fusion::readFusionConfig(config.block("fusion"));
-  const TeammateFeed team =
+  const TeammateMessages team =
       with_teammates ? teammatesOf(scene, kinect, fusion_config, config.block("team").getDouble("rate_hz", 0.1, 1000.0))
-                     : TeammateFeed{};
+                     : TeammateMessages{};
   FusionRun run;
   double busy_s = 0.0;
   for (int r = 0; r < repetitions; ++r) {
@@ -395,10 +393,10 @@ FusionRun runFusion(const kinect3d::sim::Scene& scene, const std::vector<DepthFr
     while (k < kinect.size() || o < omni.size()) {
       const double kinect_s = k < kinect.size() ? kinect[k].first : 1e300;
       const double omni_s = o < omni.size() ? omni[o].stamp.source_time_s : 1e300;
-      const double team_s = m < team.messages.size() ? team.messages[m].first : 1e300;
+      const double team_s = m < team.size() ? team[m].first : 1e300;
       const Clock::time_point start = Clock::now();
       if (team_s <= std::min(kinect_s, omni_s)) {
-        fusion.addTeamMessage(team.messages[m++].second);
+        fusion.addTeamMessage(team[m++].second);
       } else if (kinect_s <= omni_s) {
         fusion.addKinectFrame(kinect[k].first, kinect[k].second);
         ++k;

@@ -424,8 +424,8 @@ const FusionUpdate& BallFusion::insert(std::vector<Frame> frames) {
     recent_.emplace_back(std::move(f), state_);
     process(recent_.back().first);
   }
-  // The world's ball after the newest frame: what is published. Those after the replayed frames are
-  // never read, and predicting a goal-line crossing costs more than the frame.
+  // The world's ball after the newest frame: what is published (those after the replayed frames
+  // would never be read).
   state_.update.ball = worldBall(state_.update.time_s);
   // Kept for the latest any frame may come (once teammates speak, theirs over Wi-Fi later than this robot's own).
   const double keep_s =
