@@ -386,7 +386,7 @@ const FusionUpdate& BallFusion::insert(Frame frame) {
 const FusionUpdate& BallFusion::insert(std::vector<Frame> frames) {
   // Each frame too late to use is dropped, judged against the newest frame before it, the batch's too.
   double newest = recent_.empty() ? frames.front().time_s : recent_.back().first.time_s;
-  std::vector<Frame> arrived;
+  std::size_t arrived = 0;
   for (Frame& frame : frames) {
     const double max_delay_s = frame.source == Source::kTeammate ? config_.team.max_delay_s : config_.max_delay_s;
     if (frame.time_s < newest - max_delay_s) {
@@ -399,27 +399,28 @@ const FusionUpdate& BallFusion::insert(std::vector<Frame> frames) {
       continue;
     }
     newest = std::max(newest, frame.time_s);
-    arrived.push_back(std::move(frame));
+    if (&frame != &frames[arrived]) frames[arrived] = std::move(frame);
+    ++arrived;
   }
-  if (arrived.empty()) return state_.update;
+  if (arrived == 0) return state_.update;
+  frames.erase(frames.begin() + static_cast<std::ptrdiff_t>(arrived), frames.end());
   // Late frames: back to the state before the first frame after the earliest of them, then everything
   // again in order, each arrived frame after those already held at its time. One rewind for the
   // batch: a teammate's message carries frames at several times, and each rewind replays every frame
   // since.
   const auto later = std::find_if(recent_.begin(), recent_.end(), [&](const std::pair<Frame, State>& entry) {
-    return entry.first.time_s > arrived.front().time_s;
+    return entry.first.time_s > frames.front().time_s;
   });
-  std::vector<Frame> held;
+  std::vector<Frame> replay;
   if (later != recent_.end()) {
     state_ = later->second;
-    for (auto it = later; it != recent_.end(); ++it) held.push_back(std::move(it->first));
+    for (auto it = later; it != recent_.end(); ++it) replay.push_back(std::move(it->first));
     recent_.erase(later, recent_.end());
   }
-  std::vector<Frame> replay;
-  replay.reserve(held.size() + arrived.size());
-  std::merge(std::make_move_iterator(held.begin()), std::make_move_iterator(held.end()),
-             std::make_move_iterator(arrived.begin()), std::make_move_iterator(arrived.end()),
-             std::back_inserter(replay), [](const Frame& a, const Frame& b) { return a.time_s < b.time_s; });
+  const auto held_end = replay.end() - replay.begin();
+  replay.insert(replay.end(), std::make_move_iterator(frames.begin()), std::make_move_iterator(frames.end()));
+  std::inplace_merge(replay.begin(), replay.begin() + held_end, replay.end(),
+                     [](const Frame& a, const Frame& b) { return a.time_s < b.time_s; });
   for (Frame& f : replay) {
     recent_.emplace_back(std::move(f), state_);
     process(recent_.back().first);
