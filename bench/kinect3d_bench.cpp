@@ -333,11 +333,10 @@ TeammateMessages teammatesOf(const kinect3d::sim::Scene& scene,
       const double t_s = frame.stamp.source_time_s - fusion_config.omni.latency_s;
       for (; mates[m].kinect && k < kinect.size() && kinect[k].first <= t_s; ++k) {
         const fw::RobotPose own = scene.robot.poseAt(kinect[k].first - scene.start_time_s);
-        for (fw::BallObservation ball : kinect[k].second) {
-          ball.position_m = own.fieldFromRobot(ball.position_m);
-          ball.frame = fw::Frame::kField;
-          message.kinect_balls.push_back(ball);
-          newest_F = ball.position_m;
+        for (const fw::BallObservation& ball : kinect[k].second) {
+          if (!ball.followed()) continue;  // as the team plugin: a ball the colour image rejected is not sent
+          message.kinect_balls.push_back(fusion::kinectBall_F(ball, own));
+          newest_F = message.kinect_balls.back().position_m;
         }
       }
       for (const fw::OmniBallObservation& ball : frame.balls) {

@@ -113,6 +113,15 @@ fw::SeenRobot seenRobot_F(const fw::OmniRobotObservation& robot, const fw::Robot
   return {p_F.head<2>(), covariance, time_s};
 }
 
+fw::BallObservation kinectBall_F(const fw::BallObservation& ball_R, const fw::RobotPose& pose) {
+  const Eigen::Matrix3d rotation = pose.T_F_R().linear();
+  fw::BallObservation ball = ball_R;
+  ball.position_m = pose.fieldFromRobot(ball_R.position_m);
+  ball.covariance_m2 = rotation * ball_R.covariance_m2 * rotation.transpose();
+  ball.frame = fw::Frame::kField;
+  return ball;
+}
+
 fw::BallRay omniRay_F(const fw::OmniBallObservation& ball, const fw::RobotPose& pose, const OmniConfig& omni,
                       double radius_m, double time_s) {
   const double h = omni.viewpoint_height_m;

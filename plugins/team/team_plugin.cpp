@@ -259,12 +259,7 @@ class TeamNetwork {
 
   fw::BallObservation toField(const fw::BallObservation& ball_R) const {
     const double seen_s = ball_R.stamp.source_time_s - fusion_.kinect.latency_s;
-    const fw::RobotPose pose = poses_.at(seen_s);
-    const Eigen::Matrix3d rotation = pose.T_F_R().linear();
-    fw::BallObservation ball = ball_R;
-    ball.position_m = pose.fieldFromRobot(ball_R.position_m);
-    ball.covariance_m2 = rotation * ball_R.covariance_m2 * rotation.transpose();
-    ball.frame = fw::Frame::kField;
+    fw::BallObservation ball = fusion::kinectBall_F(ball_R, poses_.at(seen_s));
     ball.stamp.source_time_s = kinect_clock_.toHost(seen_s);
     return ball;
   }

@@ -82,6 +82,10 @@ double omniDistanceSigma_m(const OmniObservation& observation, const OmniConfig&
 fw::SeenRobot seenRobot_F(const fw::OmniRobotObservation& robot, const fw::RobotPose& pose, const OmniConfig& omni,
                           double time_s);
 
+// This robot's Kinect ball placed in the field frame, as a teammate is told it: its position and
+// covariance moved by pose (the robot's own when the Kinect saw it), without the pose's own error.
+fw::BallObservation kinectBall_F(const fw::BallObservation& ball_R, const fw::RobotPose& pose);
+
 // The omni camera's ray through a ball it reported, as a teammate is told it: from the camera's
 // viewpoint (pose: the robot's own at the image's time) to where the ball's centre is if it rests on
 // the floor (a ball of radius_m), with the camera's noise as angles, at time_s.
