@@ -1,7 +1,7 @@
 #include "kinect3d/sensor_calibration.h"
 
+#include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
-#include <Eigen/SVD>
 #include <algorithm>
 #include <cmath>
 
@@ -27,17 +27,18 @@ double horizontalSpread(const std::vector<const CalibrationMark*>& marks) {
   return spread;
 }
 
-// The distance of the mark farthest from the best line through all of them.
+// The distance of the mark farthest from the best line through all of them: the line along the
+// marks' principal direction (their scatter's largest eigenvector) through their mean.
 double offLine(const std::vector<const CalibrationMark*>& marks) {
-  Eigen::MatrixXd points(3, marks.size());
-  for (std::size_t i = 0; i < marks.size(); ++i) points.col(i) = marks[i]->ball_R_m;
-  const Eigen::Vector3d mean = points.rowwise().mean();
-  points.colwise() -= mean;
-  const Eigen::JacobiSVD<Eigen::MatrixXd> svd(points, Eigen::ComputeThinU);
-  const Eigen::Vector3d direction = svd.matrixU().col(0);
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  for (const CalibrationMark* mark : marks) mean += mark->ball_R_m;
+  mean /= static_cast<double>(marks.size());
+  Eigen::Matrix3d scatter = Eigen::Matrix3d::Zero();
+  for (const CalibrationMark* mark : marks) scatter += (mark->ball_R_m - mean) * (mark->ball_R_m - mean).transpose();
+  const Eigen::Vector3d direction = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(scatter).eigenvectors().col(2);
   double farthest = 0.0;
-  for (std::size_t i = 0; i < marks.size(); ++i) {
-    const Eigen::Vector3d p = points.col(i);
+  for (const CalibrationMark* mark : marks) {
+    const Eigen::Vector3d p = mark->ball_R_m - mean;
     farthest = std::max(farthest, (p - direction * direction.dot(p)).norm());
   }
   return farthest;
@@ -68,16 +69,27 @@ Eigen::Isometry3d fit(const std::vector<const CalibrationMark*>& marks,
                       const std::optional<Eigen::Isometry3d>& floor_T_R_S) {
   const int n = static_cast<int>(marks.size());
   if (floor_T_R_S) {
-    // Dynamic sizes: gcc 12 warns wrongly inside Eigen's umeyama for a fixed two-row matrix.
-    Eigen::MatrixXd seen(2, n), truth(2, n);
+    // In the floor's plane the least-squares turn has a closed form: the angle whose tangent is the
+    // summed cross products over the summed dot products of the centred points.
+    Eigen::Vector2d seen_mean = Eigen::Vector2d::Zero(), truth_mean = Eigen::Vector2d::Zero();
+    std::vector<Eigen::Vector2d> seen(n);
     for (int i = 0; i < n; ++i) {
-      seen.col(i) = (*floor_T_R_S * marks[i]->ball_S_m).head<2>();
-      truth.col(i) = marks[i]->ball_R_m.head<2>();
+      seen[i] = (*floor_T_R_S * marks[i]->ball_S_m).head<2>();
+      seen_mean += seen[i];
+      truth_mean += marks[i]->ball_R_m.head<2>();
     }
-    const Eigen::MatrixXd T2 = Eigen::umeyama(seen, truth, false);
+    seen_mean /= n;
+    truth_mean /= n;
+    double dot = 0.0, cross = 0.0;
+    for (int i = 0; i < n; ++i) {
+      const Eigen::Vector2d s = seen[i] - seen_mean, t = marks[i]->ball_R_m.head<2>() - truth_mean;
+      dot += s.dot(t);
+      cross += s.x() * t.y() - s.y() * t.x();
+    }
+    const Eigen::Rotation2Dd turn(std::atan2(cross, dot));
     Eigen::Isometry3d planar = Eigen::Isometry3d::Identity();
-    planar.linear().topLeftCorner<2, 2>() = T2.topLeftCorner(2, 2);
-    planar.translation().head<2>() = T2.topRightCorner(2, 1);
+    planar.linear().topLeftCorner<2, 2>() = turn.toRotationMatrix();
+    planar.translation().head<2>() = truth_mean - turn * seen_mean;
     return planar * *floor_T_R_S;
   }
   Eigen::Matrix3Xd seen(3, n), truth(3, n);
@@ -288,8 +300,11 @@ std::optional<fw::SensorPose> GravityCalibrationCheck::check(const DepthFrame& f
   }
   if (++disagreements_ < config_.confirmations || alarmed_) return std::nullopt;
   alarmed_ = true;
-  // The sensor turned by the rotation that takes the reference down direction to the measured one.
-  const Eigen::Matrix3d turn_S = Eigen::Quaterniond::FromTwoVectors(*reference_down_S_, down_S).toRotationMatrix();
+  // The sensor turned by the smallest rotation that takes the reference down direction to the
+  // measured one: about their cross product (any axis across them if they are opposite).
+  const Eigen::Vector3d across = reference_down_S_->cross(down_S);
+  const Eigen::Vector3d axis = across.norm() > 1e-9 ? across.normalized() : reference_down_S_->unitOrthogonal();
+  const Eigen::Matrix3d turn_S = Eigen::AngleAxisd(angle(*reference_down_S_, down_S), axis).toRotationMatrix();
   Eigen::Isometry3d T_R_S = calibrated_.T_R_S();
   T_R_S.linear() = T_R_S.linear() * turn_S.transpose();
   fw::SensorPose moved = calibrated_;
