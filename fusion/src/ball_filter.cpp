@@ -54,10 +54,12 @@ void propagateCovariance(Matrix6d& P, double dt, double accel_sigma, int axes) {
   }
 }
 
-Eigen::MatrixXd jacobian(const MeasurementModel& measurement, const Eigen::Vector3d& p_F) {
+// A measurement's Jacobian with respect to the state (position and velocity; only the position enters).
+using MeasurementJacobian = Eigen::Matrix<double, Eigen::Dynamic, 6, Eigen::ColMajor, 3, 6>;
+
+MeasurementJacobian jacobian(const MeasurementModel& measurement, const Eigen::Vector3d& p_F) {
   constexpr double kStep_m = 1e-4;
-  const Eigen::VectorXd h0 = measurement.predict(p_F);
-  Eigen::MatrixXd H = Eigen::MatrixXd::Zero(h0.size(), 6);
+  MeasurementJacobian H = MeasurementJacobian::Zero(measurement.value().size(), 6);
   for (int j = 0; j < 3; ++j) {
     Eigen::Vector3d plus = p_F, minus = p_F;
     plus[j] += kStep_m;
@@ -67,9 +69,13 @@ Eigen::MatrixXd jacobian(const MeasurementModel& measurement, const Eigen::Vecto
   return H;
 }
 
+// The Kalman gain P H' S^-1.
+using Gain = Eigen::Matrix<double, 6, Eigen::Dynamic, Eigen::ColMajor, 6, 3>;
+
 struct Innovation {
-  Eigen::VectorXd y;
-  Eigen::MatrixXd H, R, S;
+  MeasurementVector y;
+  MeasurementJacobian H;
+  MeasurementMatrix R, S;
 };
 
 // The measurement's innovation for hypothesis h, linearised about x_lin (h's own mean, or an
@@ -80,9 +86,9 @@ Innovation innovate(const Hypothesis& h, const MeasurementModel& measurement, co
   in.H = jacobian(measurement, p);
   in.y = measurement.residual(measurement.value(), measurement.predict(p)) - in.H * (h.x - x_lin);
   in.R = measurement.noise(p);
-  Hypothesis at_lin = h;
-  at_lin.x = x_lin;
-  const Eigen::VectorXd rate = BallFilter::predictionRate(at_lin, measurement);
+  // How fast the prediction changes at x_lin, by the ball's motion and the sensor's: what an error
+  // in the measurement's time does.
+  const MeasurementVector rate = in.H.leftCols<3>() * x_lin.tail<3>() + measurement.ownMotionRate(p);
   in.R += measurement.timingSigma_s() * measurement.timingSigma_s() * rate * rate.transpose();
   in.S = in.H * h.P * in.H.transpose() + in.R;
   return in;
@@ -241,11 +247,6 @@ Hypothesis BallFilter::untouched(Hypothesis h, double dt) const {
   return h;
 }
 
-Eigen::VectorXd BallFilter::predictionRate(const Hypothesis& h, const MeasurementModel& measurement) {
-  const Eigen::Vector3d p = h.x.head<3>();
-  return jacobian(measurement, p).leftCols<3>() * h.x.tail<3>() + measurement.ownMotionRate(p);
-}
-
 MeasurementFit BallFilter::fit(const std::vector<Hypothesis>& branches, const MeasurementModel& measurement) {
   double heaviest = 0.0, total = 0.0;
   for (const Hypothesis& h : branches) {
@@ -257,7 +258,7 @@ MeasurementFit BallFilter::fit(const std::vector<Hypothesis>& branches, const Me
   for (const Hypothesis& h : branches) {
     if (h.weight < kNegligibleWeight * heaviest || !measurement.canSee(h.x.head<3>())) continue;
     const Innovation in = innovate(h, measurement, h.x);
-    const Eigen::LDLT<Eigen::MatrixXd> S(in.S);
+    const Eigen::LDLT<MeasurementMatrix> S(in.S);
     const double d2 = in.y.dot(S.solve(in.y));
     fit.mahalanobis = std::min(fit.mahalanobis, std::sqrt(d2));
     const double log_det = S.vectorD().array().log().sum();
@@ -289,10 +290,10 @@ void BallFilter::update(std::vector<Hypothesis> branches, double t_s, const Meas
     };
     Vector6d x = h.x;
     Innovation in;
-    Eigen::MatrixXd K;
+    Gain K;
     for (int iteration = 0; iteration < kMaxUpdateIterations; ++iteration) {
       const Innovation at_x = innovate(h, measurement, x);
-      const Eigen::MatrixXd K_at_x = Eigen::LDLT<Eigen::MatrixXd>(at_x.S).solve(at_x.H * h.P).transpose();  // P H' S^-1
+      const Gain K_at_x = Eigen::LDLT<MeasurementMatrix>(at_x.S).solve(at_x.H * h.P).transpose();  // P H' S^-1
       Vector6d next = h.x + K_at_x * at_x.y;
       for (int halving = 0; halving < kMaxStepHalvings && !possible(next); ++halving) {
         next = x + 0.5 * (next - x);
@@ -304,7 +305,7 @@ void BallFilter::update(std::vector<Hypothesis> branches, double t_s, const Meas
       x = next;
       if (settled) break;
     }
-    const Eigen::LDLT<Eigen::MatrixXd> S(in.S);
+    const Eigen::LDLT<MeasurementMatrix> S(in.S);
     h.x = x;
     const Matrix6d I_KH = Matrix6d::Identity() - K * in.H;
     h.P = I_KH * h.P * I_KH.transpose() + K * in.R * K.transpose();  // Joseph form: stays symmetric

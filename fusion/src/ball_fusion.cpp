@@ -91,7 +91,7 @@ constexpr double kReacquireJump_m = 1.0;
 // (the Jacobian of the ground point), from a camera at pose.
 Eigen::Matrix3d groundCovariance(const OmniMeasurement& omni, const fw::OmniBallObservation& ball,
                                  const fw::RobotPose& pose) {
-  const Eigen::MatrixXd R = omni.noise(omni.groundBall_F());
+  const MeasurementMatrix R = omni.noise(omni.groundBall_F());
   const double s = std::sin(ball.bearing_rad), co = std::cos(ball.bearing_rad), d = ball.distance_m;
   Eigen::Matrix2d J;
   J << -d * co, -s, -d * s, co;

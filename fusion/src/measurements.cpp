@@ -46,24 +46,24 @@ OmniMeasurement::OmniMeasurement(const fw::OmniBallObservation& observation, con
   z_ << observation.bearing_rad, observation.distance_m;
 }
 
-Eigen::VectorXd OmniMeasurement::predict(const Eigen::Vector3d& p_F) const { return predictFrom(pose_, p_F); }
+MeasurementVector OmniMeasurement::predict(const Eigen::Vector3d& p_F) const { return predictFrom(pose_, p_F); }
 
-Eigen::VectorXd OmniMeasurement::ownMotionRate(const Eigen::Vector3d& p_F) const {
+MeasurementVector OmniMeasurement::ownMotionRate(const Eigen::Vector3d& p_F) const {
   return residual(predictFrom(pose_after_, p_F), predictFrom(pose_, p_F)) / kPoseRateStep_s;
 }
 
 bool OmniMeasurement::canSee(const Eigen::Vector3d& p_F) const { return omniCanSee(p_F, omni_); }
 
-Eigen::VectorXd OmniMeasurement::predictFrom(const fw::RobotPose& pose, const Eigen::Vector3d& p_F) const {
+MeasurementVector OmniMeasurement::predictFrom(const fw::RobotPose& pose, const Eigen::Vector3d& p_F) const {
   const Eigen::Vector3d p_R = pose.T_F_R().inverse() * p_F;
   const double h = omni_.viewpoint_height_m;
   const double below = std::max(h - p_R.z(), kMinDepthBelowViewpoint_m);
-  Eigen::VectorXd prediction(2);
+  MeasurementVector prediction(2);
   prediction << std::atan2(-p_R.x(), p_R.y()), p_R.head<2>().norm() * (h - radius_m_) / below;
   return prediction;
 }
 
-Eigen::MatrixXd OmniMeasurement::noise(const Eigen::Vector3d& p_F) const {
+MeasurementMatrix OmniMeasurement::noise(const Eigen::Vector3d& p_F) const {
   const double distance = predict(p_F)[1];
   double sigma_d = omniDistanceSigma_m(observation_, omni_, distance);
   // For a ball in the air the phantom's distance hangs on the height so steeply (46 m per m for a
@@ -71,15 +71,15 @@ Eigen::MatrixXd OmniMeasurement::noise(const Eigen::Vector3d& p_F) const {
   // the omni gives its bearing and a looser hold on the ray.
   const double airborne = std::clamp((p_F.z() - radius_m_) / kAirborneRamp_m, 0.0, 1.0);
   sigma_d = std::hypot(sigma_d, airborne * kPhantomDistanceFraction * distance);
-  Eigen::MatrixXd R = Eigen::MatrixXd::Zero(2, 2);
+  MeasurementMatrix R = MeasurementMatrix::Zero(2, 2);
   const double sigma_b = omniBearingSigma_rad(observation_, omni_);
   R(0, 0) = sigma_b * sigma_b + pose_config_.sigma_theta_rad * pose_config_.sigma_theta_rad;
   R(1, 1) = sigma_d * sigma_d + pose_config_.sigma_xy_m * pose_config_.sigma_xy_m;
   return R;
 }
 
-Eigen::VectorXd OmniMeasurement::residual(const Eigen::VectorXd& z, const Eigen::VectorXd& h) const {
-  Eigen::VectorXd r = z - h;
+MeasurementVector OmniMeasurement::residual(const MeasurementVector& z, const MeasurementVector& h) const {
+  MeasurementVector r = z - h;
   r[0] = fw::wrapAngle(r[0]);
   return r;
 }

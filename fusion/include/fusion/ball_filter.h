@@ -31,6 +31,12 @@ struct Hypothesis {
   double weight = 1.0;
 };
 
+// A measurement's vector and matrices: sized when it is made (a Kinect's centre has three rows, the
+// omni camera's bearing and distance two) but held without the heap, for the fusion innovates
+// thousands of them a second once teammates speak.
+using MeasurementVector = Eigen::Matrix<double, Eigen::Dynamic, 1, Eigen::ColMajor, 3, 1>;
+using MeasurementMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::ColMajor, 3, 3>;
+
 // A measurement of the ball's centre: its value z, its noise R, and the model h(p_F) that predicts
 // it from a centre in the field frame. Only the position enters; Jacobians are numerical. A source
 // whose stamps are uncertain by timing_sigma_s adds what that does as the ball and the sensor move:
@@ -40,16 +46,18 @@ class MeasurementModel {
   explicit MeasurementModel(double timing_sigma_s = 0.0) : timing_sigma_s_(timing_sigma_s) {}
   virtual ~MeasurementModel() = default;
   double timingSigma_s() const { return timing_sigma_s_; }
-  virtual Eigen::VectorXd predict(const Eigen::Vector3d& p_F) const = 0;
-  virtual const Eigen::VectorXd& value() const = 0;
+  virtual MeasurementVector predict(const Eigen::Vector3d& p_F) const = 0;
+  virtual const MeasurementVector& value() const = 0;
   // Measurement noise, evaluated at the predicted centre (noise may grow with distance).
-  virtual Eigen::MatrixXd noise(const Eigen::Vector3d& p_F) const = 0;
+  virtual MeasurementMatrix noise(const Eigen::Vector3d& p_F) const = 0;
   // z - h; angles wrapped.
-  virtual Eigen::VectorXd residual(const Eigen::VectorXd& z, const Eigen::VectorXd& h) const { return z - h; }
+  virtual MeasurementVector residual(const MeasurementVector& z, const MeasurementVector& h) const { return z - h; }
   // How fast the prediction for a ball lying still at p_F changes because the sensor moves (a
   // turning robot turns an omni ball's bearing): with the ball's own motion, what a stamp's error
   // does.
-  virtual Eigen::VectorXd ownMotionRate(const Eigen::Vector3d&) const { return Eigen::VectorXd::Zero(value().size()); }
+  virtual MeasurementVector ownMotionRate(const Eigen::Vector3d&) const {
+    return MeasurementVector::Zero(value().size());
+  }
   // Whether the sensor can see a ball at p_F at all (an omni camera sees nothing above some height);
   // a branch it cannot see is neither credited with the measurement nor moved by it.
   virtual bool canSee(const Eigen::Vector3d&) const { return true; }
@@ -74,9 +82,6 @@ class BallFilter {
   double time() const { return time_s_; }
   // Every mode's successors at t_s, weighted by how likely each transition is (not yet merged).
   std::vector<Hypothesis> branchesAt(double t_s) const;
-  // How fast the measurement's prediction for the hypothesis changes: the ball's motion and the
-  // sensor's.
-  static Eigen::VectorXd predictionRate(const Hypothesis& h, const MeasurementModel& measurement);
   // How the measurement fits the branches that are not negligible.
   static MeasurementFit fit(const std::vector<Hypothesis>& branches, const MeasurementModel& measurement);
   // Updates every branch with the measurement, reweights and merges them per mode at t_s.

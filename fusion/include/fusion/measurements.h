@@ -16,13 +16,13 @@ class PositionMeasurement : public MeasurementModel {
   PositionMeasurement(const Eigen::Vector3d& p_R, const Eigen::Matrix3d& covariance_R, const fw::RobotPose& pose,
                       const PoseConfig& pose_config, double timing_sigma_s = 0.0);
 
-  Eigen::VectorXd predict(const Eigen::Vector3d& p_F) const override { return p_F; }
-  const Eigen::VectorXd& value() const override { return z_; }
-  Eigen::MatrixXd noise(const Eigen::Vector3d&) const override { return R_; }
+  MeasurementVector predict(const Eigen::Vector3d& p_F) const override { return p_F; }
+  const MeasurementVector& value() const override { return z_; }
+  MeasurementMatrix noise(const Eigen::Vector3d&) const override { return R_; }
 
  private:
-  Eigen::VectorXd z_;
-  Eigen::MatrixXd R_;
+  MeasurementVector z_;
+  MeasurementMatrix R_;
 };
 
 // The omni camera's ball: a bearing and a distance on the floor. The camera's ray from its viewpoint
@@ -38,25 +38,25 @@ class OmniMeasurement : public MeasurementModel {
                   double ball_radius_m, double timing_sigma_s);
   static constexpr double kPoseRateStep_s = 0.02;
 
-  Eigen::VectorXd predict(const Eigen::Vector3d& p_F) const override;
-  const Eigen::VectorXd& value() const override { return z_; }
-  Eigen::MatrixXd noise(const Eigen::Vector3d& p_F) const override;
-  Eigen::VectorXd residual(const Eigen::VectorXd& z, const Eigen::VectorXd& h) const override;
-  Eigen::VectorXd ownMotionRate(const Eigen::Vector3d& p_F) const override;
+  MeasurementVector predict(const Eigen::Vector3d& p_F) const override;
+  const MeasurementVector& value() const override { return z_; }
+  MeasurementMatrix noise(const Eigen::Vector3d& p_F) const override;
+  MeasurementVector residual(const MeasurementVector& z, const MeasurementVector& h) const override;
+  MeasurementVector ownMotionRate(const Eigen::Vector3d& p_F) const override;
   bool canSee(const Eigen::Vector3d& p_F) const override;
 
   // Where a ball on the floor would be for this observation, in the field frame (z = radius).
   Eigen::Vector3d groundBall_F() const;
 
  private:
-  Eigen::VectorXd predictFrom(const fw::RobotPose& pose, const Eigen::Vector3d& p_F) const;
+  MeasurementVector predictFrom(const fw::RobotPose& pose, const Eigen::Vector3d& p_F) const;
 
   fw::RobotPose pose_, pose_after_;
   OmniConfig omni_;
   PoseConfig pose_config_;
   double radius_m_;
   fw::OmniBallObservation observation_;
-  Eigen::VectorXd z_;
+  MeasurementVector z_;
 };
 
 // Whether the omni camera can see a ball centre at p_F: below the top of its mirror's view.
