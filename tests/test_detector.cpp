@@ -17,6 +17,7 @@
 #include "kinect3d/sim/sim_sources.h"
 #include "real_data.h"
 #include "scoped_temp_dir.h"
+#include "shipped_config.h"
 #include "sim_test_scenes.h"
 
 namespace {
@@ -25,15 +26,8 @@ using kinect3d::DepthFrame;
 using kinect3d::DetectorConfig;
 namespace sim = kinect3d::sim;
 
-fw::Config shippedConfig(const std::vector<std::string>& overrides = {}) {
-  return fw::Config::load(std::string(PROJECT_CONFIG_DIR) + "/defaults", "", overrides);
-}
-
-DetectorConfig shippedDetector(const sim::Scene& scene) {
-  DetectorConfig config = kinect3d::readDetectorConfig(shippedConfig().block("kinect3d"));
-  config.ground.pose = scene.sensor_pose;
-  return config;
-}
+using testing_config::shippedConfig;
+using testing_config::shippedDetector;
 
 // ---- Configuration ------------------------------------------------------------------------------
 

@@ -14,6 +14,7 @@
 #include "kinect3d/sim/kinect_simulator.h"
 #include "real_data.h"
 #include "scoped_temp_dir.h"
+#include "shipped_config.h"
 
 namespace {
 
@@ -21,12 +22,7 @@ using kinect3d::DepthFrame;
 using kinect3d::DetectorConfig;
 namespace sim = kinect3d::sim;
 
-DetectorConfig shippedDetector(const sim::Scene& scene) {
-  const fw::Config config = fw::Config::load(std::string(PROJECT_CONFIG_DIR) + "/defaults", "", {});
-  DetectorConfig detector = kinect3d::readDetectorConfig(config.block("kinect3d"));
-  detector.ground.pose = scene.sensor_pose;
-  return detector;
-}
+using testing_config::shippedDetector;
 
 sim::SceneObject box(const Eigen::Vector3d& center, const Eigen::Vector3d& size) {
   sim::SceneObject object;

@@ -12,17 +12,13 @@
 #include "kinect3d/scene_map.h"
 #include "kinect3d/sim/kinect_simulator.h"
 #include "kinect3d/trajectory.h"
+#include "shipped_config.h"
 
 namespace {
 
 using kinect3d::DepthFrame;
 
-kinect3d::DetectorConfig shippedDetector(const kinect3d::sim::Scene& scene) {
-  const fw::Config config = fw::Config::load(std::string(PROJECT_CONFIG_DIR) + "/defaults", "", {});
-  kinect3d::DetectorConfig detector = kinect3d::readDetectorConfig(config.block("kinect3d"));
-  detector.ground.pose = scene.sensor_pose;
-  return detector;
-}
+using testing_config::shippedDetector;
 
 TEST(SceneMap, FlagsABallHungInPlaceAsStaticButNeverAFlyingOne) {
   const kinect3d::sim::Scene hung = kinect3d::sim::loadScene("hung_3m");  // 3 s, a ball on a wire

@@ -10,6 +10,7 @@
 #include "kinect3d/config_io.h"
 #include "kinect3d/shell_evidence.h"
 #include "kinect3d/sim/kinect_simulator.h"
+#include "shipped_config.h"
 
 namespace {
 
@@ -82,12 +83,7 @@ TEST(ShellEvidence, NoDepthInTheProjectorsShadowIsHiddenNotEmpty) {
   EXPECT_EQ(evidence.classify(frame, seen, 325, 240, 3.8f, 4.0f), Ray::kEmpty) << "right of the block";
 }
 
-kinect3d::DetectorConfig shippedDetector(const sim::Scene& scene) {
-  const fw::Config config = fw::Config::load(std::string(PROJECT_CONFIG_DIR) + "/defaults", "", {});
-  kinect3d::DetectorConfig detector = kinect3d::readDetectorConfig(config.block("kinect3d"));
-  detector.ground.pose = scene.sensor_pose;
-  return detector;
-}
+using testing_config::shippedDetector;
 
 // Frames of the scene in which the detector reported a ball.
 int framesWithABall(const sim::Scene& scene) {
