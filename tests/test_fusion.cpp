@@ -339,6 +339,53 @@ TEST(FusionFilter, ABounceFromAHighFallHopsOnAndALowOneEndsTheHops) {
   EXPECT_LT(low.airProbability(), 0.05) << "a ball falling slowly rolls on";
 }
 
+TEST(FusionFilter, ABounceHappensWhereTheFlightItselfReachesTheFloor) {
+  // The touchdown is searched within each step, to 1e-5 s: the bounce's hop then starts where the
+  // flight's own propagation first brings the centre down to the radius. Falls and rises, gentle and
+  // fast, with little and much drag, the floor reached early or late in the step.
+  struct Drop {
+    fusion::Vector6d x;
+    double drag_per_m, after_touchdown_s;
+  };
+  const std::vector<Drop> drops = {{state(0.0, 3.0, 0.5, 0.0, 6.0, -1.0), 0.02, 0.01},
+                                   {state(0.0, 3.0, 0.3, 1.0, 2.0, 2.0), 0.02, 0.002},
+                                   {state(0.0, 3.0, 1.2, 0.0, 15.0, -3.0), 0.035, 0.02},
+                                   {state(0.0, 3.0, 0.112, 0.5, 4.0, -0.5), 0.012, 0.03},
+                                   {state(0.0, 3.0, 0.9, -3.0, 9.0, 4.0), 0.03, 0.001}};
+  for (const Drop& drop : drops) {
+    fusion::FusionConfig config = testConfig();
+    config.motion.drag_per_m = drop.drag_per_m;
+    fw::BallTrajectory flight;
+    flight.time_s = kT0;
+    flight.position_m = drop.x.head<3>();
+    flight.velocity_mps = drop.x.tail<3>();
+    flight.drag_per_m = drop.drag_per_m;
+    // The flight's own touchdown, to a nanosecond: the first millisecond that ends below, bisected.
+    double lo_s = 0.0;
+    while (flight.movedTo(kT0 + lo_s + 1e-3).position_m.z() >= kRadius) lo_s += 1e-3;
+    double hi_s = lo_s + 1e-3;
+    for (int i = 0; i < 60; ++i) {
+      const double mid_s = 0.5 * (lo_s + hi_s);
+      (flight.movedTo(kT0 + mid_s).position_m.z() < kRadius ? hi_s : lo_s) = mid_s;
+    }
+    fw::BallTrajectory hop = flight.movedTo(kT0 + hi_s);
+    hop.position_m.z() = kRadius;
+    hop.velocity_mps.z() *= -config.motion.restitution;
+    hop.velocity_mps.head<2>() *= 1.0 - config.motion.bounce_friction;
+    const double t_s = kT0 + hi_s + drop.after_touchdown_s;
+    const fusion::BallFilter filter(config.motion, kT0, {hypothesis(fw::BallState::kAir, drop.x, 1e-4)});
+    const std::vector<fusion::Hypothesis> branches = filter.branchesAt(t_s);
+    const auto bounce = std::find_if(branches.begin(), branches.end(),
+                                     [](const fusion::Hypothesis& h) { return h.mode == fw::BallState::kAir; });
+    ASSERT_NE(bounce, branches.end());
+    // Within 1e-5 s of the touchdown the hop starts off by at most the ball's speed times that.
+    const double tolerance_m = 2e-5 * drop.x.tail<3>().norm() + 1e-9;
+    EXPECT_LT((bounce->x.head<3>() - hop.movedTo(t_s).position_m).norm(), tolerance_m)
+        << "drop from " << drop.x.transpose() << ": " << bounce->x.head<3>().transpose() << " against "
+        << hop.movedTo(t_s).position_m.transpose();
+  }
+}
+
 TEST(FusionFilter, AFlightCarriedLongUnseenBouncesOnInOneStepAsInManySteps) {
   // The world's ball is carried to its time from the last measurement, however long ago: a ball
   // falling at 2.5 m/s and rolling out at 4.7 m/s, carried a second in one step, had stood at its

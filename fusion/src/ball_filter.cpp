@@ -118,10 +118,10 @@ void BallFilter::roll(Hypothesis& h, double dt) const {
   keepOnFloor(h);
 }
 
-void BallFilter::fly(Hypothesis& h, double dt) const {
+void BallFilter::fly(Hypothesis& h, double dt, const Vector6d& moved) const {
   // Drag pulls by drag v^2: an uncertain drag is an acceleration uncertain by drag_sigma v^2.
   const double drag_sigma_mps2 = config_.drag_sigma_per_m * h.x.tail<3>().squaredNorm();
-  propagateMean(h.x, fw::BallState::kAir, config_, dt);
+  h.x = moved;
   propagateCovariance(h.P, dt, std::hypot(config_.air_accel_sigma_mps2, drag_sigma_mps2), 3);
 }
 
@@ -132,20 +132,49 @@ bool BallFilter::flyUntilFloor(Hypothesis& h, double dt, double& dt_left) const 
     propagateMean(x, fw::BallState::kAir, config_, s);
     return x;
   };
-  const Vector6d end = heightAfter(dt);
-  if (end[kZ] >= r) {
-    fly(h, dt);
+  // The mean at hi is kept as it is found: the flight's propagation is most of the fusion's time.
+  double hi = dt;
+  Vector6d at_hi = heightAfter(dt);
+  if (at_hi[kZ] >= r) {
+    fly(h, dt, at_hi);
     dt_left = 0.0;
     return true;
   }
-  // Bisect for the touchdown: the first time the centre comes down to the radius.
-  double lo = 0.0, hi = dt;
-  if (h.x[kZ] <= r && h.x[kVz] < 0.0) hi = 0.0;
-  for (int i = 0; i < 30 && hi - lo > 1e-5; ++i) {
-    const double mid = 0.5 * (lo + hi);
-    (heightAfter(mid)[kZ] < r ? hi : lo) = mid;
+  // The touchdown: the first time the centre comes down to the radius, to 1e-5 s, between lo (the
+  // centre above it) and hi (below). Every probe keeps that bracket, so a poor guess costs only
+  // time. Newton's step from the fall's start (gravity and the drag there), once more from where it
+  // led, and a probe either side of the result close it most often; bisection closes what remains.
+  double lo = 0.0;
+  const auto inside = [&](double t) { return t > lo && t < hi; };
+  const auto probe = [&](double t) {
+    const Vector6d at_t = heightAfter(t);
+    if (at_t[kZ] < r) {
+      hi = t;
+      at_hi = at_t;
+    } else {
+      lo = t;
+    }
+    return at_t;
+  };
+  if (h.x[kZ] <= r && h.x[kVz] < 0.0) {
+    hi = 0.0;
+    at_hi = heightAfter(0.0);
+  } else {
+    const double height = h.x[kZ] - r, vz = h.x[kVz];
+    const double az = -fw::kGravity_mps2 - config_.drag_per_m * h.x.tail<3>().norm() * vz;
+    // The smallest positive root of height + vz t + az t^2 / 2 (az < 0 while the ball falls).
+    const double discriminant = vz * vz - 2.0 * az * height;
+    double guess = discriminant >= 0.0 && az < 0.0 ? (vz + std::sqrt(discriminant)) / -az : 0.5 * hi;
+    if (inside(guess)) {
+      const Vector6d at_guess = probe(guess);
+      if (at_guess[kVz] < 0.0) guess -= (at_guess[kZ] - r) / at_guess[kVz];
+    }
+    for (const double t : {guess, guess - 0.4e-5, guess + 0.4e-5}) {
+      if (inside(t)) probe(t);
+    }
   }
-  fly(h, hi);
+  for (int i = 0; i < 30 && hi - lo > 1e-5; ++i) probe(0.5 * (lo + hi));
+  fly(h, hi, at_hi);
   h.x[kZ] = r;
   dt_left = dt - hi;
   return false;

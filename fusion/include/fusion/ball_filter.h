@@ -114,7 +114,8 @@ class BallFilter {
   // first, leaving the state at the touchdown and dt_left what remains.
   bool flyUntilFloor(Hypothesis& h, double dt, double& dt_left) const;
   void roll(Hypothesis& h, double dt) const;
-  void fly(Hypothesis& h, double dt) const;
+  // The flight's covariance over dt; its mean is the one flyUntilFloor moved to (moved).
+  void fly(Hypothesis& h, double dt, const Vector6d& moved) const;
   void keepOnFloor(Hypothesis& h) const;
   // A flight at the floor after a bounce: the mean restitution and friction, their spread added.
   Hypothesis bounced(const Hypothesis& flying) const;
