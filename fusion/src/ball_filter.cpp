@@ -26,6 +26,10 @@ constexpr double kLandingProbabilityFloor = 0.02;
 constexpr double kUpdateSettled_m = 1e-3;
 constexpr int kMaxUpdateIterations = 5;
 constexpr int kMaxStepHalvings = 6;
+// A touchdown within a step is found to this, and Newton's estimate of it probed this far either
+// side, inside that width, so that one pair of probes closes the bracket.
+constexpr double kTouchdownTolerance_s = 1e-5;
+constexpr double kTouchdownProbe_s = 4e-6;
 
 // Position and velocity of the mean after dt, by the same propagation as fw::BallTrajectory.
 void propagateMean(Vector6d& x, fw::BallState mode, const MotionConfig& config, double dt) {
@@ -140,10 +144,10 @@ bool BallFilter::flyUntilFloor(Hypothesis& h, double dt, double& dt_left) const 
     dt_left = 0.0;
     return true;
   }
-  // The touchdown: the first time the centre comes down to the radius, to 1e-5 s, between lo (the
-  // centre above it) and hi (below). Every probe keeps that bracket, so a poor guess costs only
-  // time. Newton's step from the fall's start (gravity and the drag there), once more from where it
-  // led, and a probe either side of the result close it most often; bisection closes what remains.
+  // The touchdown: the first time the centre comes down to the radius, to kTouchdownTolerance_s,
+  // between lo (the centre above it) and hi (below). Every probe keeps that bracket, so a poor guess
+  // costs only time. Newton's step from the fall's start (gravity and the drag there), once more from
+  // where it led, and a probe either side of the result close it most often; bisection closes the rest.
   double lo = 0.0;
   const auto inside = [&](double t) { return t > lo && t < hi; };
   const auto probe = [&](double t) {
@@ -169,11 +173,11 @@ bool BallFilter::flyUntilFloor(Hypothesis& h, double dt, double& dt_left) const 
       const Vector6d at_guess = probe(guess);
       if (at_guess[kVz] < 0.0) guess -= (at_guess[kZ] - r) / at_guess[kVz];
     }
-    for (const double t : {guess, guess - 0.4e-5, guess + 0.4e-5}) {
+    for (const double t : {guess, guess - kTouchdownProbe_s, guess + kTouchdownProbe_s}) {
       if (inside(t)) probe(t);
     }
   }
-  for (int i = 0; i < 30 && hi - lo > 1e-5; ++i) probe(0.5 * (lo + hi));
+  for (int i = 0; i < 30 && hi - lo > kTouchdownTolerance_s; ++i) probe(0.5 * (lo + hi));
   fly(h, hi, at_hi);
   h.x[kZ] = r;
   dt_left = dt - hi;
