@@ -76,8 +76,10 @@ void BallDetector::detect(const DepthFrame& frame, Detections& out, const std::o
   }
   const Eigen::Isometry3d T_M_R = T_F_R.value_or(Eigen::Isometry3d::Identity());
   const Eigen::Isometry3f T_R_S_f = T_R_S_->cast<float>();
-  coverage_.update(frame);
   projector_->project(frame, T_R_S_f, points_);
+  // After the projection, which reads every row of the frame from memory: the coverage then finds
+  // its samples in the cache (the points stage a tenth faster than the other way round).
+  coverage_.update(frame);
   Clock::time_point t2 = Clock::now();
   out.times.seconds[StageTimes::kPoints] = secondsBetween(t1, t2);
 
