@@ -476,13 +476,15 @@ bool BallRefiner::surfacedLikeABall(const Eigen::Vector3d& center_R, const Eigen
     const double rho = std::min(across.norm(), kMaxRho);
     return Eigen::Vector4d(1.0, 1.0 - std::sqrt(1.0 - rho * rho), across.x(), across.y());
   };
+  // Each point's regressors and range, kept for the residuals below.
   Eigen::Matrix4d JtJ = Eigen::Matrix4d::Zero();
   Eigen::Vector4d Jtz = Eigen::Vector4d::Zero();
+  regressed_.clear();
   for (const Eigen::Vector3d& p : points_) {
     const Eigen::Vector3d p_S = T_S_R * p;
-    const Eigen::Vector4d J = regressors(p_S);
-    JtJ += J * J.transpose();
-    Jtz += J * p_S.norm();
+    const Regressed& point = regressed_.emplace_back(Regressed{regressors(p_S), p_S.norm()});
+    JtJ += point.J * point.J.transpose();
+    Jtz += point.J * point.range_m;
   }
   const Eigen::Vector4d fit = JtJ.ldlt().solve(Jtz);
   // A point's expected distance from the surface: the depth noise, and where the surface slopes
@@ -493,12 +495,10 @@ bool BallRefiner::surfacedLikeABall(const Eigen::Vector3d& center_R, const Eigen
   const double lateral_m = noise_.lateralSigma_m(range);
   double squares = 0.0;
   int far_off = 0;
-  for (const Eigen::Vector3d& p : points_) {
-    const Eigen::Vector3d p_S = T_S_R * p;
-    const Eigen::Vector4d J = regressors(p_S);
-    const double residual = p_S.norm() - J.dot(fit);
+  for (const Regressed& point : regressed_) {
+    const double residual = point.range_m - point.J.dot(fit);
     squares += residual * residual;
-    const double cosine = 1.0 - J[1];  // sqrt(1 - rho^2), at most rho = kMaxRho
+    const double cosine = 1.0 - point.J[1];  // sqrt(1 - rho^2), at most rho = kMaxRho
     const double sigma_m = std::hypot(axial_m, lateral_m * std::sqrt(1.0 - cosine * cosine) / cosine);
     far_off += std::abs(residual) > kFarOff_sigma * sigma_m;
   }

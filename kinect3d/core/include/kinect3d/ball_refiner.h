@@ -86,6 +86,11 @@ class BallRefiner {
   mutable std::vector<Eigen::Vector3d> limb_rays_S_;
   mutable std::vector<bool> limb_blank_, notch_;
   mutable std::vector<double> radial_;
+  struct Regressed {  // a point's regressors in the surface fit (surfacedLikeABall), and its range
+    Eigen::Vector4d J;
+    double range_m;
+  };
+  mutable std::vector<Regressed> regressed_;
 };
 
 }  // namespace kinect3d
