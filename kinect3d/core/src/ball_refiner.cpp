@@ -47,6 +47,7 @@ bool BallRefiner::gatherPoints(const BallCandidate& candidate, const OccupancyGr
   const Eigen::Vector3f hi = grid.centerOf(candidate.max) + Eigen::Vector3f::Constant(grow);
   const Eigen::Isometry3d T_S_R = T_R_S.inverse();
   double u0 = in.width, v0 = in.height, u1 = 0, v1 = 0;
+  double depth_lo_m = 1e9, depth_hi_m = 0;  // the box's nearest and farthest depth along the optical axis
   for (int corner = 0; corner < 8; ++corner) {
     const Eigen::Vector3d c_R((corner & 1) ? hi.x() : lo.x(), (corner & 2) ? hi.y() : lo.y(),
                               (corner & 4) ? hi.z() : lo.z());
@@ -54,10 +55,18 @@ bool BallRefiner::gatherPoints(const BallCandidate& candidate, const OccupancyGr
     if (c_S.z() < kMinDepthInFront_m) return false;  // reaches behind the sensor: not a ball in view
     const Eigen::Vector2d px = in.project(c_S);
     u0 = std::min(u0, px.x()), u1 = std::max(u1, px.x()), v0 = std::min(v0, px.y()), v1 = std::max(v1, px.y());
+    depth_lo_m = std::min(depth_lo_m, c_S.z()), depth_hi_m = std::max(depth_hi_m, c_S.z());
   }
-  // A pixel's point, if it lies in the box and above the floor.
+  // A pixel's point, if it lies in the box and above the floor. The box in the sensor frame is a
+  // parallelepiped, whose depths lie between its corners': a pixel beyond them (most of the
+  // background round a ball) is refused by its depth, before its point is made (1 mm spare for the
+  // box test's rounding).
+  constexpr double kDepthSpare_m = 1e-3;
+  depth_lo_m -= kDepthSpare_m, depth_hi_m += kDepthSpare_m;
   auto inBox = [&](int u, int v) -> std::optional<Eigen::Vector3d> {
-    const Eigen::Vector3d p_R = T_R_S * in.backProject(u, v, frame.at(u, v) * 0.001);
+    const double depth_m = frame.at(u, v) * 0.001;
+    if (depth_m < depth_lo_m || depth_m > depth_hi_m) return std::nullopt;
+    const Eigen::Vector3d p_R = T_R_S * in.backProject(u, v, depth_m);
     const Eigen::Vector3f p = p_R.cast<float>();
     if ((p.array() < lo.array()).any() || (p.array() > hi.array()).any()) return std::nullopt;
     if (p_R.z() < surface.config().floor_margin_m) return std::nullopt;
