@@ -15,6 +15,7 @@
 
 #include "framework_api/host.h"
 #include "host_process.h"
+#include "scoped_temp_dir.h"
 
 namespace {
 
@@ -208,6 +209,35 @@ TEST(LatencyHistogram, GivesTheRunsQuantilesToWithinOnePercent) {
   const std::string line = fw::formatSummary(summary);
   EXPECT_NE(line.find("0 errors, latency p50 "), std::string::npos) << line;
   EXPECT_NE(line.find(" ms, p99 9"), std::string::npos) << line;
+}
+
+TEST(Host, APluginStillInsideItsStepWhenTheStopsGraceEndsIsWaitedForThenDestroyed) {
+  // A logger committing a large batch on a loaded machine can outlast a stop's grace. stop() names
+  // it, and the host's destruction waits for its step to end instead of freeing the world state and
+  // the plugin under it (the team report crashed when such a step ended); the plugin is destroyed
+  // then, as a logger must be to close its log.
+  const ScopedTempDir dir;
+  const std::string started = (dir.path() / "started").string(), done = (dir.path() / "done").string();
+  std::vector<std::string> still_inside;
+  {
+    fw::Host host(exchangeConfig({"host.plugins=[tp_slow]", "tp_slow.step_s=2.0", "tp_slow.started_file=" + started,
+                                  "tp_slow.done_file=" + done}),
+                  TEST_PLUGIN_DIR);
+    host.start();
+    const auto deadline = Clock::now() + std::chrono::seconds(60);
+    while (!std::filesystem::exists(started) && Clock::now() < deadline) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    }
+    ASSERT_TRUE(std::filesystem::exists(started)) << "its first step never began";
+    still_inside = host.stop(std::chrono::milliseconds(50));
+    EXPECT_FALSE(std::filesystem::exists(done)) << "destroyed while its step was running";
+  }
+  EXPECT_EQ(still_inside, std::vector<std::string>{"tp_slow"});
+  std::ifstream steps_file(done);
+  ASSERT_TRUE(steps_file.is_open()) << "the plugin was never destroyed";
+  int steps = 0;
+  steps_file >> steps;
+  EXPECT_EQ(steps, 1) << "destroyed once its one step had ended";
 }
 
 TEST(Host, UnknownPluginIsALoadError) {

@@ -267,7 +267,9 @@ Played playWorld(const TeamReportOptions& options, const World& world, const Net
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
     for (const auto& host : hosts) host->watch();
   }
-  for (const auto& host : hosts) host->stop();
+  // Offline nothing must stop within a second: every robot's logger finishes its last commit,
+  // however loaded the machine (a logger still inside it is waited for when its host goes).
+  for (const auto& host : hosts) host->stop(std::chrono::seconds(30));
   const double played_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
   hosts.clear();  // every logger closes its log
 

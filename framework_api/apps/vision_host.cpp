@@ -87,8 +87,8 @@ int main(int argc, char** argv) {
       gave_up = gave_up || summary.gave_up;
     }
     if (!stuck.empty()) {
-      // A plugin thread is still inside its code: end the process without running destructors
-      // under it, once what was printed is out.
+      // A plugin thread is still inside its code: end the process now, once what was printed is
+      // out, rather than in the host's destructor, which would wait for it.
       std::cout.flush();
       std::fflush(nullptr);
       std::_Exit(3);

@@ -62,7 +62,6 @@ struct Host::Running {
   std::atomic<bool> finished{false};        // the thread has left run()
   std::atomic<Clock::rep> step_started{0};  // steady clock ticks; 0 = not in a step
   bool reported_stuck = false;              // this step was reported (watch() only)
-  bool abandoned = false;                   // left behind by stop(): its thread may still be inside it
   mutable std::mutex mutex;                 // guards summary and the second's step times
   PluginSummary summary;
   std::vector<double> step_times_s;  // of the processed steps since the last health
@@ -109,10 +108,12 @@ Host::Host(const Config& config, const std::string& plugin_dir) : config_(config
 }
 
 Host::~Host() {
-  stop();
-  // A plugin left behind is still running its step: never destroy it (or its library) under it.
+  if (!stop_requested_) stop();
+  // A plugin still inside its step after the stop's grace is waited for: its step uses the plugin
+  // and the world state, so neither may be destroyed under it (a logger's last commit on a loaded
+  // machine outlasted a second, and the team report crashed when the step ended).
   for (auto& plugin : plugins_) {
-    if (plugin->abandoned) (void)plugin.release();
+    if (plugin->thread.joinable()) plugin->thread.join();
   }
 }
 
@@ -147,10 +148,7 @@ std::vector<std::string> Host::stop(std::chrono::duration<double> grace) {
       continue;
     }
     stuck.push_back(plugin->summary.name);
-    logError(plugin->summary.name,
-             "did not stop within " + std::to_string(grace.count()) + " s: stuck inside a step; leaving it behind");
-    plugin->thread.detach();
-    plugin->abandoned = true;
+    logError(plugin->summary.name, "did not stop within " + std::to_string(grace.count()) + " s: still inside a step");
   }
   // The last part of a second, which no health row took, belongs to the run as well.
   for (auto& plugin : plugins_) addToRun(*plugin, world_.takeLatencies(plugin->summary.name));

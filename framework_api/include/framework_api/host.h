@@ -85,9 +85,9 @@ class Host {
   // kinect3d plugin so). Throws PluginError when no plugin `source` is loaded.
   void replaySource(const std::string& source, const std::function<void()>& after_input);
   // Asks every plugin thread to stop after its current step and joins those that do within grace.
-  // Returns the plugins still inside a step then (stuck in a blocking call): their threads are
-  // detached and their instances deliberately never destroyed, since their code is still running;
-  // the caller should end the process. Idempotent.
+  // Returns the plugins still inside a step then (slow, or stuck in a blocking call): the host's
+  // destructor waits for their steps to end before it destroys anything they use, so a caller that
+  // must stop at once (vision_host) ends the process instead. Idempotent.
   std::vector<std::string> stop(std::chrono::duration<double> grace = std::chrono::seconds(1));
   // Call it now and then (every 100 ms) while running. Reports (once per step) every plugin that
   // has been inside one step for longer than host.stuck_after_s, and counts it in its summary; once
