@@ -81,7 +81,7 @@ fw::OmniFrame OmniCameraSimulator::frame(int index) const {
     ball.bearing_sigma_rad = model_.bearing_sigma_rad;
     ball.distance_sigma_m = model_.distance_sigma_m + model_.distance_sigma_fraction * d;
     ball.bearing_rad = std::atan2(-p_R.x(), p_R.y()) + ball.bearing_sigma_rad * normal(random);
-    ball.distance_m = std::max(0.0, d + ball.distance_sigma_m * normal(random));
+    ball.distance_m = std::max(0.0, model_.distance_scale * d + ball.distance_sigma_m * normal(random));
     ball.source = "omni";
     ball.stamp = frame.stamp;
     if (ball.distance_m <= model_.max_distance_m) frame.balls.push_back(ball);
@@ -108,7 +108,7 @@ fw::OmniFrame OmniCameraSimulator::frame(int index) const {
     robot.bearing_sigma_rad = model_.bearing_sigma_rad;
     robot.distance_sigma_m = model_.distance_sigma_m + model_.distance_sigma_fraction * d;
     robot.bearing_rad = std::atan2(-p_R.x(), p_R.y()) + robot.bearing_sigma_rad * normal(random);
-    robot.distance_m = std::max(0.0, d + robot.distance_sigma_m * normal(random));
+    robot.distance_m = std::max(0.0, model_.distance_scale * d + robot.distance_sigma_m * normal(random));
     const bool missed = uniform(random) < model_.miss_probability;
     if (!missed && robot.distance_m <= model_.max_distance_m) frame.robots.push_back(robot);
   }

@@ -23,6 +23,7 @@ struct OmniCameraModel {
   double bearing_sigma_rad = 0.01;
   double distance_sigma_m = 0.03;         // at the robot ...
   double distance_sigma_fraction = 0.04;  // ... growing with distance
+  double distance_scale = 1.0;            // its distance map's scale error (a mirror calibrated a few per cent off)
   double miss_probability = 0.05;         // the ball is not found in an image
   double false_rate_hz = 0.5;             // orange things that look like a ball appear this often ...
   double false_duration_s = 0.3;          // ... for this long, standing still
