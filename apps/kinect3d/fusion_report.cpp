@@ -39,7 +39,7 @@ constexpr double kFrame_s = 1.0 / 30.0;
 // friction (one sigma; tests/test_calibrate_drag.cpp holds one lob to 0.003 /m, 0.08 and 0.05).
 constexpr double kCalibratedDragSigma_per_m = 0.002;
 constexpr double kCalibratedBounceSigma = 0.03;
-constexpr double kLatencyWithin_s = 0.01;     // the omni latency counts as learnt this close to the truth
+constexpr double kLatencyWithin_s = 0.01;  // the omni latency counts as learnt this close to the truth
 
 struct Scored {
   std::vector<double> air_errors, ground_errors;

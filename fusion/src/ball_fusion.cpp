@@ -15,15 +15,20 @@ namespace fusion {
 namespace {
 // What teaches the omni camera's latency: an omni ball on the world's track while this robot's Kinect
 // saw that track this recently (a phantom lies on the ball's own bearing, so in the air too). The
-// Kinect's bearing is carried to the omni's time at its rate over its frames of the last
+// Kinect's ball is carried to the omni's time at its velocity over its frames of the last
 // kLatencyRateBaseline_s. An omni bearing further off than kLatencyMaxBearingResidual_rad is a
-// misassociation, not a time offset; so is one further than kLatencyMaxOffset_s of turn would put it
-// (and three sigma). No omni camera's stamps are kLatencyMaxOffset_s off its configured latency: an
-// estimate beyond is a Kinect turned on its mount (the alignment check's alarm), not time, and unused.
+// misassociation, not a time offset; so is a reading further off than kLatencyMaxOffset_s of its
+// rate would put it (and three sigma). No omni camera's stamps are kLatencyMaxOffset_s off its
+// configured latency: an estimate beyond is a Kinect turned on its mount (the alignment check's
+// alarm), not time, and unused.
 constexpr double kLatencyKinectWithin_s = 0.1;
 constexpr double kLatencyMaxOffset_s = 0.2;
-constexpr double kLatencyRateBaseline_s = 0.1;
+constexpr double kLatencyRateBaseline_s = 0.34;
 constexpr double kLatencyMaxBearingResidual_rad = 0.2;
+// A Kinect ball this far above rest, and three sigma of its height, is in the air: falling, not rolling.
+constexpr double kLatencyOffTheFloor_m = 0.03;
+constexpr double kLatencyOffPathChi2 = 16.0;  // four sigma, in three dimensions
+constexpr double kLatencyRateSignificance = 3.0;
 // Learnt latency is never trusted to better than this (the omni's exposure and the examples' spread).
 constexpr double kMinTimingSigma_s = 0.005;
 // The world's ball moves to another confirmed track when its own has had no support this long.
@@ -178,18 +183,22 @@ bool onlyAPrior(const fw::FusedBall& ball) {
 constexpr double kUnseenDrift_mps = 1.0;
 }  // namespace
 
-void LatencyEstimator::add(double residual_rad, double variance_rad2, double bearing_rate_radps, double applied_s) {
+void LatencyEstimator::add(double residual, double variance, double rate, double applied_s, double distance_m) {
   const double keep = 1.0 - 1.0 / kMemoryExamples;
-  const double w = 1.0 / variance_rad2, x = bearing_rate_radps, y = residual_rad - bearing_rate_radps * applied_s;
-  wxx_ = keep * wxx_ + w * x * x;
-  wxy_ = keep * wxy_ + w * x * y;
+  const Eigen::Vector2d row(-rate, distance_m);  // d residual / d (latency, scale)
+  const double w = 1.0 / variance, y = residual - rate * applied_s;
+  information_ = keep * information_ + w * row * row.transpose();
+  weighted_ = keep * weighted_ + w * y * row;
   ++examples_;
 }
 
 std::optional<LatencyEstimator::Fit> LatencyEstimator::fit(double prior_sigma_s) const {
   if (examples_ < kMinExamples) return std::nullopt;
-  const double information = wxx_ + 1.0 / (prior_sigma_s * prior_sigma_s);
-  return Fit{-wxy_ / information, 1.0 / std::sqrt(information)};
+  Eigen::Matrix2d information = information_;
+  information(0, 0) += 1.0 / (prior_sigma_s * prior_sigma_s);
+  information(1, 1) += 1.0 / (kDistanceScaleSigma * kDistanceScaleSigma);
+  const Eigen::Matrix2d covariance = information.inverse();
+  return Fit{(covariance * weighted_)[0], std::sqrt(covariance(0, 0))};
 }
 
 // One ball of one frame, ready to associate: its measurement model, where it puts the ball in the
@@ -565,12 +574,12 @@ void BallFusion::process(const Frame& frame) {
       learnLatency(track, c, t, frame.omni_latency_s);
     }
     if (c.kinect) {
-      auto& kept = track.kinect_bearings;
-      if (track.kinect_bearing_count == kept.size()) {
+      auto& kept = track.kinect_sightings;
+      if (track.kinect_sighting_count == kept.size()) {
         std::rotate(kept.begin(), kept.begin() + 1, kept.end());  // the oldest goes
-        --track.kinect_bearing_count;
+        --track.kinect_sighting_count;
       }
-      kept[track.kinect_bearing_count++] = bearingOf(*c.kinect, t);
+      kept[track.kinect_sighting_count++] = {t, c.kinect->position_m, c.kinect->covariance_m2};
     }
     const Eigen::Vector3d before_F = BallFilter::likeliest(branches[pair.track]).x.head<3>();
     track.filter.update(branches[pair.track], t, *c.measurement);
@@ -862,36 +871,94 @@ void BallFusion::recordJudgement(int teammate, const Judgement& judgement) {
   }
 }
 
-// As the omni camera gives a bearing: from the robot's +y, counter-clockwise.
-BallFusion::KinectBearing BallFusion::bearingOf(const fw::BallObservation& ball_R, double t_s) {
-  const Eigen::Vector2d p = ball_R.position_m.head<2>();
-  const Eigen::Vector2d gradient = Eigen::Vector2d(-p.y(), p.x()) / std::max(p.squaredNorm(), 1e-6);
-  return {t_s, std::atan2(-p.x(), p.y()),
-          std::sqrt(gradient.dot(ball_R.covariance_m2.topLeftCorner<2, 2>() * gradient))};
-}
-
 void BallFusion::learnLatency(const Track& track, const Candidate& candidate, double t, double applied_s) {
-  // The Kinect's bearing at t: its newest, carried on at the rate over its frames of the baseline.
-  if (track.kinect_bearing_count == 0) return;
-  const auto seen_end = track.kinect_bearings.begin() + track.kinect_bearing_count;
-  const KinectBearing& newest = *(seen_end - 1);
-  const KinectBearing& oldest =
-      *std::find_if(track.kinect_bearings.begin(), seen_end,
-                    [&newest](const KinectBearing& b) { return newest.time_s - b.time_s <= kLatencyRateBaseline_s; });
-  const double baseline_s = newest.time_s - oldest.time_s;
-  if (baseline_s <= 0.0) return;
-  const double rate = fw::wrapAngle(newest.bearing_rad - oldest.bearing_rad) / baseline_s;
-  const double ahead = (t - newest.time_s) / baseline_s;  // in baselines
-  const double residual =
-      fw::wrapAngle(candidate.omni->bearing_rad - (newest.bearing_rad + rate * (t - newest.time_s)));
-  const double sigma_b = omniBearingSigma_rad(*candidate.omni, config_.omni);
-  const double variance =
-      sigma_b * sigma_b + std::pow((1.0 + ahead) * newest.sigma_rad, 2) + std::pow(ahead * oldest.sigma_rad, 2);
-  if (std::abs(residual) > kLatencyMaxBearingResidual_rad ||
-      std::abs(residual) > kLatencyMaxOffset_s * std::abs(rate) + 3.0 * std::sqrt(variance)) {
-    return;
+  // The Kinect's ball at t: its newest, carried on at its velocity over its frames of the baseline
+  // (up to a third of a second: the longer, the less of the Kinect's noise is in the rate).
+  if (track.kinect_sighting_count == 0) return;
+  const auto seen_end = track.kinect_sightings.begin() + track.kinect_sighting_count;
+  const KinectSighting& newest = *(seen_end - 1);
+  // In the air it falls, on the floor it lies there: the velocity is taken over the sightings of
+  // the baseline since the ball last left the floor or came down (a kick inside the baseline would
+  // make it the average of rest and flight, and the carried ball lag behind).
+  const double radius_m = config_.motion.radius_m;
+  const auto flying = [radius_m](const KinectSighting& k) {
+    return k.p_R.z() - radius_m > std::max(kLatencyOffTheFloor_m, 3.0 * std::sqrt(k.covariance_R(2, 2)));
+  };
+  auto first = seen_end - 1;
+  while (first != track.kinect_sightings.begin() && newest.time_s - (first - 1)->time_s <= kLatencyRateBaseline_s &&
+         flying(*(first - 1)) == flying(newest)) {
+    --first;
   }
-  state_.latency.add(residual, variance, rate, applied_s);
+  const bool in_air = flying(newest);
+  const Eigen::Vector3d gravity = in_air ? Eigen::Vector3d(0.0, 0.0, -fw::kGravity_mps2) : Eigen::Vector3d::Zero();
+  // Nor over a kick, a bounce off a robot or a touch: a sighting off the path from the first to the
+  // newest (a line, a parabola in the air) beyond its noise starts the baseline afresh.
+  for (auto k = first + 1; k < seen_end - 1; ++k) {
+    const double s = (k->time_s - first->time_s) / (newest.time_s - first->time_s);
+    const double from_first_s = k->time_s - first->time_s, to_newest_s = newest.time_s - k->time_s;
+    const Eigen::Vector3d on_path =
+        first->p_R + s * (newest.p_R - first->p_R) - 0.5 * from_first_s * to_newest_s * gravity;
+    const Eigen::Matrix3d spread =
+        k->covariance_R + (1.0 - s) * (1.0 - s) * first->covariance_R + s * s * newest.covariance_R;
+    const Eigen::Vector3d off = k->p_R - on_path;
+    if (off.dot(spread.ldlt().solve(off)) > kLatencyOffPathChi2) first = k;
+  }
+  // A least-squares line (a parabola in the air) through the sightings of the baseline: where the
+  // ball was at the newest's time and how fast it went, its noise the sightings' over their spread.
+  const int n = static_cast<int>(seen_end - first);
+  if (n < 2) return;
+  double mean_tau = 0.0;
+  for (auto k = first; k != seen_end; ++k) mean_tau += (k->time_s - newest.time_s) / n;
+  double spread_s2 = 0.0;
+  Eigen::Vector3d mean_p = Eigen::Vector3d::Zero(), v_newest = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d noise = Eigen::Matrix3d::Zero();
+  for (auto k = first; k != seen_end; ++k) {
+    const double tau = k->time_s - newest.time_s;
+    mean_p += (k->p_R - 0.5 * tau * tau * gravity) / n;
+    noise += k->covariance_R / n;
+  }
+  for (auto k = first; k != seen_end; ++k) {
+    const double tau = k->time_s - newest.time_s;
+    spread_s2 += (tau - mean_tau) * (tau - mean_tau);
+    v_newest += (tau - mean_tau) * (k->p_R - 0.5 * tau * tau * gravity - mean_p);
+  }
+  v_newest /= spread_s2;
+  const Eigen::Vector3d p_newest = mean_p - mean_tau * v_newest;
+  const double ahead_s = t - newest.time_s;
+  Eigen::Vector3d p_R = p_newest + ahead_s * v_newest + 0.5 * ahead_s * ahead_s * gravity;
+  Eigen::Vector3d v_R = v_newest + ahead_s * gravity;
+  const Eigen::Matrix3d carried_covariance =
+      (1.0 / n + (ahead_s - mean_tau) * (ahead_s - mean_tau) / spread_s2) * noise;
+  const Eigen::Matrix3d velocity_covariance = noise / spread_s2;
+
+  // On the floor the omni reports the ball where it lies, whatever the Kinect's height noise says
+  // (through a phantom's slope, 8 m of distance per metre of height, it would swamp the distance).
+  if (!in_air) {
+    p_R.z() = radius_m;
+    v_R.z() = 0.0;
+  }
+  const Eigen::Vector2d predicted = omniView_R(p_R, config_.omni, radius_m);
+  Eigen::Matrix<double, 2, 3> J = omniViewJacobian_R(p_R, config_.omni, radius_m);
+  if (!in_air) J.col(2).setZero();
+  const Eigen::Vector2d rate = J * v_R;
+  const fw::OmniBallObservation& omni = *candidate.omni;
+  const Eigen::Vector2d residual(fw::wrapAngle(omni.bearing_rad - predicted[0]), omni.distance_m - predicted[1]);
+  const Eigen::Vector2d omni_sigma(omniBearingSigma_rad(omni, config_.omni),
+                                   omniDistanceSigma_m(omni, config_.omni, omni.distance_m));
+  for (int i = 0; i < 2; ++i) {
+    const double variance = omni_sigma[i] * omni_sigma[i] + J.row(i) * carried_covariance * J.row(i).transpose();
+    if ((i == 0 && std::abs(residual[i]) > kLatencyMaxBearingResidual_rad) ||
+        std::abs(residual[i]) > kLatencyMaxOffset_s * std::abs(rate[i]) + 3.0 * std::sqrt(variance)) {
+      continue;
+    }
+    // A rate within three sigma of its own noise is mostly the Kinect's noise (a bearing that stands
+    // still, a phantom's distance at 8-46 m per metre of the Kinect's height), and that noise is in
+    // the residual too, which the fit would read as time: 60-95 ms learnt too late for a ball rolled
+    // straight away (docs/fusion.md, "Time"). Such a reading is not used.
+    const double rate_sigma = std::sqrt(J.row(i) * velocity_covariance * J.row(i).transpose());
+    if (std::abs(rate[i]) < kLatencyRateSignificance * rate_sigma) continue;
+    state_.latency.add(residual[i], variance, rate[i], applied_s, i == 1 ? predicted[1] : 0.0);
+  }
 }
 
 std::vector<Hypothesis> BallFusion::initialHypotheses(const Candidate& candidate) const {

@@ -55,12 +55,7 @@ MeasurementVector OmniMeasurement::ownMotionRate(const Eigen::Vector3d& p_F) con
 bool OmniMeasurement::canSee(const Eigen::Vector3d& p_F) const { return omniCanSee(p_F, omni_); }
 
 MeasurementVector OmniMeasurement::predictFrom(const fw::RobotPose& pose, const Eigen::Vector3d& p_F) const {
-  const Eigen::Vector3d p_R = pose.T_F_R().inverse() * p_F;
-  const double h = omni_.viewpoint_height_m;
-  const double below = std::max(h - p_R.z(), kMinDepthBelowViewpoint_m);
-  MeasurementVector prediction(2);
-  prediction << std::atan2(-p_R.x(), p_R.y()), p_R.head<2>().norm() * (h - radius_m_) / below;
-  return prediction;
+  return omniView_R(pose.T_F_R().inverse() * p_F, omni_, radius_m_);
 }
 
 MeasurementMatrix OmniMeasurement::noise(const Eigen::Vector3d& p_F) const {
@@ -91,6 +86,24 @@ Eigen::Vector3d OmniMeasurement::groundBall_F() const {
   Eigen::Vector3d p_F = pose_.T_F_R() * ground.groundPoint_R();
   p_F.z() = radius_m_;
   return p_F;
+}
+
+Eigen::Vector2d omniView_R(const Eigen::Vector3d& p_R, const OmniConfig& omni, double radius_m) {
+  const double h = omni.viewpoint_height_m;
+  const double below = std::max(h - p_R.z(), kMinDepthBelowViewpoint_m);
+  return {std::atan2(-p_R.x(), p_R.y()), p_R.head<2>().norm() * (h - radius_m) / below};
+}
+
+Eigen::Matrix<double, 2, 3> omniViewJacobian_R(const Eigen::Vector3d& p_R, const OmniConfig& omni, double radius_m) {
+  const double h = omni.viewpoint_height_m;
+  const double below = h - p_R.z();
+  const bool held = below < kMinDepthBelowViewpoint_m;  // the model is held there: no slope in z
+  const double k = (h - radius_m) / std::max(below, kMinDepthBelowViewpoint_m);
+  const double rho2 = std::max(p_R.head<2>().squaredNorm(), 1e-12), rho = std::sqrt(rho2);
+  Eigen::Matrix<double, 2, 3> J;
+  J << -p_R.y() / rho2, p_R.x() / rho2, 0.0,  //
+      k * p_R.x() / rho, k * p_R.y() / rho, held ? 0.0 : rho * k / below;
+  return J;
 }
 
 bool omniCanSee(const Eigen::Vector3d& p_F, const OmniConfig& omni) { return p_F.z() <= omni.max_height_m; }

@@ -160,10 +160,11 @@ class FusionPlugin : public fw::Plugin {
     static constexpr double kLatencyNews_s = 0.001;
     const std::optional<fusion::LatencyEstimator::Fit> latency = fusion_.omniLatency();
     if (!latency || (said_latency_s_ && std::abs(latency->latency_s - *said_latency_s_) < kLatencyNews_s)) return;
-    const std::string message =
-        "omni camera's stamps are " + std::to_string(std::lround(1000 * latency->latency_s)) + " +- " +
-        std::to_string(std::lround(1000 * latency->sigma_s)) + " ms late against the Kinect's (learnt from " +
-        std::to_string(fusion_.omniLatencyExamples()) + " bearings of a ball both sensors saw); compensated";
+    const std::string message = "omni camera's stamps are " + std::to_string(std::lround(1000 * latency->latency_s)) +
+                                " +- " + std::to_string(std::lround(1000 * latency->sigma_s)) +
+                                " ms late against the Kinect's (learnt from " +
+                                std::to_string(fusion_.omniLatencyExamples()) +
+                                " bearings and distances of a ball both sensors saw); compensated";
     if (!said_latency_s_) fw::logInfo(name_, message);
     said_latency_s_ = latency->latency_s;
     world_.publishEvent({name_, "omni_latency", message, {t_s, fw::wallClockNow_s()}, latency->latency_s});

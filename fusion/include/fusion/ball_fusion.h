@@ -56,28 +56,34 @@ struct FusionUpdate {
   std::optional<fw::FusedBall> ball;
 };
 
-// How the omni camera's latency relative to the Kinect is learnt: from the bearings in the robot frame
-// of one ball that both of this robot's sensors see. Both sensors are on the robot, so the pose and its
-// error play no part. The omni's bearing minus the Kinect's, at the omni's corrected time, is
-//   residual = -rate (L - applied)
-// where rate is how fast the bearing turns (the ball crossing the view or flying past, the robot
-// turning), L the latency and applied the estimate that corrected that time: a line through the
-// origin in the rate, whose slope is the time. A bearing that stands still says nothing of it. A
-// Kinect turned on its mount adds its turn to every residual, which this reads as time while the
+// How the omni camera's latency relative to the Kinect is learnt: from what the omni reports of one
+// ball that both of this robot's sensors see, against the Kinect's ball carried on to the omni's
+// corrected time, in the robot frame. Both sensors are on the robot, so the pose and its error play
+// no part. The omni's bearing minus the Kinect's, and its distance minus the Kinect's, are each
+//   residual = -rate (L - applied) [+ scale distance]
+// where rate is how fast the reading changes (the ball crossing the view, flying past or rolling
+// away, the robot turning, a ball's phantom running out as it rises), L the latency and applied the
+// estimate that corrected that time: a line in the rate whose slope is the time. The omni's distance
+// map may be a few per cent off (a mirror's scale); that error grows with the distance, as time's
+// error does with a ball rolling away, so the fit takes the scale as a second unknown and only what
+// the rate says beyond it counts as time. A reading that stands still says nothing of either. A
+// Kinect turned on its mount adds its turn to every bearing, which this reads as time while the
 // bearing turns one way (docs/calibration.md: the alignment check says so).
 class LatencyEstimator {
  public:
   static constexpr int kMinExamples = 10;
   // Older examples count less, by a factor e over this many (half a minute of a ball both see at 30 Hz).
   static constexpr double kMemoryExamples = 1000.0;
+  // How far the omni's distance map's scale may be off before the examples say (one sigma).
+  static constexpr double kDistanceScaleSigma = 0.05;
 
-  // One example: the omni's bearing minus the Kinect's at the omni's corrected time, that
-  // difference's variance, the rate at which the bearing turns, and the estimate that corrected
-  // that time.
-  void add(double residual_rad, double variance_rad2, double bearing_rate_radps, double applied_s);
+  // One example: the omni's reading minus the Kinect's at the omni's corrected time, that
+  // difference's variance, the rate at which the reading changes, and the estimate that corrected
+  // that time; for a distance, the distance the Kinect's ball puts it at (0 for a bearing).
+  void add(double residual, double variance, double rate, double applied_s, double distance_m = 0.0);
   // The relative latency (seconds the omni's stamps are late beyond its configured latency) with its
   // standard error, once kMinExamples were seen; before the examples it was 0 +- prior_sigma_s (the
-  // configured latency, as uncertain as configured), and it stays there while no bearing turns.
+  // configured latency, as uncertain as configured), and it stays there while no reading changes.
   struct Fit {
     double latency_s, sigma_s;
   };
@@ -86,9 +92,10 @@ class LatencyEstimator {
 
  private:
   int examples_ = 0;
-  // Weighted (1 / variance) sums over the examples of rate squared and of rate times
-  // (residual - rate applied), older ones discounted.
-  double wxx_ = 0.0, wxy_ = 0.0;
+  // The weighted (1 / variance) least squares' normal equations in (latency, distance scale error),
+  // older examples discounted: information and information times the estimate, without the priors.
+  Eigen::Matrix2d information_ = Eigen::Matrix2d::Zero();
+  Eigen::Vector2d weighted_ = Eigen::Vector2d::Zero();
 };
 
 class BallFusion {
@@ -133,12 +140,13 @@ class BallFusion {
     double from_teammate_m = 0.0;  // the teammate's ball from where it believes it stands
   };
   struct Candidate;
-  // A bearing in the robot frame (from +y, counter-clockwise, as the omni camera gives it) and its error.
-  struct KinectBearing {
-    double time_s, bearing_rad, sigma_rad;
+  // This robot's Kinect ball in the robot frame, as the omni camera's latency is learnt from it.
+  struct KinectSighting {
+    double time_s;
+    Eigen::Vector3d p_R;
+    Eigen::Matrix3d covariance_R;
   };
-  static constexpr std::size_t kKinectBearingsKept = 4;  // a tenth of a second at 30 Hz
-  static KinectBearing bearingOf(const fw::BallObservation& ball_R, double t_s);
+  static constexpr std::size_t kKinectSightingsKept = 10;  // a third of a second at 30 Hz
   struct Track {
     int id = 0;
     BallFilter filter;
@@ -158,10 +166,10 @@ class BallFusion {
     // be judged against themselves, and a mislocalised one that reached this robot's ball first
     // would pass.
     std::optional<BallFilter> own_view = std::nullopt;
-    // This robot's Kinect balls of it, the newest kKinectBearingsKept, oldest first: their bearings in
-    // the robot frame time the omni camera.
-    std::array<KinectBearing, kKinectBearingsKept> kinect_bearings = {};
-    std::size_t kinect_bearing_count = 0;
+    // This robot's Kinect balls of it, the newest kKinectSightingsKept, oldest first: they time the
+    // omni camera.
+    std::array<KinectSighting, kKinectSightingsKept> kinect_sightings = {};
+    std::size_t kinect_sighting_count = 0;
 
     // The air mode explains more of the data than the ground mode.
     bool flying() const { return filter.airProbability() > 0.5; }

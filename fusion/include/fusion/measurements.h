@@ -59,6 +59,12 @@ class OmniMeasurement : public MeasurementModel {
   MeasurementVector z_;
 };
 
+// What the omni camera reports for a ball centre p_R in the robot frame: its bearing (from +y,
+// counter-clockwise) and its distance on the floor, farther out for a ball in the air (the ray from
+// the viewpoint through the centre meets the plane of resting centres); and their derivatives by p_R.
+Eigen::Vector2d omniView_R(const Eigen::Vector3d& p_R, const OmniConfig& omni, double radius_m);
+Eigen::Matrix<double, 2, 3> omniViewJacobian_R(const Eigen::Vector3d& p_R, const OmniConfig& omni, double radius_m);
+
 // Whether the omni camera can see a ball centre at p_F: below the top of its mirror's view.
 bool omniCanSee(const Eigen::Vector3d& p_F, const OmniConfig& omni);
 // The chance that the ball of hypothesis h is below the top of the omni camera's view.
