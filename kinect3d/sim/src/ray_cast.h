@@ -48,21 +48,23 @@ class Random {
  private:
   static std::uint64_t rotl(std::uint64_t x, int k) { return (x << k) | (x >> (64 - k)); }
   static const std::array<float, 4096>& table() {
-    static const std::array<float, 4096> values = [] {
-      std::array<float, 4096> t{};
-      for (std::size_t i = 0; i < t.size(); ++i) {
-        // Inverse normal CDF by bisection on erfc: run once.
-        const double p = (i + 0.5) / t.size();
-        double lo = -10, hi = 10;
-        for (int k = 0; k < 100; ++k) {
-          const double mid = 0.5 * (lo + hi);
-          (0.5 * std::erfc(-mid / std::sqrt(2.0)) < p ? lo : hi) = mid;
-        }
-        t[i] = static_cast<float>(0.5 * (lo + hi));
-      }
-      return t;
-    }();
+    static const std::array<float, 4096> values = inverseNormalCdfTable();
     return values;
+  }
+  // Inverse normal CDF by bisection on erfc, run once. A plain function, not a lambda: GCC tried the
+  // lambda as a constant initialiser, which cost every file including this header 7-14 s of build.
+  static std::array<float, 4096> inverseNormalCdfTable() {
+    std::array<float, 4096> t{};
+    for (std::size_t i = 0; i < t.size(); ++i) {
+      const double p = (i + 0.5) / t.size();
+      double lo = -10, hi = 10;
+      for (int k = 0; k < 100; ++k) {
+        const double mid = 0.5 * (lo + hi);
+        (0.5 * std::erfc(-mid / std::sqrt(2.0)) < p ? lo : hi) = mid;
+      }
+      t[i] = static_cast<float>(0.5 * (lo + hi));
+    }
+    return t;
   }
   std::array<std::uint64_t, 4> s_;
 };
@@ -155,14 +157,28 @@ struct PixelRect {
   bool empty() const { return u0 >= u1 || v0 >= v1; }
 };
 
+// A rotation that turns direction a onto +z, about which a capsule is symmetric: its rows are a
+// right-handed basis ending in a. (Eigen's Quaternion::FromTwoVectors does it too, but brings in an
+// SVD that cost each file including this header seconds of build.)
+inline Eigen::Matrix3d rotationTakingToZ(const Eigen::Vector3d& a) {
+  if (a.squaredNorm() < 1e-24) return Eigen::Matrix3d::Identity();
+  const Eigen::Vector3d z = a.normalized();
+  const Eigen::Vector3d helper = std::abs(z.x()) < 0.9 ? Eigen::Vector3d::UnitX() : Eigen::Vector3d::UnitY();
+  const Eigen::Vector3d x = helper.cross(z).normalized();
+  Eigen::Matrix3d R;
+  R.row(0) = x;
+  R.row(1) = z.cross(x);
+  R.row(2) = z;
+  return R;
+}
+
 // A shape where it stands (moved by offset_F), placed for casting from a camera at T_F_C (a camera
 // frame with the sensor's optical axes).
 inline PlacedShape placeShape(const Shape& shape, const Eigen::Vector3d& offset_F, const Eigen::Isometry3d& T_F_C) {
   // The shape's local frame: turned by its yaw, or for a capsule with z along its axis.
-  const Eigen::Matrix3d R_L_F =
-      shape.kind == Shape::Kind::kCapsule
-          ? Eigen::Quaterniond::FromTwoVectors(shape.axis_m, Eigen::Vector3d::UnitZ()).toRotationMatrix()
-          : Eigen::AngleAxisd(-shape.yaw_rad, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  const Eigen::Matrix3d R_L_F = shape.kind == Shape::Kind::kCapsule
+                                    ? rotationTakingToZ(shape.axis_m)
+                                    : Eigen::AngleAxisd(-shape.yaw_rad, Eigen::Vector3d::UnitZ()).toRotationMatrix();
   PlacedShape placed{shape.kind, R_L_F * T_F_C.linear(), R_L_F * (T_F_C.translation() - shape.center_m - offset_F),
                      shape.size_m / 2.0};
   if (shape.kind == Shape::Kind::kCylinder) placed.half.z() = shape.size_m.z();
