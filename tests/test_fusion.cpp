@@ -1563,6 +1563,29 @@ TEST(Fusion, LearnsTheOmniLatencyFromLobsStraightAtTheRobotWhosePhantomRunsOut) 
   }
 }
 
+TEST(Fusion, ASingleLobStraightAtTheRobotTeachesTheOmniLatencyFromItsFewFrames) {
+  // One lob from 5 m straight at the standing robot: the omni sees it over the few frames before
+  // its phantom leaves the view, the fusion report's lobs landing behind the robot in small. Those
+  // frames are the only ones that carry the latency: what they teach is applied, as sure as it says.
+  const Truth lob = [](double t) {
+    return lobAt(t, kT0 + 0.3, Eigen::Vector3d(0.0, 5.0, kRadius), Eigen::Vector3d(0.0, -6.0, 4.5));
+  };
+  const auto in_flight = [](double, const Eigen::Vector3d& p_F) { return p_F.z() > kRadius + 0.03; };
+  for (int seed = 1; seed <= 5; ++seed) {
+    std::mt19937 random(seed);
+    const double late_s = std::uniform_real_distribution<double>(0.02, 0.06)(random);
+    const double distance_scale = std::uniform_real_distribution<double>(0.97, 1.03)(random);
+    fusion::BallFusion fusion{fusion::FusionConfig()};
+    feedNoisyOmni(fusion, lob, 1.5, in_flight, late_s, distance_scale, random);
+    ASSERT_TRUE(fusion.omniLatency()) << "seed " << seed << ": " << fusion.omniLatencyExamples() << " examples";
+    const fusion::LatencyEstimator::Fit learnt = *fusion.omniLatency();
+    EXPECT_LE(std::abs(learnt.latency_s - late_s), 2.5 * learnt.sigma_s)
+        << "seed " << seed << ": " << 1000 * late_s << " ms late, learnt " << 1000 * learnt.latency_s << " +- "
+        << 1000 * learnt.sigma_s << " ms from " << fusion.omniLatencyExamples() << " examples";
+    EXPECT_LT(std::abs(learnt.latency_s - late_s), 0.5 * late_s) << "seed " << seed << ": nearer than configured";
+  }
+}
+
 TEST(Fusion, LearnsTheOmniLatencyFromTheRobotsTurnWithTheBallAtRest) {
   fusion::BallFusion fusion{fusion::FusionConfig()};
   // The robot turns on the spot at 1.5 rad/s; the ball lies still, in the Kinect's 57 degrees once a

@@ -71,7 +71,10 @@ struct FusionUpdate {
 // bearing turns one way (docs/calibration.md: the alignment check says so).
 class LatencyEstimator {
  public:
-  static constexpr int kMinExamples = 10;
+  // More than its two unknowns; with the priors, a few examples move it only as far as they say. (10
+  // left lobs kicked away from a standing robot, with fewer readings that change beyond the
+  // Kinect's noise, at the configured latency: docs/fusion.md, "Latency".)
+  static constexpr int kMinExamples = 3;
   // Older examples count less, by a factor e over this many (half a minute of a ball both see at 30 Hz).
   static constexpr double kMemoryExamples = 1000.0;
   // How far the omni's distance map's scale may be off before the examples say (one sigma).
