@@ -59,7 +59,11 @@ TEST(FusionPlugins, TheDemoRobotFusesTheLobFlyingOverItWhileItDrives) {
   ASSERT_TRUE(host.sourcesFinished());
   EXPECT_GT(samples, 50);
   EXPECT_GE(in_air_from_both, 10) << "the lob in front of the robot, fused from both sensors";
-  EXPECT_LE(far_off_in_air, 2);
+  // Its sources keep to one pace (fw::SharedPace): each depth frame comes before the omni image of
+  // the next moment, so the kick is seen in the air as offline. Each anchoring its own first item,
+  // the Kinect's frames came a frame or two behind, and the first two samples in the air were
+  // 0.4-0.6 m off; a frame dropped on a busy machine may cost one.
+  EXPECT_LE(far_off_in_air, 1) << "of " << in_air_from_both << " samples in the air from both sensors";
 }
 
 // The fusion plugin's alignment alarms on a ball at rest that crosses the Kinect's view while the

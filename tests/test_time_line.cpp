@@ -57,6 +57,22 @@ TEST(ReplayClock, APinnedClockKeepsToTheWallClockWhateverComesFirst) {
   EXPECT_EQ(clock.waitFor(0.0, 0.01), fw::ReplayClock::Pace::kNotYet) << "still pinned to the wall clock";
 }
 
+TEST(ReplayClock, ClocksThatShareTheirHostsPaceBringOneMomentDueTogetherWhicheverStartsFirst) {
+  fw::SharedPace host_pace;
+  fw::ReplayClock omni(/*realtime=*/true, &host_pace), kinect(/*realtime=*/true, &host_pace);
+  EXPECT_EQ(omni.waitFor(100.0), fw::ReplayClock::Pace::kDue);
+  // The Kinect's first frame is half a second after the omni's first image: not yet due, where a
+  // clock of its own would have anchored it now, and due at the omni's moment for it.
+  EXPECT_EQ(kinect.waitFor(100.5, 0.01), fw::ReplayClock::Pace::kNotYet);
+  ASSERT_TRUE(kinect.dueWall_s(100.5));
+  EXPECT_EQ(*kinect.dueWall_s(100.5), *omni.dueWall_s(100.5));
+  // A source on another clock (its first item 10 minutes off the shared pace) keeps its own pace,
+  // without a warning's re-base.
+  fw::ReplayClock recorded(/*realtime=*/true, &host_pace);
+  EXPECT_EQ(recorded.waitFor(700.0), fw::ReplayClock::Pace::kDue);
+  EXPECT_EQ(recorded.waitFor(700.5, 0.01), fw::ReplayClock::Pace::kNotYet);
+}
+
 TEST(BallTrajectory, PropagatesAcrossAnyTimeWithoutAStepPerFrame) {
   fw::BallTrajectory flight;
   flight.state = fw::BallState::kAir;

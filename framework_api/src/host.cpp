@@ -229,6 +229,7 @@ std::vector<PluginSummary> Host::summaries() const {
   for (const auto& plugin : plugins_) {
     std::lock_guard<std::mutex> lock(plugin->mutex);
     result.push_back(plugin->summary);
+    result.back().dropped_frames = world_.droppedFrames(plugin->summary.name);
   }
   return result;
 }
@@ -431,9 +432,14 @@ std::string formatSummary(const PluginSummary& summary) {
     std::snprintf(latency, sizeof latency, ", latency p50 %.2f ms, p99 %.2f ms", 1e3 * summary.latency_s.quantile(0.5),
                   1e3 * summary.latency_s.quantile(0.99));
   }
-  std::snprintf(line, sizeof line, "%s %s: %llu frames in %.1f s (%.1f Hz), %llu errors%s%s%s%s", summary.name.c_str(),
-                summary.version.c_str(), static_cast<unsigned long long>(summary.frames), summary.elapsed_s,
-                summary.frameRate_hz(), static_cast<unsigned long long>(summary.errors), latency,
+  char dropped[64] = "";
+  if (summary.dropped_frames > 0) {
+    std::snprintf(dropped, sizeof dropped, " (and %llu dropped by its source)",
+                  static_cast<unsigned long long>(summary.dropped_frames));
+  }
+  std::snprintf(line, sizeof line, "%s %s: %llu frames%s in %.1f s (%.1f Hz), %llu errors%s%s%s%s",
+                summary.name.c_str(), summary.version.c_str(), static_cast<unsigned long long>(summary.frames), dropped,
+                summary.elapsed_s, summary.frameRate_hz(), static_cast<unsigned long long>(summary.errors), latency,
                 summary.end_of_stream ? ", end of stream" : (summary.gave_up ? ", gave up" : ""),
                 summary.stuck == 0 ? "" : (", stuck " + std::to_string(summary.stuck) + " times").c_str(),
                 summary.last_error.empty() ? "" : (", last error: " + summary.last_error).c_str());

@@ -47,13 +47,13 @@ inline double simWorldStart(const fw::PluginContext& context) {
   return context.robot_config->block("host").getDouble("sim_world_start_wall_s", 0.0, 1e10);
 }
 
-// The pace of `<block>.source` (its realtime key): a simulated scene in a world shared by several
-// hosts (host.sim_world_start_wall_s, its items stamped on the wall clock) keeps to the wall clock,
-// anything else to its first item.
-inline fw::ReplayClock clockFor(const fw::ConfigView& block, double sim_world_start_wall_s) {
-  const bool realtime = block.getBool("realtime");
-  const bool shared_world = sim_world_start_wall_s > 0.0 && block.getString("source").rfind("sim:", 0) == 0;
-  return shared_world ? fw::ReplayClock(realtime, 0.0) : fw::ReplayClock(realtime);
+// The pace of the plugin's `source` (its realtime key): a simulated scene in a world shared by
+// several hosts (host.sim_world_start_wall_s, its items stamped on the wall clock) keeps to the wall
+// clock, anything else to the anchor the host's sources share.
+inline fw::ReplayClock clockFor(const fw::PluginContext& context) {
+  const bool realtime = context.config.getBool("realtime");
+  const bool shared_world = simWorldStart(context) > 0.0 && context.config.getString("source").rfind("sim:", 0) == 0;
+  return shared_world ? fw::ReplayClock(realtime, 0.0) : fw::ReplayClock(realtime, &context.world->replayPace());
 }
 
 // Hands out items in order, each once its source time is due on the replay clock (the one pacing

@@ -35,6 +35,7 @@ class Kinect3dPlugin : public fw::Plugin {
     options.wait_for_device = true;  // a Kinect still enumerating at boot is waited for, not fatal
     options.colour = context.config.getBool("colour");
     options.sim_world_start_wall_s = replay::simWorldStart(context);
+    options.host_pace = &context.world->replayPace();
     const std::string uri = context.config.getString("source");
     try {
       source_ = kinect3d::sim::sourcesWithSimulator().open(uri, options);

@@ -40,8 +40,7 @@ class LocalisationPlugin : public fw::Plugin {
                       return simulate(context.config.child("sim"), scene, replay::simWorldStart(context));
                     },
                     fusion::readPoseFile),
-                replay::clockFor(context.config, replay::simWorldStart(context)),
-                [](const fw::RobotPose& pose) { return pose.stamp.source_time_s; }) {
+                replay::clockFor(context), [](const fw::RobotPose& pose) { return pose.stamp.source_time_s; }) {
     fw::logInfo(context.config.path(),
                 "playing " + std::to_string(player_.size()) + " poses from " + context.config.getString("source"));
   }

@@ -40,8 +40,7 @@ class OmniPlugin : public fw::Plugin {
                       return simulate(context.config.child("sim"), scene, replay::simWorldStart(context));
                     },
                     [&](const std::string& path) { return fusion::readOmniFile(path, name_); }),
-                replay::clockFor(context.config, replay::simWorldStart(context)),
-                [](const fw::OmniFrame& frame) { return frame.stamp.source_time_s; }) {
+                replay::clockFor(context), [](const fw::OmniFrame& frame) { return frame.stamp.source_time_s; }) {
     fw::logInfo(
         name_, "playing " + std::to_string(player_.size()) + " omni images from " + context.config.getString("source"));
   }

@@ -361,7 +361,7 @@ class RecordedTeammates {
   RecordedTeammates(const fw::PluginContext& context, const std::string& folder)
       : world_(*context.world),
         player_(context.config.path(), readMessages(context.config, folder),
-                fw::ReplayClock(context.config.getBool("realtime")),
+                fw::ReplayClock(context.config.getBool("realtime"), &context.world->replayPace()),
                 [](const fw::TeamMessage& message) { return message.receive_time_s; }) {
     fw::logInfo(context.config.path(), "playing " + std::to_string(player_.size()) + " teammates' messages from " +
                                            folder + "; sending nothing");

@@ -42,6 +42,8 @@ struct PluginSummary {
   double rate_hz_setting = 0.0;  // 0 = driven by its own source (no rate_hz in its block)
   std::uint64_t steps = 0;
   std::uint64_t frames = 0;  // steps that processed something
+  // Frames its source dropped (a live sensor's driver overwrites what a busy host did not read).
+  std::uint64_t dropped_frames = 0;
   std::uint64_t errors = 0;
   std::string last_error;
   bool end_of_stream = false;

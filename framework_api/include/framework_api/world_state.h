@@ -14,6 +14,7 @@
 #include <variant>
 #include <vector>
 
+#include "framework_api/replay_clock.h"
 #include "framework_api/sensor_pose.h"
 #include "framework_api/team_message.h"
 #include "framework_api/types.h"
@@ -118,6 +119,9 @@ class WorldState {
   // Increases with every publish; a reader that saw version v has nothing new while it is still v.
   std::uint64_t version() const;
 
+  // The anchor the host's sources that replay recorded or simulated time keep to in real time.
+  SharedPace& replayPace() { return replay_pace_; }
+
   // The journal: every publication in order, for the one reader that must see each of them (the
   // match log). Off until that reader opens it, so a robot without a log pays nothing. Bounded: when
   // its reader falls behind, new items are refused and counted rather than the robot running out of
@@ -154,6 +158,7 @@ class WorldState {
   static std::chrono::steady_clock::duration patience();
 
   mutable std::mutex mutex_;
+  SharedPace replay_pace_;
   std::map<std::string, History<BallFrame>> ball_frames_;  // frames with balls
   std::map<std::string, BallFrame> newest_ball_frames_;
   std::map<std::string, History<OmniFrame>> omni_frames_;  // frames with balls, by the balls' source

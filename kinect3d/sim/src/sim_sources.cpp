@@ -11,9 +11,7 @@ namespace {
 class Simulation : public DepthSource {
  public:
   Simulation(Scene scene, const SourceOptions& options)
-      : DepthSource(options),
-        simulator_(inSharedWorld(std::move(scene), options.sim_world_start_wall_s)),
-        live_(options.realtime && options.sim_world_start_wall_s > 0.0) {
+      : DepthSource(options), simulator_(inSharedWorld(std::move(scene), options.sim_world_start_wall_s)) {
     simulator_.setColour(options.colour);
     if (options.sim_world_start_wall_s > 0.0) pinPacing(0.0);  // its frames are stamped on the wall clock
   }
@@ -24,25 +22,32 @@ class Simulation : public DepthSource {
 
  private:
   ReadResult readFrame(DepthFrame& frame) override {
-    if (live_) skipOverwrittenFrames();
+    if (options().realtime) skipOverwrittenFrames();
     if (next_ >= simulator_.frameCount()) return ReadResult::kEnd;
     GroundTruth truth;
     simulator_.render(next_++, frame, truth);
     return ReadResult::kFrame;
   }
 
-  // A live sensor's driver keeps only its newest frame: one whose successor has already been taken
-  // was overwritten before the host read it. So a host too busy to keep up loses frames (counted as
-  // dropped, from the gap in the indices) instead of falling ever further behind its world, and the
-  // frames it loses are not rendered either.
+  // In real time the simulator is a live sensor, and a live sensor's driver keeps only its newest
+  // few frames: one kBacklogFrames older than a frame already due was overwritten before the host
+  // read it. So a host too busy to keep up (or a renderer slower than the scene's frame rate) loses
+  // frames, counted as dropped from the gap in the indices, instead of delivering them ever further
+  // behind the other sensors' (the fusion drops what comes more than max_delay_s late); the frames
+  // it loses are not rendered either. A hiccup of a frame or two (the first frame's floor search)
+  // is caught up on, every frame still within the fusion's 0.15 s.
+  static constexpr int kBacklogFrames = 3;
   void skipOverwrittenFrames() {
     const Scene& scene = simulator_.scene();
     const double now_s = fw::wallClockNow_s();
-    while (next_ + 1 < simulator_.frameCount() && scene.start_time_s + (next_ + 1) / scene.fps <= now_s) ++next_;
+    while (next_ + kBacklogFrames < simulator_.frameCount()) {
+      const std::optional<double> newer_due_s = dueWall_s(scene.start_time_s + (next_ + kBacklogFrames) / scene.fps);
+      if (!newer_due_s || *newer_due_s > now_s) break;
+      ++next_;
+    }
   }
 
   KinectSimulator simulator_;
-  const bool live_;  // in real time in a world shared with other hosts, on the wall clock
   int next_ = 0;
 };
 

@@ -17,6 +17,7 @@
 #include <functional>
 #include <map>
 #include <memory>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -56,6 +57,9 @@ struct SourceOptions {
   // wall-clock time (seconds since the epoch; host.sim_world_start_wall_s); 0: each source starts
   // its scene when it first reads it.
   double sim_world_start_wall_s = 0.0;
+  // In real time: the anchor the host's other sources keep to (fw::WorldState::replayPace), so that
+  // this source's frames come due with their images of the same moment; none: its own first frame.
+  fw::SharedPace* host_pace = nullptr;
 };
 
 struct SourceCounters {
@@ -96,6 +100,9 @@ class DepthSource {
   // Real-time pacing pinned to the wall clock (fw::ReplayClock): a frame is due when the wall clock
   // reaches its source time plus wall_minus_source_s.
   void pinPacing(double wall_minus_source_s) { pacing_ = fw::ReplayClock(options_.realtime, wall_minus_source_s); }
+  // The wall time at which a frame of this source time is due in real time (fw::ReplayClock); none
+  // before the first frame was read, or without realtime.
+  std::optional<double> dueWall_s(double source_time_s) const { return pacing_.dueWall_s(source_time_s); }
 
  private:
   virtual ReadResult readFrame(DepthFrame& frame) = 0;
@@ -112,7 +119,7 @@ class DepthSource {
   std::uint64_t skipped_since_last_frame_ = 0;
   DepthFrame pending_;  // read from the source, waiting for its moment in real time
   bool has_pending_ = false;
-  fw::ReplayClock pacing_{options_.realtime};
+  fw::ReplayClock pacing_{options_.realtime, options_.host_pace};
   fw::TimeLine time_line_;
 };
 
