@@ -11,14 +11,16 @@
 #                                tests (plugin loader, world state, host and its watchdog) and the
 #                                scene map's (its ray-casting worker), each built without the
 #                                detector's heavy build. In CI (tools/test.sh).
+#   tools/sanitize.sh thread --build-only   the same build, no tests (tools/test.sh builds both
+#                                sanitizers' trees beside the test suite).
 set -euo pipefail
 cd "$(dirname "$0")/.."
-usage() { echo "usage: tools/sanitize.sh [address [--build-only] | thread]" >&2; exit 2; }
+usage() { echo "usage: tools/sanitize.sh [address | thread] [--build-only]" >&2; exit 2; }
 mode="${1:-address}"
 build_only=false
 case "${2:-}" in
   "") ;;
-  --build-only) [ "$mode" = address ] || usage; build_only=true ;;
+  --build-only) build_only=true ;;
   *) usage ;;
 esac
 case "$mode" in
