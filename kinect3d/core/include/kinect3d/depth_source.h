@@ -54,8 +54,8 @@ struct SourceOptions {
   // colour stream too).
   bool colour = false;
   // The simulator: robots simulated side by side on one machine share one world, its time 0 at this
-  // wall-clock time (seconds since the epoch; host.sim_world_start_wall_s); 0: each source starts
-  // its scene when it first reads it.
+  // wall-clock time (seconds since the epoch; host.sim_world_start_wall_s); 0: the host starts
+  // its scene when its first source reads it (host_pace).
   double sim_world_start_wall_s = 0.0;
   // In real time: the anchor the host's other sources keep to (fw::WorldState::replayPace), so that
   // this source's frames come due with their images of the same moment; none: its own first frame.
