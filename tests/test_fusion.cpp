@@ -1715,6 +1715,96 @@ TEST(Fusion, TheWheelsOdometryKeepsAWanderingLocalisationOutOfAFlightsVelocity) 
   EXPECT_LT(fw::quantile(with_wheels_mps, 0.5), 0.85 * fw::quantile(without_mps, 0.5));
 }
 
+TEST(BounceLearner, LearnsTheRestitutionAndFrictionOfBouncesItSeesWholeAndNothingFromARollOrAHull) {
+  fusion::MotionConfig configured;  // restitution 0.6 +- 0.07, bounce friction 0.2 +- 0.1
+  // Balls chipped up in front of the robot, moving 1.5-2.5 m/s along the floor, bouncing with
+  // restitution 0.45 and friction 0.35, seen at 30 Hz with 1 cm of noise (the detector's centre of a
+  // ball 3 m away is steadier: docs/accuracy.md, Table 1).
+  TruePhysics physics;
+  physics.restitution = 0.45;
+  physics.bounce_friction = 0.35;
+  std::mt19937 random(3);
+  std::normal_distribution<double> noise(0.0, 0.01);
+  fusion::BounceLearner learner(configured);
+  int learnt_at = 0;
+  for (int chip = 0; chip < 3; ++chip) {
+    const double kick_t = kT0 + 5.0 * chip;
+    const Eigen::Vector3d p0(0.0, 3.0, kRadius), v0(0.3 * chip, 1.5 + 0.5 * chip, 5.0);
+    for (int i = 0; i < 90; ++i) {
+      const double t = kick_t + i / 30.0;
+      learnt_at += learner.add(1, t, lobAt(t, kick_t, p0, v0, physics) + drawVector3(noise, random));
+    }
+  }
+  // The first bounce of each; the next hops, under 7 cm, are not told from the noise.
+  ASSERT_GE(learner.bounces(), 3);
+  EXPECT_EQ(learnt_at, learner.bounces());
+  const double n = learner.bounces(), prior = fusion::BounceLearner::kPriorBounces;
+  EXPECT_NEAR(learner.motion().restitution, (prior * 0.6 + n * 0.45) / (prior + n), 0.03);
+  EXPECT_NEAR(learner.motion().bounce_friction, (prior * 0.2 + n * 0.35) / (prior + n), 0.06);
+  EXPECT_LT(learner.motion().restitution_sigma, configured.restitution_sigma);
+  // The rest of the motion is the configured one.
+  EXPECT_EQ(learner.motion().drag_per_m, configured.drag_per_m);
+
+  // Rolling on the floor, or thrown back off a robot's hull 0.4 m up, a ball teaches no bounce.
+  fusion::BounceLearner rolled(configured), deflected(configured);
+  for (int i = 0; i < 60; ++i) {
+    const double t = i / 30.0;
+    rolled.add(1, t, Eigen::Vector3d(0.0, 2.0 + 2.0 * t, kRadius) + drawVector3(noise, random));
+    // Falling at 3 m/s onto the hull at t = 0.5 s, back up at 1.5 m/s.
+    const double tau = t - 0.5, vz = tau < 0.0 ? -3.0 : 1.5;
+    deflected.add(1, t,
+                  Eigen::Vector3d(0.0, 3.0 - 2.0 * tau, 0.4 + vz * tau - 0.5 * fw::kGravity_mps2 * tau * tau) +
+                      drawVector3(noise, random));
+  }
+  EXPECT_EQ(rolled.bounces(), 0);
+  EXPECT_EQ(deflected.bounces(), 0);
+}
+
+TEST(Fusion, AHopBehindTheRobotFollowsTheBounceLearntFromTheBouncesItsKinectSaw) {
+  // The match ball bounces deader than configured (restitution 0.45 for 0.6, friction 0.35 for 0.2).
+  // It is first dropped in front of the robot, which sees it bounce; then lobbed over the robot,
+  // bouncing behind it where only the omni camera sees it. The hops there follow the learnt bounce.
+  TruePhysics physics;
+  physics.restitution = 0.45;
+  physics.bounce_friction = 0.35;
+  const double lob_t = kT0 + 3.5;
+  const Truth drop = [&](double t) { return lobAt(t, kT0 + 0.2, {0.0, 3.0, kRadius}, {0.0, 1.5, 5.0}, physics); };
+  const Truth truth = [&](double t) {
+    return t < lob_t ? drop(t) : lobAt(t, lob_t, drop(lob_t), {0.0, -6.0, 4.0}, physics);
+  };
+  const Sees in_front = [](double, const Eigen::Vector3d& p) { return p.y() > 0.5; };
+  // The world ball from the lob's first touchdown behind the robot for a second.
+  double first_touchdown_s = 0.0;
+  for (double t = lob_t + 0.1; t < lob_t + 2.0 && first_touchdown_s == 0.0; t += 0.001) {
+    if (truth(t).z() < kRadius + 1e-3) first_touchdown_s = t;
+  }
+  ASSERT_GT(first_touchdown_s, 0.0);
+  const auto hopErrors = [&](bool learn) {
+    fusion::FusionConfig config = testConfig();
+    config.motion.learn_bounce = learn;
+    fusion::BallFusion fusion(config);
+    const FedRun run = feed(fusion, truth, first_touchdown_s + 1.0 - kT0, standingAtOrigin, in_front);
+    std::vector<double> errors;
+    for (std::size_t i = 0; i < run.updates.size(); ++i) {
+      if (run.updates[i].time_s < first_touchdown_s + 0.05) continue;
+      if (!run.updates[i].ball) {
+        errors.push_back(std::numeric_limits<double>::infinity());
+        continue;
+      }
+      errors.push_back((run.updates[i].ball->position_F - run.truth[i]).norm());
+    }
+    std::sort(errors.begin(), errors.end());
+    return std::make_pair(errors[errors.size() / 2], fusion.bouncesLearnt());
+  };
+  const auto [learnt_median_m, learnt] = hopErrors(true);
+  const auto [configured_median_m, none] = hopErrors(false);
+  EXPECT_GE(learnt, 2) << "the drop's bounces";
+  EXPECT_EQ(none, 0);
+  EXPECT_LT(learnt_median_m, 0.7 * configured_median_m)
+      << "median error over the hops behind the robot: " << learnt_median_m << " m learnt, " << configured_median_m
+      << " m configured";
+}
+
 TEST(FusionConfig, ShippedDefaultsAreTheStructDefaults) {
   const fw::Config shipped = fw::Config::load(std::string(PROJECT_CONFIG_DIR) + "/defaults", "", {});
   const fusion::FusionConfig read = fusion::readFusionConfig(shipped.block("fusion"));
@@ -1734,6 +1824,7 @@ TEST(FusionConfig, ShippedDefaultsAreTheStructDefaults) {
   EXPECT_EQ(read.motion.kick_rate_hz, code.motion.kick_rate_hz);
   EXPECT_EQ(read.motion.deflection_rate_hz, code.motion.deflection_rate_hz);
   EXPECT_EQ(read.motion.kick_speed_sigma_mps, code.motion.kick_speed_sigma_mps);
+  EXPECT_EQ(read.motion.learn_bounce, code.motion.learn_bounce);
   EXPECT_EQ(read.kinect.source, code.kinect.source);
   EXPECT_EQ(read.kinect.latency_s, code.kinect.latency_s);
   EXPECT_EQ(read.omni.source, code.omni.source);

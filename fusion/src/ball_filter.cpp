@@ -107,6 +107,13 @@ BallFilter::BallFilter(const MotionConfig& config, double time_s, std::vector<Hy
   }
 }
 
+void BallFilter::useBounceOf(const MotionConfig& motion) {
+  config_.restitution = motion.restitution;
+  config_.restitution_sigma = motion.restitution_sigma;
+  config_.bounce_friction = motion.bounce_friction;
+  config_.bounce_friction_sigma = motion.bounce_friction_sigma;
+}
+
 void BallFilter::keepOnFloor(Hypothesis& h) const {
   h.x[kZ] = config_.radius_m;
   h.x[kVz] = 0.0;

@@ -225,7 +225,9 @@ BallFusion::BallFusion(const FusionConfig& config)
     : config_(config),
       pose_blend_(config.pose.odometry_blend_s, config.pose.sigma_xy_m, config.pose.sigma_theta_rad),
       kinect_time_line_(config.track.lost_after_s),
-      omni_time_line_(config.track.lost_after_s) {}
+      omni_time_line_(config.track.lost_after_s) {
+  state_.bounce = BounceLearner(config.motion);
+}
 
 std::optional<LatencyEstimator::Fit> BallFusion::omniLatency() const {
   if (!config_.omni.estimate_latency) return std::nullopt;
@@ -369,9 +371,12 @@ bool BallFusion::onTimeLine(Source source, double stamp_s, double time_s) {
   if (step == fw::TimeLine::Step::kJump && leads) {
     // The leading clock jumped: what the fusion holds belongs to the old time line.
     fw::logWarn("fusion", what() + ": its clock " + own.describe(step, stamp_s) + "; the fusion starts again from it");
-    const LatencyEstimator latency = state_.latency;  // the omni camera's latency is the camera's, not the time's
+    // The omni camera's latency is the camera's and the bounce the ball's, not the time's.
+    const LatencyEstimator latency = state_.latency;
+    const BounceLearner bounce = state_.bounce;
     state_ = State{};
     state_.latency = latency;
+    state_.bounce = bounce;
     recent_.clear();
     ++restarts_;
     return true;
@@ -583,10 +588,17 @@ void BallFusion::process(const Frame& frame) {
     }
     const Eigen::Vector3d before_F = BallFilter::likeliest(branches[pair.track]).x.head<3>();
     track.filter.update(branches[pair.track], t, *c.measurement);
+    // The world's ball seen by this robot's Kinect teaches the bounce; every track bounces on with it.
+    if (c.kinect && track.id == state.world_id && config_.motion.learn_bounce && state.bounce.add(track.id, t, c.p_F)) {
+      for (Track& each : state.tracks) {
+        each.filter.useBounceOf(state.bounce.motion());
+        if (each.own_view) each.own_view->useBounceOf(state.bounce.motion());
+      }
+    }
     if (c.source != Source::kTeammate) {
       const bool own_lost = t - std::max(track.last_kinect_s, track.last_omni_s) > kSourceRecent_s;
       if (!track.own_view || own_lost) {
-        track.own_view = BallFilter(config_.motion, t, initialHypotheses(c));
+        track.own_view = BallFilter(state.bounce.motion(), t, initialHypotheses(c));
       } else {
         track.own_view->update(track.own_view->branchesAt(t), t, *c.measurement);
       }
@@ -986,7 +998,7 @@ void BallFusion::startTrack(const Candidate& candidate, double t_s) {
     if (oldest_tentative == state_.tracks.end()) return;  // eight confirmed balls: no room for a ninth
     state_.tracks.erase(oldest_tentative);
   }
-  Track track{state_.next_id++, BallFilter(config_.motion, t_s, initialHypotheses(candidate))};
+  Track track{state_.next_id++, BallFilter(state_.bounce.motion(), t_s, initialHypotheses(candidate))};
   if (candidate.source != Source::kTeammate) track.own_view = track.filter;
   track.updates = 1;
   track.born_s = t_s;

@@ -24,6 +24,7 @@ FusionConfig readFusionConfig(const fw::ConfigView& block) {
   motion.kick_rate_hz = noise.getDouble("kick_rate_hz", 0.0, 10.0);
   motion.deflection_rate_hz = noise.getDouble("deflection_rate_hz", 0.0, 10.0);
   motion.kick_speed_sigma_mps = noise.getDouble("kick_speed_sigma_mps", 0.1, 50.0);
+  motion.learn_bounce = noise.getBool("learn_bounce");
 
   const fw::ConfigView kinect = block.child("kinect");
   config.kinect.source = kinect.getString("source");

@@ -80,6 +80,8 @@ class BallFilter {
   BallFilter(const MotionConfig& config, double time_s, std::vector<Hypothesis> hypotheses);
 
   double time() const { return time_s_; }
+  // Bounces from now on with motion's restitution and bounce friction (a learnt bounce, BounceLearner).
+  void useBounceOf(const MotionConfig& motion);
   // Every mode's successors at t_s, weighted by how likely each transition is (not yet merged).
   std::vector<Hypothesis> branchesAt(double t_s) const;
   // How the measurement fits the branches that are not negligible.

@@ -30,6 +30,7 @@
 #include "framework_api/time_line.h"
 #include "framework_api/types.h"
 #include "fusion/ball_filter.h"
+#include "fusion/bounce_learner.h"
 #include "fusion/fusion_config.h"
 #include "fusion/pose_blend.h"
 
@@ -126,6 +127,10 @@ class BallFusion {
   // fusion.omni.latency_s +- timing_sigma_s and the examples); and from how many examples.
   std::optional<LatencyEstimator::Fit> omniLatency() const;
   int omniLatencyExamples() const { return state_.latency.examples(); }
+  // The ball's bounce as learnt from the bounces this robot's Kinect saw (fusion.motion.learn_bounce;
+  // until it has seen one, and without learning, the configured one), and from how many.
+  const MotionConfig& bounce() const { return state_.bounce.motion(); }
+  int bouncesLearnt() const { return state_.bounce.bounces(); }
   // Frames that arrived more than max_delay_s behind the newest and were not used.
   int lateFramesDropped() const { return late_dropped_; }
   // Frames not used because their time was not finite, or off the fusion's time line.
@@ -196,6 +201,7 @@ class BallFusion {
     int next_id = 1;
     int world_id = 0;  // 0: no world ball
     LatencyEstimator latency;
+    BounceLearner bounce{MotionConfig{}};  // made from config_.motion by the constructor
     std::map<int, TeammateStanding> teammates;
     std::map<int, std::deque<Judgement>> judged;            // per teammate, newest last
     std::map<int, TeammateWorldBall> teammate_world_balls;  // the newest of each teammate

@@ -25,6 +25,7 @@ struct MotionConfig {
   double kick_rate_hz = 0.5;             // how often a ball on the ground is expected to be kicked
   double deflection_rate_hz = 0.02;      // how often a flying ball is deflected (a robot's hull, a head, a post)
   double kick_speed_sigma_mps = 6.0;     // spread of the velocity a kick gives
+  bool learn_bounce = true;              // restitution and bounce friction learnt from the bounces the Kinect sees
 };
 
 struct KinectConfig {
