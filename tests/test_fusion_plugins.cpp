@@ -38,6 +38,28 @@ void runAndSampleWorldBall(fw::Host& host, const std::function<void(const fw::Fu
   host.stop();
 }
 
+// The demo robot's field-player plugins on a scene file of tests/data/scenes, with more overrides.
+fw::Config demoRobotOn(const std::string& scene_file, std::vector<std::string> overrides = {}) {
+  const std::string scene = "sim:" + std::string(TEST_DATA_DIR) + "/scenes/" + scene_file;
+  overrides.insert(overrides.end(), {"host.plugins=[localisation, kinect3d, omni, fusion]", "kinect3d.source=" + scene,
+                                     "omni.source=" + scene, "localisation.source=" + scene});
+  return fw::Config::load(std::string(PROJECT_CONFIG_DIR) + "/defaults",
+                          std::string(PROJECT_CONFIG_DIR) + "/robots/demo.yaml", overrides);
+}
+
+// Runs the host with its journal open until its sources end; its events of one kind.
+std::vector<fw::Event> runAndKeepEvents(fw::Host& host, const std::string& kind) {
+  host.world().openJournal(false);
+  runAndSampleWorldBall(host, [](const fw::FusedBall&) {});
+  EXPECT_TRUE(host.sourcesFinished());
+  std::vector<fw::Event> events;
+  for (const fw::JournalEntry& entry : host.world().takeJournal(nullptr)) {
+    const auto* event = std::get_if<fw::Event>(&entry.item);
+    if (event != nullptr && event->kind == kind) events.push_back(*event);
+  }
+  return events;
+}
+
 TEST(FusionPlugins, TheDemoRobotFusesTheLobFlyingOverItWhileItDrives) {
   const fw::Config config = fw::Config::load(std::string(PROJECT_CONFIG_DIR) + "/defaults",
                                              std::string(PROJECT_CONFIG_DIR) + "/robots/demo.yaml",
@@ -66,26 +88,26 @@ TEST(FusionPlugins, TheDemoRobotFusesTheLobFlyingOverItWhileItDrives) {
   EXPECT_LE(far_off_in_air, 1) << "of " << in_air_from_both << " samples in the air from both sensors";
 }
 
+TEST(FusionPlugins, SaysTheBounceItLearntFromTheBouncesTheKinectSaw) {
+  // A ball deader than the configured one bounces before the robot (2.5 s in real time).
+  fw::Host host(demoRobotOn("dead_ball_bounces_in_view.yaml"), PRODUCT_PLUGIN_DIR);
+  const std::vector<fw::Event> bounces = runAndKeepEvents(host, "ball_bounce");
+  ASSERT_GE(bounces.size(), 1u) << "the first bounce, from 4 m/s onto the floor";
+  EXPECT_EQ(bounces[0].source, "fusion");
+  EXPECT_NE(bounces[0].message.find("learnt from 1 bounce the Kinect saw"), std::string::npos) << bounces[0].message;
+  // The configured 0.6 worth two bounces, and one of 0.45 (give or take its fit).
+  ASSERT_TRUE(bounces[0].value);
+  EXPECT_NEAR(*bounces[0].value, (2 * 0.6 + 0.45) / 3, 0.02) << bounces[0].message;
+}
+
 // The fusion plugin's alignment alarms on a ball at rest that crosses the Kinect's view while the
 // robot turns (6.5 s in real time), with the Kinect's pose_in_robot as given. A short window (60
 // pairs, 2 s) so that the scene holds three fits.
 std::vector<fw::Event> alignmentAlarmsWithPose(const std::string& pose) {
-  const std::string scene = "sim:" + std::string(TEST_DATA_DIR) + "/scenes/ball_at_rest_robot_turning.yaml";
-  const fw::Config config = fw::Config::load(
-      std::string(PROJECT_CONFIG_DIR) + "/defaults", std::string(PROJECT_CONFIG_DIR) + "/robots/demo.yaml",
-      {"host.plugins=[localisation, kinect3d, omni, fusion]", "kinect3d.source=" + scene, "omni.source=" + scene,
-       "localisation.source=" + scene, "kinect3d.sensor.pose_in_robot=" + pose,
-       "fusion.alignment_check.window_pairs=60"});
-  fw::Host host(config, PRODUCT_PLUGIN_DIR);
-  host.world().openJournal(false);
-  runAndSampleWorldBall(host, [](const fw::FusedBall&) {});
-  EXPECT_TRUE(host.sourcesFinished());
-  std::vector<fw::Event> alarms;
-  for (const fw::JournalEntry& entry : host.world().takeJournal(nullptr)) {
-    const auto* event = std::get_if<fw::Event>(&entry.item);
-    if (event != nullptr && event->kind == "calibration_alarm") alarms.push_back(*event);
-  }
-  return alarms;
+  fw::Host host(demoRobotOn("ball_at_rest_robot_turning.yaml",
+                            {"kinect3d.sensor.pose_in_robot=" + pose, "fusion.alignment_check.window_pairs=60"}),
+                PRODUCT_PLUGIN_DIR);
+  return runAndKeepEvents(host, "calibration_alarm");
 }
 
 // The yaw_deg of the pose an alarm estimates.

@@ -79,6 +79,7 @@ class FusionPlugin : public fw::Plugin {
       world_.clearFusedBall({update.time_s, fw::wallClockNow_s()});
     }
     reportLatency(update.time_s);
+    reportBounce(update.time_s);
     checkAlignment(update.time_s);
   }
 
@@ -170,6 +171,24 @@ class FusionPlugin : public fw::Plugin {
     world_.publishEvent({name_, "omni_latency", message, {t_s, fw::wallClockNow_s()}, latency->latency_s});
   }
 
+  // Follows the ball's bounce as it is learnt (fusion.motion.learn_bounce): an event "ball_bounce"
+  // with the restitution as its value at every bounce learnt, stamped with the update that learnt
+  // it; the console is told of the first.
+  void reportBounce(double t_s) {
+    if (fusion_.bouncesLearnt() == said_bounces_) return;
+    const fusion::MotionConfig& bounce = fusion_.bounce();
+    char message[240];
+    std::snprintf(message, sizeof message,
+                  "the ball bounces with restitution %.2f +- %.2f and bounce friction %.2f +- %.2f (learnt from %d "
+                  "bounce%s the Kinect saw, from the configured %.2f and %.2f)",
+                  bounce.restitution, bounce.restitution_sigma, bounce.bounce_friction, bounce.bounce_friction_sigma,
+                  fusion_.bouncesLearnt(), fusion_.bouncesLearnt() == 1 ? "" : "s", config_.motion.restitution,
+                  config_.motion.bounce_friction);
+    if (said_bounces_ == 0) fw::logInfo(name_, message);
+    said_bounces_ = fusion_.bouncesLearnt();
+    world_.publishEvent({name_, "ball_bounce", message, {t_s, fw::wallClockNow_s()}, bounce.restitution});
+  }
+
   fw::WorldState& world_;
   const std::string name_;
   const fusion::FusionConfig config_;
@@ -181,6 +200,7 @@ class FusionPlugin : public fw::Plugin {
   std::map<int, bool> teammate_discounted_;  // as last said, by robot id
   std::set<int> said_ignored_;               // teammates fusion.team.ignore names, heard and said so
   std::optional<double> said_latency_s_;     // the omni latency last said
+  int said_bounces_ = 0;                     // the bounces learnt when last said
 };
 
 }  // namespace

@@ -283,7 +283,8 @@ struct Event {
   std::string kind;
   std::string message;
   Stamp stamp;
-  std::optional<double> value;  // the number it is about, for tools (omni_latency: the learnt latency, s)
+  std::optional<double> value;  // the number it is about, for tools (omni_latency: the learnt latency, s; ball_bounce:
+                                // the learnt restitution)
 };
 
 // One plugin's health over the last second, published by the host once a second.
