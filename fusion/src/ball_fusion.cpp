@@ -957,6 +957,13 @@ void BallFusion::learnLatency(const Track& track, const Candidate& candidate, do
   const Eigen::Vector2d residual(fw::wrapAngle(omni.bearing_rad - predicted[0]), omni.distance_m - predicted[1]);
   const Eigen::Vector2d omni_sigma(omniBearingSigma_rad(omni, config_.omni),
                                    omniDistanceSigma_m(omni, config_.omni, omni.distance_m));
+  // The omni's view of the carried ball tau seconds before t.
+  const auto viewBefore = [&](double tau_s) {
+    const double from_newest_s = ahead_s - tau_s;
+    Eigen::Vector3d p = p_newest + from_newest_s * v_newest + 0.5 * from_newest_s * from_newest_s * gravity;
+    if (!in_air) p.z() = radius_m;
+    return omniView_R(p, config_.omni, radius_m);
+  };
   for (int i = 0; i < 2; ++i) {
     const double variance = omni_sigma[i] * omni_sigma[i] + J.row(i) * carried_covariance * J.row(i).transpose();
     if ((i == 0 && std::abs(residual[i]) > kLatencyMaxBearingResidual_rad) ||
@@ -969,7 +976,13 @@ void BallFusion::learnLatency(const Track& track, const Candidate& candidate, do
     // straight away (docs/fusion.md, "Time"). Such a reading is not used.
     const double rate_sigma = std::sqrt(J.row(i) * velocity_covariance * J.row(i).transpose());
     if (std::abs(rate[i]) < kLatencyRateSignificance * rate_sigma) continue;
-    state_.latency.add(residual[i], variance, rate[i], applied_s, i == 1 ? predicted[1] : 0.0);
+    const double secant = omniSecantRate(
+        [&](double tau_s) {
+          const double change = viewBefore(0.0)[i] - viewBefore(tau_s)[i];
+          return i == 0 ? fw::wrapAngle(change) : change;
+        },
+        residual[i], rate[i], kLatencyMaxOffset_s);
+    state_.latency.add(residual[i], variance, secant, applied_s, i == 1 ? predicted[1] : 0.0);
   }
 }
 

@@ -152,4 +152,30 @@ fw::BallRay omniRay_F(const fw::OmniBallObservation& ball, const fw::RobotPose& 
   return ray;
 }
 
+double omniSecantRate(const std::function<double(double)>& change_over, double residual, double tangent,
+                      double max_offset_s) {
+  // residual = -(view(t) - view(t - tau)): the reading shows the ball tau seconds earlier. The
+  // search runs from the reading's time towards the side the tangent puts the offset on (beyond the
+  // other side a rising phantom may pass the viewpoint, where the view turns back).
+  const auto miss = [&](double tau_s) { return change_over(tau_s) + residual; };
+  double low = 0.0, high = -residual / tangent > 0.0 ? max_offset_s : -max_offset_s;
+  double miss_low = residual;
+  if ((miss_low > 0.0) == (miss(high) > 0.0)) return tangent;
+  for (int step = 0; step < 40; ++step) {
+    const double middle = 0.5 * (low + high), miss_middle = miss(middle);
+    if ((miss_middle > 0.0) == (miss_low > 0.0)) {
+      low = middle;
+      miss_low = miss_middle;
+    } else {
+      high = middle;
+    }
+  }
+  const double tau_s = 0.5 * (low + high);
+  constexpr double kShortestOffset_s = 0.002;  // below, the two rates agree and the division is noise
+  if (std::abs(tau_s) < kShortestOffset_s) return tangent;
+  const double secant = change_over(tau_s) / tau_s;
+  // A secant of the other sign than the tangent is no rate of this reading's (a view that turned).
+  return secant * tangent > 0.0 ? secant : tangent;
+}
+
 }  // namespace fusion

@@ -2,6 +2,8 @@
 // ball centre p_F, given where the robot stood when the sensor looked.
 #pragma once
 
+#include <functional>
+
 #include "framework_api/team_message.h"
 #include "framework_api/types.h"
 #include "fusion/ball_filter.h"
@@ -64,6 +66,15 @@ class OmniMeasurement : public MeasurementModel {
 // the viewpoint through the centre meets the plane of resting centres); and their derivatives by p_R.
 Eigen::Vector2d omniView_R(const Eigen::Vector3d& p_R, const OmniConfig& omni, double radius_m);
 Eigen::Matrix<double, 2, 3> omniViewJacobian_R(const Eigen::Vector3d& p_R, const OmniConfig& omni, double radius_m);
+
+// The rate to read an omni reading's time offset by: how fast its view changed over that offset (the
+// secant), not at its end (the tangent). change_over(tau) is what the view gained over the tau seconds
+// before the reading's time; the offset is where it equals -residual. A phantom's distance grows
+// ever faster as the ball rises towards the mirror's viewpoint, so the tangent at the reading, the
+// steepest point, read a rising lob's 20-60 ms offset as 0.6 of it. Where no offset within
+// max_offset_s explains the residual (its noise), or the offset is too short to tell, the tangent.
+double omniSecantRate(const std::function<double(double)>& change_over, double residual, double tangent,
+                      double max_offset_s);
 
 // Whether the omni camera can see a ball centre at p_F: below the top of its mirror's view.
 bool omniCanSee(const Eigen::Vector3d& p_F, const OmniConfig& omni);
