@@ -957,7 +957,7 @@ void BallFusion::learnLatency(const Track& track, const Candidate& candidate, do
   const Eigen::Vector2d residual(fw::wrapAngle(omni.bearing_rad - predicted[0]), omni.distance_m - predicted[1]);
   const Eigen::Vector2d omni_sigma(omniBearingSigma_rad(omni, config_.omni),
                                    omniDistanceSigma_m(omni, config_.omni, omni.distance_m));
-  // The omni's view of the carried ball tau seconds before t.
+  // The omni's view of the carried ball tau seconds before t (at tau 0: predicted).
   const auto viewBefore = [&](double tau_s) {
     const double from_newest_s = ahead_s - tau_s;
     Eigen::Vector3d p = p_newest + from_newest_s * v_newest + 0.5 * from_newest_s * from_newest_s * gravity;
@@ -978,7 +978,7 @@ void BallFusion::learnLatency(const Track& track, const Candidate& candidate, do
     if (std::abs(rate[i]) < kLatencyRateSignificance * rate_sigma) continue;
     const double secant = omniSecantRate(
         [&](double tau_s) {
-          const double change = viewBefore(0.0)[i] - viewBefore(tau_s)[i];
+          const double change = predicted[i] - viewBefore(tau_s)[i];
           return i == 0 ? fw::wrapAngle(change) : change;
         },
         residual[i], rate[i], kLatencyMaxOffset_s);

@@ -71,7 +71,7 @@ Eigen::Matrix<double, 2, 3> omniViewJacobian_R(const Eigen::Vector3d& p_R, const
 // secant), not at its end (the tangent). change_over(tau) is what the view gained over the tau seconds
 // before the reading's time; the offset is where it equals -residual. A phantom's distance grows
 // ever faster as the ball rises towards the mirror's viewpoint, so the tangent at the reading, the
-// steepest point, read a rising lob's 20-60 ms offset as 0.6 of it. Where no offset within
+// steepest point, read a rising lob's 20-60 ms offset as 0.6-0.85 of it. Where no offset within
 // max_offset_s explains the residual (its noise), or the offset is too short to tell, the tangent.
 double omniSecantRate(const std::function<double(double)>& change_over, double residual, double tangent,
                       double max_offset_s);
