@@ -658,15 +658,18 @@ std::string depthCodecTable(int repeats) {
     std::function<void(const Image&, std::vector<std::uint8_t>&)> encode;
     std::function<void(const Image&, const std::vector<std::uint8_t>&, std::vector<std::uint16_t>&)> decode;
   };
-  fw::DepthEncoder log_encoder, level3_encoder(3);
-  const auto zstdRowDelta = [](fw::DepthEncoder& encoder) {
+  fw::DepthEncoder log_encoder, level3_encoder(fw::DepthCodec::kZstdPalette, 3),
+      row_delta_encoder(fw::DepthCodec::kZstdRowDelta);
+  const auto zstdEncode = [](fw::DepthEncoder& encoder) {
     return [&encoder](const Image& image, std::vector<std::uint8_t>& out) {
       const fw::DepthEncoder::Bytes bytes = encoder.encode(image.depth.data(), image.width, image.height);
       out.assign(bytes.data, bytes.data + bytes.size);
     };
   };
-  const auto zstdDecode = [](const Image& image, const std::vector<std::uint8_t>& in, std::vector<std::uint16_t>& out) {
-    fw::decodeDepth(fw::DepthCodec::kZstdRowDelta, in.data(), in.size(), image.width, image.height, out);
+  const auto zstdDecode = [](fw::DepthCodec codec) {
+    return [codec](const Image& image, const std::vector<std::uint8_t>& in, std::vector<std::uint16_t>& out) {
+      fw::decodeDepth(codec, in.data(), in.size(), image.width, image.height, out);
+    };
   };
   std::vector<std::uint16_t> residuals;
   const std::vector<Codec> codecs = {
@@ -701,8 +704,11 @@ std::string depthCodecTable(int repeats) {
                              int(in.size()), int(out.size() * 2));
          fw::undoRowDeltaResiduals(out.data(), image.width, image.height);
        }},
-      {"zstd level 3 on row deltas", zstdRowDelta(level3_encoder), zstdDecode},
-      {"**zstd level 1 on row deltas (the log's)**", zstdRowDelta(log_encoder), zstdDecode},
+      {"zstd level 1 on row deltas (the log's, schema 5 to 9)", zstdEncode(row_delta_encoder),
+       zstdDecode(fw::DepthCodec::kZstdRowDelta)},
+      {"zstd level 3 on palette steps", zstdEncode(level3_encoder), zstdDecode(fw::DepthCodec::kZstdPalette)},
+      {"**zstd level 1 on palette steps (the log's)**", zstdEncode(log_encoder),
+       zstdDecode(fw::DepthCodec::kZstdPalette)},
   };
 
   std::ostringstream table;

@@ -12,6 +12,7 @@
 #include <map>
 #include <sstream>
 #include <thread>
+#include <tuple>
 
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
@@ -31,20 +32,55 @@ namespace {
 
 namespace fs = std::filesystem;
 
-// Rewrites the match log in dir as an older version wrote it: sql (the schema's change, then its
-// PRAGMA user_version) run on its database.
-void rewriteAsOlderVersion(const fs::path& dir, const std::string& sql) {
+// Rewrites the match log in dir as an older version wrote it: sql (the schema's other changes) run on
+// its database, then its depth frames as that version held them (from version 5 to 9 zstd on row
+// differences in a column depth_zstd, before that PNG in a column png), and its version set.
+void rewriteAsOlderVersion(const fs::path& dir, const std::string& sql, int version) {
   sqlite3* db = nullptr;
   ASSERT_EQ(sqlite3_open((dir / fw::kMatchLogFile).c_str(), &db), SQLITE_OK);
   EXPECT_EQ(sqlite3_exec(db, sql.c_str(), nullptr, nullptr, nullptr), SQLITE_OK) << sql;
+  const std::string column = version >= 5 ? "depth_zstd" : "png";
+  std::vector<std::tuple<sqlite3_int64, int, int, std::vector<std::uint8_t>>> frames;
+  sqlite3_stmt* q = nullptr;
+  ASSERT_EQ(sqlite3_prepare_v2(db, "SELECT seq, width, height, depth FROM depth_frame", -1, &q, nullptr), SQLITE_OK);
+  while (sqlite3_step(q) == SQLITE_ROW) {
+    const auto* blob = static_cast<const std::uint8_t*>(sqlite3_column_blob(q, 3));
+    frames.emplace_back(sqlite3_column_int64(q, 0), sqlite3_column_int(q, 1), sqlite3_column_int(q, 2),
+                        std::vector<std::uint8_t>(blob, blob + sqlite3_column_bytes(q, 3)));
+  }
+  sqlite3_finalize(q);
+  const std::string rename = "ALTER TABLE depth_frame RENAME COLUMN depth TO " + column;
+  EXPECT_EQ(sqlite3_exec(db, rename.c_str(), nullptr, nullptr, nullptr), SQLITE_OK);
+  ASSERT_EQ(
+      sqlite3_prepare_v2(db, ("UPDATE depth_frame SET " + column + " = ? WHERE seq = ?").c_str(), -1, &q, nullptr),
+      SQLITE_OK);
+  fw::DepthEncoder row_differences(fw::DepthCodec::kZstdRowDelta);
+  for (const auto& [seq, width, height, bytes] : frames) {
+    std::vector<std::uint16_t> depth_mm;
+    fw::decodeDepth(fw::DepthCodec::kZstdPalette, bytes.data(), bytes.size(), width, height, depth_mm);
+    std::vector<std::uint8_t> old;
+    if (version >= 5) {
+      const fw::DepthEncoder::Bytes encoded = row_differences.encode(depth_mm.data(), width, height);
+      old.assign(encoded.data, encoded.data + encoded.size);
+    } else {
+      cv::imencode(".png", cv::Mat(height, width, CV_16UC1, depth_mm.data()), old);
+    }
+    sqlite3_bind_blob(q, 1, old.data(), static_cast<int>(old.size()), SQLITE_TRANSIENT);
+    sqlite3_bind_int64(q, 2, seq);
+    EXPECT_EQ(sqlite3_step(q), SQLITE_DONE);
+    sqlite3_reset(q);
+  }
+  sqlite3_finalize(q);
+  EXPECT_EQ(sqlite3_exec(db, ("PRAGMA user_version=" + std::to_string(version)).c_str(), nullptr, nullptr, nullptr),
+            SQLITE_OK);
   sqlite3_close(db);
 }
 
-// The SQL that drops columns from a table and sets the schema's version.
-std::string droppingColumns(const std::string& table, const std::vector<std::string>& columns, int version) {
+// The SQL that drops columns from a table.
+std::string droppingColumns(const std::string& table, const std::vector<std::string>& columns) {
   std::string sql;
   for (const std::string& column : columns) sql += "ALTER TABLE " + table + " DROP COLUMN " + column + "; ";
-  return sql + "PRAGMA user_version=" + std::to_string(version);
+  return sql;
 }
 
 std::string errorOf(const std::string& folder) {
@@ -191,7 +227,7 @@ TEST(MatchLog, AVersion3LogFromBeforeTheTeamStillReads) {
     fw::MatchLogWriter writer(dir.path().string(), {});
     writer.write({1.0, fw::RobotPose{1.0, -2.0, 0.3, {99.8, 2000.0}, std::nullopt}});
   }
-  ASSERT_NO_FATAL_FAILURE(rewriteAsOlderVersion(dir.path(), "DROP TABLE team_message; PRAGMA user_version=3"));
+  ASSERT_NO_FATAL_FAILURE(rewriteAsOlderVersion(dir.path(), "DROP TABLE team_message", 3));
   std::int64_t last_seq = -1;
   const std::vector<fw::JournalEntry> read = fw::MatchLogReader(dir.path().string()).entries(0, &last_seq);
   ASSERT_EQ(read.size(), 1u);
@@ -210,10 +246,10 @@ TEST(MatchLog, AVersion6LogFromBeforeTheGoalLineCrossingStillReads) {
   }
   // Made as version 6 wrote it: the world ball's rows without the crossing's columns.
   ASSERT_NO_FATAL_FAILURE(rewriteAsOlderVersion(
-      dir.path(), droppingColumns("fused_ball",
-                                  {"goal_line", "goal_crossing_x_m", "goal_crossing_z_m", "goal_crossing_time_s",
-                                   "goal_crossing_sigma_m", "goal_crossing_time_sigma_s"},
-                                  6)));
+      dir.path(),
+      droppingColumns("fused_ball", {"goal_line", "goal_crossing_x_m", "goal_crossing_z_m", "goal_crossing_time_s",
+                                     "goal_crossing_sigma_m", "goal_crossing_time_sigma_s"}),
+      6));
   const std::vector<fw::JournalEntry> read = fw::MatchLogReader(dir.path().string()).entries();
   ASSERT_EQ(read.size(), 1u);
   const auto& ball = std::get<fw::FusedBall>(read[0].item);
@@ -243,7 +279,7 @@ TEST(MatchLog, ThePosesOdometryIsKeptAndAVersion7LogsPosesReadWithout) {
   }
   // Made as version 7 wrote it: the poses' rows without the odometry's columns.
   ASSERT_NO_FATAL_FAILURE(rewriteAsOlderVersion(
-      dir.path(), droppingColumns("robot_pose", {"odometry_x_m", "odometry_y_m", "odometry_theta_rad"}, 7)));
+      dir.path(), droppingColumns("robot_pose", {"odometry_x_m", "odometry_y_m", "odometry_theta_rad"}), 7));
   const std::vector<fw::JournalEntry> read = fw::MatchLogReader(dir.path().string()).entries();
   ASSERT_EQ(read.size(), 2u);
   const auto& pose = std::get<fw::RobotPose>(read[0].item);
@@ -270,49 +306,33 @@ TEST(MatchLog, TheRobotsAnOmniImageSawAreKeptAndAVersion8LogsImagesReadWithout) 
     EXPECT_DOUBLE_EQ(robots[1].bearing_sigma_rad, 0.01);
   }
   // Made as version 8 wrote it: no table of robots.
-  ASSERT_NO_FATAL_FAILURE(rewriteAsOlderVersion(dir.path(), "DROP TABLE omni_robot; PRAGMA user_version=8"));
+  ASSERT_NO_FATAL_FAILURE(rewriteAsOlderVersion(dir.path(), "DROP TABLE omni_robot", 8));
   const std::vector<fw::JournalEntry> read = fw::MatchLogReader(dir.path().string()).entries();
   ASSERT_EQ(read.size(), 1u);
   EXPECT_TRUE(std::get<fw::OmniFrame>(read[0].item).robots.empty());
 }
 
-TEST(MatchLog, AVersion4LogWithItsDepthAsPngStillReads) {
-  ScopedTempDir dir;
-  {
-    fw::MatchLogWriter writer(dir.path().string(), {});
-    for (std::uint64_t i = 0; i < 3; ++i) writer.write({1.0 + i, smallDepthImage(i)});
+// Version 4 held its depth as PNG, versions 5 to 9 as zstd on row differences.
+TEST(MatchLog, LogsWithTheDepthCodecsOfVersions4And9StillRead) {
+  for (const int version : {4, 9}) {
+    ScopedTempDir dir;
+    {
+      fw::MatchLogWriter writer(dir.path().string(), {});
+      for (std::uint64_t i = 0; i < 3; ++i) writer.write({1.0 + i, smallDepthImage(i)});
+    }
+    ASSERT_NO_FATAL_FAILURE(rewriteAsOlderVersion(dir.path(), "", version));
+    const fw::MatchLogReader log(dir.path().string());
+    fw::MatchLogReader::DepthFrames frames(log, "kinect3d");
+    fw::DepthImage image;
+    double wall_s = 0.0;
+    for (std::uint64_t i = 0; i < 3; ++i) {
+      ASSERT_TRUE(frames.next(image, wall_s)) << "version " << version;
+      EXPECT_EQ(image.depth_mm, smallDepthImage(i).depth_mm) << "version " << version << ", frame " << i;
+    }
+    EXPECT_FALSE(frames.next(image, wall_s));
+    EXPECT_EQ(log.depthFrame(log.depthFrameStamps("kinect3d").at(1).seq).depth_mm, smallDepthImage(1).depth_mm)
+        << "version " << version;
   }
-  // Made as version 4 wrote it: the same rows, each depth a 16-bit PNG in a column named png.
-  sqlite3* db = nullptr;
-  ASSERT_EQ(sqlite3_open((dir.path() / fw::kMatchLogFile).c_str(), &db), SQLITE_OK);
-  ASSERT_EQ(sqlite3_exec(db, "ALTER TABLE depth_frame RENAME COLUMN depth_zstd TO png; PRAGMA user_version=4", nullptr,
-                         nullptr, nullptr),
-            SQLITE_OK);
-  sqlite3_stmt* update = nullptr;
-  ASSERT_EQ(sqlite3_prepare_v2(db, "UPDATE depth_frame SET png = ? WHERE frame_index = ?", -1, &update, nullptr),
-            SQLITE_OK);
-  for (std::uint64_t i = 0; i < 3; ++i) {
-    fw::DepthImage image = smallDepthImage(i);
-    std::vector<unsigned char> png;
-    cv::imencode(".png", cv::Mat(image.height, image.width, CV_16UC1, image.depth_mm.data()), png);
-    sqlite3_bind_blob(update, 1, png.data(), static_cast<int>(png.size()), SQLITE_TRANSIENT);
-    sqlite3_bind_int64(update, 2, static_cast<sqlite3_int64>(i));
-    ASSERT_EQ(sqlite3_step(update), SQLITE_DONE);
-    sqlite3_reset(update);
-  }
-  sqlite3_finalize(update);
-  sqlite3_close(db);
-
-  const fw::MatchLogReader log(dir.path().string());
-  fw::MatchLogReader::DepthFrames frames(log, "kinect3d");
-  fw::DepthImage image;
-  double wall_s = 0.0;
-  for (std::uint64_t i = 0; i < 3; ++i) {
-    ASSERT_TRUE(frames.next(image, wall_s));
-    EXPECT_EQ(image.depth_mm, smallDepthImage(i).depth_mm) << i;
-  }
-  EXPECT_FALSE(frames.next(image, wall_s));
-  EXPECT_EQ(log.depthFrame(log.depthFrameStamps("kinect3d").at(1).seq).depth_mm, smallDepthImage(1).depth_mm);
 }
 
 TEST(MatchLog, ColourIsKeptAtTheJpegQualityItIsGiven) {
@@ -388,7 +408,7 @@ TEST(MatchLog, ABadLogIsNamedWithItsFileAndWhatIsWrong) {
   sqlite3_exec(db, "PRAGMA user_version=99", nullptr, nullptr, nullptr);
   sqlite3_close(db);
   EXPECT_NE(
-      errorOf(dir.path().string()).find(file.string() + ": schema version 99, this program reads versions 2 to 9"),
+      errorOf(dir.path().string()).find(file.string() + ": schema version 99, this program reads versions 2 to 10"),
       std::string::npos)
       << errorOf(dir.path().string());
 }
@@ -639,8 +659,9 @@ TEST(MatchLog, ADepthFrameOfNoSensorsSizeIsRefusedBeforeItIsDecoded) {
     log.depthFrame(frame2);
     ADD_FAILURE() << "a frame whose image is not its row's size was read";
   } catch (const fw::MatchLogError& e) {
-    EXPECT_NE(std::string(e.what()).find("depth frame 2 (seq 3): its depth is not a 32x48 image (6144 bytes)"),
-              std::string::npos)
+    EXPECT_NE(
+        std::string(e.what()).find("depth frame 2 (seq 3): its depth is not a 32x48 image (it holds more pixels)"),
+        std::string::npos)
         << e.what();
   }
 }

@@ -368,9 +368,9 @@ TEST(ViewedLog, ADamagedFrameAnswers500WithItsReason) {
   const std::string log = smallLog(dir.path());
   sqlite3* db = nullptr;
   ASSERT_EQ(sqlite3_open((log + "/match.sqlite").c_str(), &db), SQLITE_OK);
-  ASSERT_EQ(sqlite3_exec(db, "UPDATE depth_frame SET depth_zstd = x'0badc0de' WHERE frame_index = 4", nullptr, nullptr,
-                         nullptr),
-            SQLITE_OK);
+  ASSERT_EQ(
+      sqlite3_exec(db, "UPDATE depth_frame SET depth = x'0badc0de' WHERE frame_index = 4", nullptr, nullptr, nullptr),
+      SQLITE_OK);
   sqlite3_close(db);
   ServedView view({log});
   const std::string response = rawGet(view.port(), "/api/depth/4.png");

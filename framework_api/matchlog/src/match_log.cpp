@@ -57,7 +57,7 @@ CREATE TABLE health (seq INTEGER PRIMARY KEY, wall_time_s REAL NOT NULL, plugin 
   latency_p99_s REAL);
 CREATE TABLE depth_frame (seq INTEGER PRIMARY KEY, wall_time_s REAL NOT NULL, source TEXT NOT NULL,
   frame_index INTEGER NOT NULL, source_time_s REAL NOT NULL, receive_time_s REAL NOT NULL,
-  width INTEGER NOT NULL, height INTEGER NOT NULL, fx REAL, fy REAL, cx REAL, cy REAL, depth_zstd BLOB NOT NULL,
+  width INTEGER NOT NULL, height INTEGER NOT NULL, fx REAL, fy REAL, cx REAL, cy REAL, depth BLOB NOT NULL,
   gravity_x_S_mps2 REAL, gravity_y_S_mps2 REAL, gravity_z_S_mps2 REAL);
 CREATE INDEX depth_frame_by_source ON depth_frame (source, seq);
 CREATE TABLE colour_frame (seq INTEGER PRIMARY KEY, source_time_s REAL NOT NULL, width INTEGER NOT NULL,
@@ -848,12 +848,28 @@ std::string MatchLogReader::depthColumns() const {
   return std::string(
              "d.seq, d.wall_time_s, d.frame_index, d.source_time_s, d.receive_time_s, d.width, d.height, d.fx, "
              "d.fy, d.cx, d.cy, ") +
-         (depthCodec() == DepthCodec::kPng ? "d.png" : "d.depth_zstd") +
+         depthColumn() +
          ", d.gravity_x_S_mps2, d.gravity_y_S_mps2, d.gravity_z_S_mps2, c.source_time_s, c.width, c.height, c.fx, "
          "c.fy, c.cx, c.cy, c.offset_x_S_m, c.offset_y_S_m, c.offset_z_S_m, c.jpeg";
 }
 
-DepthCodec MatchLogReader::depthCodec() const { return schema_ >= 5 ? DepthCodec::kZstdRowDelta : DepthCodec::kPng; }
+DepthCodec MatchLogReader::depthCodec() const {
+  if (schema_ >= 10) return DepthCodec::kZstdPalette;
+  return schema_ >= 5 ? DepthCodec::kZstdRowDelta : DepthCodec::kPng;
+}
+
+// Named by its codec until version 10, which names it depth and says the codec by its version.
+std::string MatchLogReader::depthColumn() const {
+  switch (depthCodec()) {
+    case DepthCodec::kZstdPalette:
+      return "d.depth";
+    case DepthCodec::kZstdRowDelta:
+      return "d.depth_zstd";
+    case DepthCodec::kPng:
+      break;
+  }
+  return "d.png";
+}
 
 MatchLogReader::DepthFrames::DepthFrames(const MatchLogReader& log, const std::string& source)
     : log_(log),

@@ -1,8 +1,10 @@
-// The match log's depth codec, lossless: each pixel's difference to its left neighbour (the first
-// pixel of a row: to 0), zigzagged so that small steps either way are small numbers, as 16-bit
-// little-endian words compressed by zstd at level 1. Chosen by measurement over PNG, RVL and lz4
-// (docs/depth-codec.md, `kinect3d_bench --depth-codec`): smaller than PNG's files at a fifth of its
-// time. Logs of schema versions 2 to 4 hold PNG; both decode here.
+// The match log's depth codec, lossless. A structured-light sensor's millimetres come from its
+// disparity steps, so a frame holds a few hundred distinct depths: each frame's distinct depths are
+// stored once, sorted (its palette), and each pixel as the difference of its palette index to its
+// left neighbour's, one byte for most, compressed by zstd at level 1. Chosen by measurement over
+// PNG, RVL, lz4 and zstd on the millimetres' own row differences (docs/depth-codec.md,
+// `kinect3d_bench --depth-codec`). Logs of schema versions 5 to 9 hold the row differences, 2 to 4
+// PNG; all decode here.
 #pragma once
 
 #include <cstddef>
@@ -20,17 +22,24 @@ class DepthCodecError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
-// zstd's fastest level that still entropy-codes well; level 3 saves 0-6 % of the size for up to a
-// fifth more time (docs/depth-codec.md).
+// zstd's fastest level that still entropy-codes well; on the palette steps level 3 is no smaller
+// and up to two fifths slower (docs/depth-codec.md).
 constexpr int kDepthZstdLevel = 1;
 
 enum class DepthCodec {
-  kZstdRowDelta,  // the log's, from schema version 5
-  kPng,           // 16-bit grey PNG (zlib level 1), schema versions 2 to 4
+  // The log's, from schema version 10. zstd-compressed: the palette's size K (u32), its K depths
+  // ascending (u16 each), then each pixel row by row: its palette index minus its left neighbour's
+  // (the first of a row: minus 0) as one signed byte when within +-127, else the byte 0x80 and the
+  // index (u16). Little-endian.
+  kZstdPalette,
+  // Schema versions 5 to 9: each pixel's millimetres minus its left neighbour's (the first of a row:
+  // minus 0), zigzagged (0, -1, 1, -2, ... as 0, 1, 2, 3, ...), u16 little-endian, zstd-compressed.
+  kZstdRowDelta,
+  kPng,  // 16-bit grey PNG (zlib level 1), schema versions 2 to 4
 };
 
-// The transform before zstd: each pixel's zigzagged difference to its left neighbour; and its
-// inverse, in place (residuals become millimetres).
+// kZstdRowDelta's transform before zstd, and its inverse in place (residuals become millimetres);
+// the benchmark's lz4 row uses them too.
 void rowDeltaResiduals(const std::uint16_t* depth_mm, int width, int height, std::uint16_t* residuals);
 void undoRowDeltaResiduals(std::uint16_t* residuals, int width, int height);
 
@@ -38,8 +47,9 @@ void undoRowDeltaResiduals(std::uint16_t* residuals, int width, int height);
 // frame of the size.
 class DepthEncoder {
  public:
-  // zstd_level: the log's, or another for the benchmark that chose it.
-  explicit DepthEncoder(int zstd_level = kDepthZstdLevel);
+  // codec: the log's, or an older zstd one for the tests of old logs and the benchmark that chose
+  // the codec; kPng is not written here.
+  explicit DepthEncoder(DepthCodec codec = DepthCodec::kZstdPalette, int zstd_level = kDepthZstdLevel);
   ~DepthEncoder();
   DepthEncoder(const DepthEncoder&) = delete;
   DepthEncoder& operator=(const DepthEncoder&) = delete;
@@ -48,14 +58,19 @@ class DepthEncoder {
     const std::uint8_t* data;
     std::size_t size;
   };
-  // Encodes width x height millimetres (0: no depth) with DepthCodec::kZstdRowDelta; the bytes stay
-  // valid until the next call.
+  // Encodes width x height millimetres (0: no depth); the bytes stay valid until the next call.
   Bytes encode(const std::uint16_t* depth_mm, int width, int height);
 
  private:
+  // kZstdPalette's bytes before zstd, into palette_codes_; returns how many.
+  std::size_t paletteCodes(const std::uint16_t* depth_mm, int width, int height);
+
+  DepthCodec codec_;
   int zstd_level_;
   ZSTD_CCtx_s* context_;
-  std::vector<std::uint16_t> residuals_;
+  std::vector<std::uint16_t> palette_index_;  // of each depth value, for the frame being encoded
+  std::vector<std::uint8_t> palette_codes_;   // kZstdPalette's bytes before zstd
+  std::vector<std::uint16_t> residuals_;      // kZstdRowDelta's
   std::vector<std::uint8_t> compressed_;
 };
 
