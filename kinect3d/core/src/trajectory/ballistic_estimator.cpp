@@ -19,6 +19,12 @@ using Vector2d = Eigen::Vector2d;
 using Matrix22d = Eigen::Matrix2d;
 using Matrix32d = Eigen::Matrix<double, 3, 2>;
 using Matrix62d = Eigen::Matrix<double, 6, 2>;
+// Every fit's normal equations (6, 8 or 9 unknowns) are solved by one LDLT of a matrix of up to 9 x 9
+// on the stack, for one kind of right-hand side each: an LDLT of each fixed size, and its solve for
+// each fixed right-hand side, was compiled on its own, most of this file's compile time.
+using NormalMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, 9, 9>;
+using NormalVector = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, 9, 1>;
+using NormalLdlt = Eigen::LDLT<NormalMatrix>;
 
 // Drag per metre is kept inside what a ball can have (a size 5 ball: about 0.011-0.027).
 constexpr double kMaxDrag_per_m = 0.06;
@@ -212,9 +218,9 @@ class BallisticEstimator : public TrajectoryEstimator {
       rhs += A.transpose() * W * target;
     }
     if (!estimate) {
-      const Eigen::LDLT<Matrix6d> ldlt(normal.topLeftCorner<6, 6>());
-      theta_ = ldlt.solve(rhs.head<6>());
-      covariance_ = ldlt.solve(Matrix6d::Identity());
+      const NormalLdlt ldlt{NormalMatrix(normal.topLeftCorner<6, 6>())};
+      theta_ = ldlt.solve(NormalVector(rhs.head<6>()));
+      covariance_ = ldlt.solve(NormalMatrix::Identity(6, 6));
       return;
     }
     // Each prior as one more equation on the change d: d = prior - current.
@@ -226,8 +232,8 @@ class BallisticEstimator : public TrajectoryEstimator {
       rhs[6 + k] += sigma[k] > 0.0 ? prior_weight * (mean[k] - physics_[k]) : 0.0;
       estimated += sigma[k] > 0.0;
     }
-    const Eigen::LDLT<Matrix8d> ldlt(normal);
-    const Vector8d solution = ldlt.solve(rhs);
+    const NormalLdlt ldlt{NormalMatrix(normal)};
+    const Vector8d solution = ldlt.solve(NormalVector(rhs));
     // The detections' weights assume model_sigma_m of model error each; how well the fit really
     // meets them rescales its covariance (the least-squares variance factor, held towards 1 by
     // kVarianceFactorPrior pseudo-observations so that five detections cannot talk it into zero).
@@ -244,7 +250,7 @@ class BallisticEstimator : public TrajectoryEstimator {
     const double dof = 3.0 * segment_.size() - 6.0 - estimated;
     const double variance_factor =
         std::max(kMinVarianceFactor, (chi2 + kVarianceFactorPrior) / (std::max(dof, 0.0) + kVarianceFactorPrior));
-    const Matrix8d covariance = variance_factor * ldlt.solve(Matrix8d::Identity());
+    const Matrix8d covariance = variance_factor * ldlt.solve(NormalMatrix::Identity(8, 8));
     theta_ = solution.head<6>();
     physics_[0] = std::clamp(physics_[0] + solution[6], 0.0, kMaxDrag_per_m);
     physics_[1] = std::clamp(physics_[1] + solution[7], -kMaxCurve_radps, kMaxCurve_radps);
@@ -294,7 +300,7 @@ class BallisticEstimator : public TrajectoryEstimator {
   double mahalanobisSquared(const fw::BallObservation& ball, double t_s) const {
     const Eigen::Vector3d innovation = ball.position_m - model(theta_).positionAt(t_s);
     const Eigen::Matrix3d S = predictionCovariance(t_s) + ball.covariance_m2;
-    return innovation.dot(S.ldlt().solve(innovation));
+    return innovation.dot(S.inverse() * innovation);
   }
 
   // A flight that does not fall with gravity is not a ball (a lamp, a poster, a head): with free
@@ -313,7 +319,7 @@ class BallisticEstimator : public TrajectoryEstimator {
       normal += A.transpose() * W * A;
       rhs += A.transpose() * W * ball.position_m;
     }
-    const double a_z = normal.ldlt().solve(rhs)[8];
+    const double a_z = NormalLdlt(NormalMatrix(normal)).solve(NormalVector(rhs))[8];
     return std::abs(a_z + fw::kGravity_mps2) <= config().max_gravity_error_mps2;
   }
 
