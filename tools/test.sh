@@ -3,7 +3,7 @@
 # whole test suite; then the framework's and the scene map's tests under ThreadSanitizer
 # (tools/sanitize.sh thread), the test suite under AddressSanitizer + UndefinedBehaviorSanitizer
 # (tools/sanitize.sh address), and every fuzzer for a bounded time from that same build
-# (tools/fuzz.sh). 20 to 40 minutes on 2 cores, packages installed (README gives measured runs).
+# (tools/fuzz.sh). 17 to 41 minutes on 2 cores, packages installed (README gives measured runs).
 # The two sanitizers' builds run beside the test suite.
 set -euo pipefail
 cd "$(dirname "$0")/.."
