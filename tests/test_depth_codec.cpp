@@ -126,9 +126,10 @@ std::string decodeError(const std::vector<std::uint8_t>& bytes, int width, int h
 // depths given), then the codes, zstd-compressed.
 std::vector<std::uint8_t> paletteFrame(std::uint32_t count, const std::vector<std::uint16_t>& palette,
                                        const std::vector<std::uint8_t>& codes) {
-  std::vector<std::uint8_t> plain(4 + 2 * palette.size());
+  std::vector<std::uint8_t> plain(4);
   std::memcpy(plain.data(), &count, 4);
-  std::memcpy(plain.data() + 4, palette.data(), 2 * palette.size());
+  for (const std::uint16_t depth : palette)
+    plain.insert(plain.end(), {std::uint8_t(depth & 0xff), std::uint8_t(depth >> 8)});
   plain.insert(plain.end(), codes.begin(), codes.end());
   std::vector<std::uint8_t> bytes(ZSTD_compressBound(plain.size()));
   bytes.resize(ZSTD_compress(bytes.data(), bytes.size(), plain.data(), plain.size(), 1));

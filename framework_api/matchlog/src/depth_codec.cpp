@@ -103,7 +103,7 @@ void decodeZstdRowDelta(const std::uint8_t* bytes, std::size_t size, int width, 
   const std::size_t pixels = static_cast<std::size_t>(width) * height;
   const std::vector<std::uint8_t> plain = decompress(bytes, size, width, height, pixels * 2, pixels * 2);
   depth_mm.resize(pixels);
-  std::memcpy(depth_mm.data(), plain.data(), plain.size());
+  for (std::size_t i = 0; i < pixels; ++i) depth_mm[i] = get16(plain.data() + 2 * i);
   undoRowDeltaResiduals(depth_mm.data(), width, height);
 }
 
