@@ -34,15 +34,14 @@ class UdpImpairment {
     std::uint64_t packets_in = 0, bytes_in = 0, packets_out = 0;
   };
 
-  UdpImpairment(const std::vector<Link>& links, int port, Faults faults, unsigned seed = 29)
-      : faults_(faults), random_(seed) {
+  UdpImpairment(const std::vector<Link>& links, int port, Faults faults, unsigned seed = 29) : faults_(faults) {
     for (const Link& link : links) {
       const int fd = socket(AF_INET, SOCK_DGRAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
       const sockaddr_in local = endpoint(link.listen, port);
       if (fd < 0 || bind(fd, reinterpret_cast<const sockaddr*>(&local), sizeof local) != 0) {
         throw std::runtime_error("impairment: cannot listen on " + link.listen);
       }
-      sockets_.push_back({fd, endpoint(link.to, port), link.listen});
+      sockets_.push_back({fd, endpoint(link.to, port), link.listen, std::mt19937(seed + sockets_.size())});
     }
     thread_ = std::thread([this] { run(); });
   }
@@ -67,6 +66,9 @@ class UdpImpairment {
     int fd;
     sockaddr_in to;
     std::string listen;
+    // Each link draws its faults from its own stream: the n-th packet of a link meets the same fate
+    // in every run, however the two robots' packets interleave.
+    std::mt19937 random;
   };
   struct Pending {
     Clock::time_point due;
@@ -98,10 +100,11 @@ class UdpImpairment {
             ++c.packets_in;
             c.bytes_in += static_cast<std::uint64_t>(n);
           }
-          if (unit(random_) < faults_.loss) continue;
-          const int copies = unit(random_) < faults_.duplicate ? 2 : 1;
+          std::mt19937& random = sockets_[i].random;
+          if (unit(random) < faults_.loss) continue;
+          const int copies = unit(random) < faults_.duplicate ? 2 : 1;
           for (int copy = 0; copy < copies; ++copy) {
-            const auto delay = std::chrono::duration<double>(faults_.max_delay_s * unit(random_));
+            const auto delay = std::chrono::duration<double>(faults_.max_delay_s * unit(random));
             pending_.push_back({Clock::now() + std::chrono::duration_cast<Clock::duration>(delay), i,
                                 std::vector<std::uint8_t>(buffer, buffer + n)});
           }
@@ -125,7 +128,6 @@ class UdpImpairment {
   }
 
   Faults faults_;
-  std::mt19937 random_;
   std::vector<Socket> sockets_;
   std::vector<Pending> pending_;  // the thread's own
   mutable std::mutex mutex_;
