@@ -72,13 +72,15 @@ void decodeZstdPalette(const std::uint8_t* bytes, std::size_t size, int width, i
   const std::uint8_t* palette = plain.data() + 4;
   const std::uint8_t* code = palette + 2 * std::size_t(count);
   const std::uint8_t* const end = plain.data() + plain.size();
-  const std::string image = "not a " + sizeText(width, height) + " image";
+  const auto notThisImage = [&](const char* why) {
+    return DepthCodecError("not a " + sizeText(width, height) + " image (" + why + ")");
+  };
   depth_mm.resize(pixels);
   std::uint16_t* out = depth_mm.data();
   for (int v = 0; v < height; ++v) {
     std::int64_t left = 0;
     for (int u = 0; u < width; ++u) {
-      if (code == end) throw DepthCodecError(image + " (it holds fewer pixels)");
+      if (code == end) throw notThisImage("it holds fewer pixels");
       std::int64_t index;
       if (*code == kPaletteEscape) {
         if (end - code < 3) throw DepthCodecError("damaged (its last index cut)");
@@ -95,7 +97,7 @@ void decodeZstdPalette(const std::uint8_t* bytes, std::size_t size, int width, i
       left = index;
     }
   }
-  if (code != end) throw DepthCodecError(image + " (it holds more pixels)");
+  if (code != end) throw notThisImage("it holds more pixels");
 }
 
 void decodeZstdRowDelta(const std::uint8_t* bytes, std::size_t size, int width, int height,

@@ -30,8 +30,8 @@ constexpr int kMatchLogSchemaVersion = 10;
 // Logs back to this version are read (version 2 has no colour verdicts: its balls read as not checked;
 // versions 2 and 3 have no teammates' messages; versions 2 to 4 hold their depth as PNG, 5 to 9 as
 // zstd on row differences; versions 2 to 5 keep no value with an event, and no time with the world
-// ball's 'none', which they record only after a ball; versions 2 to 6 have no goal-line crossing with the world ball;
-// versions 2 to 8 have no robots seen by the omni camera).
+// ball's 'none', which they record only after a ball; versions 2 to 6 have no goal-line crossing
+// with the world ball; versions 2 to 8 have no robots seen by the omni camera).
 constexpr int kOldestReadableSchemaVersion = 2;
 constexpr const char* kMatchLogFile = "match.sqlite";
 
