@@ -244,6 +244,27 @@ TEST(FusionFilter, ABallAboveTheOmniViewNeitherExplainsNorIsMovedByAnOmniBall) {
   EXPECT_EQ(filter.airProbability(), 0.0) << "the omni ball is credited to the ball it can see";
 }
 
+TEST(FusionFilter, AFlightThatPredictedTheOmniPhantomOutweighsAGroundBallSittingOnIt) {
+  // Behind the robot only the omni camera sees the hop: 4 m out, 0.25 m up, its phantom 5.1 m out.
+  // The flight predicted it; a ground ball that has followed the phantoms out there explains it too.
+  // The looser hold the update takes on a phantom is no measurement noise: weighed by it, the flight
+  // lost to the ground ball, and the world ball sat on the phantom.
+  const fw::RobotPose pose = poseAt(0.0, 0.0, 0.0, kT0);
+  const fusion::FusionConfig config = testConfig();
+  const Eigen::Vector3d ball(0.0, 4.0, 0.25);
+  const fusion::OmniMeasurement phantom(omniView(ball, pose, 0.75), pose, pose, config.omni, config.pose, kRadius, 0.0);
+  const Eigen::Vector3d phantom_ground = phantom.groundBall_F();
+  ASSERT_GT(phantom_ground.y() - ball.y(), 1.0) << "a phantom well beyond the ball";
+  fusion::Hypothesis flying = hypothesis(fw::BallState::kAir, state(0.0, 4.0, 0.25, 0.0, -2.0, 0.0), 0.0025, 0.5);
+  flying.P(2, 2) = 1e-4;  // a hop's height, which the bounce and gravity tell
+  const fusion::Hypothesis rolling =
+      hypothesis(fw::BallState::kGround, state(0.0, phantom_ground.y(), kRadius, 0.0, -2.0), 0.09, 0.5);
+  fusion::BallFilter filter(config.motion, kT0, {flying, rolling});
+  filter.update(filter.branchesAt(kT0), kT0, phantom);
+  EXPECT_GT(filter.airProbability(), 0.5) << "the phantom confirms the flight";
+  EXPECT_LT((filter.best().x.head<3>() - ball).norm(), 0.1) << "the world ball stays on the flight";
+}
+
 TEST(FusionFilter, AnOmniBallNeverPutsAFlyingBallBelowTheFloor) {
   // Believed 0.3 m up and falling fast, with its height and speed uncertain, the ball is on the floor
   // nearer the robot. The ray to it goes on below the floor past the ball: unconstrained, the update

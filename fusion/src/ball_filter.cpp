@@ -80,6 +80,9 @@ struct Innovation {
   MeasurementVector y;
   MeasurementJacobian H;
   MeasurementMatrix R, S;
+  // The innovation's covariance with the sensor's own noise (MeasurementModel::sensorNoise): the
+  // branch's likelihood.
+  MeasurementMatrix S_sensor;
 };
 
 // The measurement's innovation for hypothesis h, linearised about x_lin (h's own mean, or an
@@ -93,8 +96,11 @@ Innovation innovate(const Hypothesis& h, const MeasurementModel& measurement, co
   // How fast the prediction changes at x_lin, by the ball's motion and the sensor's: what an error
   // in the measurement's time does.
   const MeasurementVector rate = in.H.leftCols<3>() * x_lin.tail<3>() + measurement.ownMotionRate(p);
-  in.R += measurement.timingSigma_s() * measurement.timingSigma_s() * rate * rate.transpose();
-  in.S = in.H * h.P * in.H.transpose() + in.R;
+  const MeasurementMatrix timing = measurement.timingSigma_s() * measurement.timingSigma_s() * rate * rate.transpose();
+  in.R += timing;
+  const MeasurementMatrix HPH = in.H * h.P * in.H.transpose();
+  in.S = HPH + in.R;
+  in.S_sensor = HPH + measurement.sensorNoise(p) + timing;
   return in;
 }
 
@@ -345,12 +351,15 @@ void BallFilter::update(std::vector<Hypothesis> branches, double t_s, const Meas
       x = next;
       if (settled) break;
     }
-    const Eigen::LDLT<MeasurementMatrix> S(in.S);
     h.x = x;
     const Matrix6d I_KH = Matrix6d::Identity() - K * in.H;
     h.P = I_KH * h.P * I_KH.transpose() + K * in.R * K.transpose();  // Joseph form: stays symmetric
     if (h.mode == fw::BallState::kGround) keepOnFloor(h);
     if (h.mode == fw::BallState::kAir) h.x[kZ] = std::max(h.x[kZ], r);  // what halving left under the floor
+    // Weighed by the sensor's own noise: the looser hold on an omni phantom keeps the update's step
+    // short, but as a likelihood it made a flight that predicted the phantom as unlikely as a wide
+    // guess, and a ground branch chasing the phantoms outweighed it (docs/fusion.md).
+    const Eigen::LDLT<MeasurementMatrix> S(in.S_sensor);
     const double log_det = S.vectorD().array().log().sum();
     log_likelihood[i] = -0.5 * (in.y.dot(S.solve(in.y)) + log_det + in.y.size() * std::log(2.0 * M_PI));
     if (h.weight > 0.0) best_log = std::max(best_log, log_likelihood[i]);

@@ -59,13 +59,17 @@ MeasurementVector OmniMeasurement::predictFrom(const fw::RobotPose& pose, const 
 }
 
 MeasurementMatrix OmniMeasurement::noise(const Eigen::Vector3d& p_F) const {
-  const double distance = predict(p_F)[1];
-  double sigma_d = omniDistanceSigma_m(observation_, omni_, distance);
   // For a ball in the air the phantom's distance hangs on the height so steeply (46 m per m for a
   // ball half a metre up, 4.5 m away) that a linearised update would throw the ball about: there
   // the omni gives its bearing and a looser hold on the ray.
   const double airborne = std::clamp((p_F.z() - radius_m_) / kAirborneRamp_m, 0.0, 1.0);
-  sigma_d = std::hypot(sigma_d, airborne * kPhantomDistanceFraction * distance);
+  return noiseWith(p_F, airborne * kPhantomDistanceFraction * predict(p_F)[1]);
+}
+
+MeasurementMatrix OmniMeasurement::sensorNoise(const Eigen::Vector3d& p_F) const { return noiseWith(p_F, 0.0); }
+
+MeasurementMatrix OmniMeasurement::noiseWith(const Eigen::Vector3d& p_F, double phantom_hold_sigma_m) const {
+  const double sigma_d = std::hypot(omniDistanceSigma_m(observation_, omni_, predict(p_F)[1]), phantom_hold_sigma_m);
   MeasurementMatrix R = MeasurementMatrix::Zero(2, 2);
   const double sigma_b = omniBearingSigma_rad(observation_, omni_);
   R(0, 0) = sigma_b * sigma_b + pose_config_.sigma_theta_rad * pose_config_.sigma_theta_rad;

@@ -48,8 +48,13 @@ class MeasurementModel {
   double timingSigma_s() const { return timing_sigma_s_; }
   virtual MeasurementVector predict(const Eigen::Vector3d& p_F) const = 0;
   virtual const MeasurementVector& value() const = 0;
-  // Measurement noise, evaluated at the predicted centre (noise may grow with distance).
+  // Measurement noise, evaluated at the predicted centre (noise may grow with distance): what an
+  // update moves the ball by. It may hold more than the sensor's own noise, where the model bends
+  // too steeply for one linearised step to be trusted.
   virtual MeasurementMatrix noise(const Eigen::Vector3d& p_F) const = 0;
+  // The sensor's own noise alone: what a branch's likelihood is judged by. An allowance that keeps
+  // the update's steps short is no evidence against the branch that predicted the measurement.
+  virtual MeasurementMatrix sensorNoise(const Eigen::Vector3d& p_F) const { return noise(p_F); }
   // z - h; angles wrapped.
   virtual MeasurementVector residual(const MeasurementVector& z, const MeasurementVector& h) const { return z - h; }
   // How fast the prediction for a ball lying still at p_F changes because the sensor moves (a

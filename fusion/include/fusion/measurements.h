@@ -43,6 +43,7 @@ class OmniMeasurement : public MeasurementModel {
   MeasurementVector predict(const Eigen::Vector3d& p_F) const override;
   const MeasurementVector& value() const override { return z_; }
   MeasurementMatrix noise(const Eigen::Vector3d& p_F) const override;
+  MeasurementMatrix sensorNoise(const Eigen::Vector3d& p_F) const override;
   MeasurementVector residual(const MeasurementVector& z, const MeasurementVector& h) const override;
   MeasurementVector ownMotionRate(const Eigen::Vector3d& p_F) const override;
   bool canSee(const Eigen::Vector3d& p_F) const override;
@@ -52,6 +53,8 @@ class OmniMeasurement : public MeasurementModel {
 
  private:
   MeasurementVector predictFrom(const fw::RobotPose& pose, const Eigen::Vector3d& p_F) const;
+  // The bearing's and distance's noise at p_F, the distance's widened by phantom_hold_sigma_m.
+  MeasurementMatrix noiseWith(const Eigen::Vector3d& p_F, double phantom_hold_sigma_m) const;
 
   fw::RobotPose pose_, pose_after_;
   OmniConfig omni_;
