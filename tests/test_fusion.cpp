@@ -1499,6 +1499,43 @@ TEST(Fusion, LearnsTheOmniLatencyFromABallBothSeeRolling) {
   EXPECT_NEAR(fusion.omniLatency()->latency_s, 0.04, 0.01);
 }
 
+TEST(Fusion, ARobotWithoutAKinectLearnsItsOmniLatencyFromATeammatesKinect) {
+  fusion::BallFusion fusion{fusion::FusionConfig()};
+  // The ball rolls round this robot as above; only a teammate's Kinect, 4 m away, sees it, and its
+  // messages (every 50 ms) arrive 80-130 ms late. This robot's omni camera is 40 ms late.
+  const Truth circling = [](double t) {
+    const double a = 0.8 * (t - kT0);
+    return Eigen::Vector3d(2.5 * std::sin(a), 2.5 * std::cos(a), kRadius);
+  };
+  const fw::RobotPose teammate = poseAt(0.0, -4.0, 0.0, kT0);
+  std::mt19937 random(5);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  FedRun run;
+  std::vector<std::pair<double, Eigen::Vector3d>> unsent;
+  std::vector<std::pair<double, fw::TeamMessage>> in_flight;  // arrival time, message
+  for (int i = 0; i * (1.0 / 30) < 4.0; ++i) {
+    const double t = kT0 + i / 30.0;
+    for (auto it = in_flight.begin(); it != in_flight.end();) {
+      if (it->first > t) {
+        ++it;
+        continue;
+      }
+      fusion.addTeamMessage(it->second);
+      it = in_flight.erase(it);
+    }
+    unsent.emplace_back(t, circling(t));
+    if (i % 3 != 0) {
+      fw::RobotPose believed = teammate;
+      believed.stamp.source_time_s = t;
+      in_flight.emplace_back(t + 0.08 + 0.05 * unit(random), teammateMessage(teammate, believed, unsent, random));
+      unsent.clear();
+    }
+    feedOwnStep(fusion, circling, t, standingAtOrigin, never, always, true, /*omni_stamp_late_s=*/0.04, random, run);
+  }
+  ASSERT_TRUE(fusion.omniLatency()) << fusion.omniLatencyExamples() << " examples";
+  EXPECT_NEAR(fusion.omniLatency()->latency_s, 0.04, 0.01);
+}
+
 TEST(Fusion, LearnsTheOmniLatencyFromLowLobsBothSeeFlyingPast) {
   fusion::BallFusion fusion{fusion::FusionConfig()};
   // Low lobs (under the omni's view top) across the robot's front, 1.5 m away, one a second; the

@@ -13,8 +13,9 @@
 namespace fusion {
 
 namespace {
-// What teaches the omni camera's latency: an omni ball on the world's track while this robot's Kinect
-// saw that track this recently (a phantom lies on the ball's own bearing, so in the air too). The
+// What teaches the omni camera's latency: an omni ball on the world's track while a Kinect saw that
+// track this recently (a phantom lies on the ball's own bearing, so in the air too): this robot's, or
+// a teammate's while this robot's has not seen it (a robot without a Kinect learns too). The
 // Kinect's ball is carried to the omni's time at its velocity over its frames of the last
 // kLatencyRateBaseline_s. An omni bearing further off than kLatencyMaxBearingResidual_rad is a
 // misassociation, not a time offset; so is a reading further off than kLatencyMaxOffset_s of its
@@ -213,6 +214,7 @@ struct BallFusion::Candidate {
   fw::ColourVerdict colour = fw::ColourVerdict::kNotChecked;
   const fw::OmniBallObservation* omni = nullptr;            // the omni's ball, in the frame being processed
   const fw::BallObservation* kinect = nullptr;              // this robot's Kinect's ball, in the frame being processed
+  std::optional<KinectSighting> sighting = std::nullopt;    // a Kinect's ball, this robot's or a teammate's
   int teammate = 0;                                         // the teammate's robot id, for Source::kTeammate
   Eigen::Vector2d teammate_xy_F = Eigen::Vector2d::Zero();  // and where it believes it stands
   std::optional<Eigen::Vector3d> ray_origin_F = std::nullopt;  // a teammate's omni ray: its camera's viewpoint
@@ -462,6 +464,7 @@ std::vector<BallFusion::Candidate> BallFusion::candidatesOf(const Frame& frame, 
     c.is_static = ball.is_static && c.in_air;  // a ball lying still for seconds is still the ball
     c.colour = ball.colour;
     c.kinect = &ball;
+    c.sighting = KinectSighting{frame.time_s, ball.position_m, ball.covariance_m2};
     candidates.push_back(std::move(c));
   }
   for (const TeammateBall& mate : frame.team) {
@@ -480,6 +483,10 @@ std::vector<BallFusion::Candidate> BallFusion::candidatesOf(const Frame& frame, 
     c.colour = mate.ball_F.colour;
     c.teammate = mate.robot_id;
     c.teammate_xy_F = Eigen::Vector2d(mate.pose.x_m, mate.pose.y_m);
+    const Eigen::Isometry3d T_R_F = pose.T_F_R().inverse();
+    c.sighting =
+        KinectSighting{frame.time_s, T_R_F * c.p_F, T_R_F.linear() * c.covariance_F * T_R_F.linear().transpose(),
+                       mate.robot_id, mate.timing_sigma_s};
     candidates.push_back(std::move(c));
   }
   for (const TeammateRay& mate : frame.team_rays) {
@@ -575,17 +582,8 @@ void BallFusion::process(const Frame& frame) {
     const Candidate& c = candidates[pair.candidate];
     Track& track = state.tracks[pair.track];
     track.colour_confirmed |= c.colour == fw::ColourVerdict::kConfirmed;
-    if (c.source == Source::kOmni && track.id == state.world_id && t - track.last_kinect_s < kLatencyKinectWithin_s) {
-      learnLatency(track, c, t, frame.omni_latency_s);
-    }
-    if (c.kinect) {
-      auto& kept = track.kinect_sightings;
-      if (track.kinect_sighting_count == kept.size()) {
-        std::rotate(kept.begin(), kept.begin() + 1, kept.end());  // the oldest goes
-        --track.kinect_sighting_count;
-      }
-      kept[track.kinect_sighting_count++] = {t, c.kinect->position_m, c.kinect->covariance_m2};
-    }
+    if (c.source == Source::kOmni && track.id == state.world_id) learnLatency(track, c, t, frame.omni_latency_s);
+    if (c.sighting) track.keepSighting(*c.sighting, kLatencyKinectWithin_s);
     const Eigen::Vector3d before_F = BallFilter::likeliest(branches[pair.track]).x.head<3>();
     track.filter.update(branches[pair.track], t, *c.measurement);
     // The world's ball seen by this robot's Kinect teaches the bounce; every track bounces on with it.
@@ -657,6 +655,21 @@ void BallFusion::Track::supportedBy(const Candidate& candidate, double t_s) {
       last_teammate_s[candidate.teammate] = t_s;
       break;
   }
+}
+
+void BallFusion::Track::keepSighting(const KinectSighting& sighting, double within_s) {
+  if (kinect_sighting_count > 0) {
+    const KinectSighting& newest = kinect_sightings[kinect_sighting_count - 1];
+    const bool same_kinect = newest.teammate == sighting.teammate;
+    const bool displaces = !sighting.teammate || sighting.time_s - newest.time_s >= within_s;
+    if (!same_kinect && !displaces) return;
+    if (!same_kinect) kinect_sighting_count = 0;
+  }
+  if (kinect_sighting_count == kinect_sightings.size()) {
+    std::rotate(kinect_sightings.begin(), kinect_sightings.begin() + 1, kinect_sightings.end());  // the oldest goes
+    --kinect_sighting_count;
+  }
+  kinect_sightings[kinect_sighting_count++] = sighting;
 }
 
 void BallFusion::judgeTeammates(const Frame& frame, const std::vector<Candidate>& candidates, const fw::RobotPose& pose,
@@ -889,6 +902,7 @@ void BallFusion::learnLatency(const Track& track, const Candidate& candidate, do
   if (track.kinect_sighting_count == 0) return;
   const auto seen_end = track.kinect_sightings.begin() + track.kinect_sighting_count;
   const KinectSighting& newest = *(seen_end - 1);
+  if (t - newest.time_s >= kLatencyKinectWithin_s) return;
   // In the air it falls, on the floor it lies there: the velocity is taken over the sightings of
   // the baseline since the ball last left the floor or came down (a kick inside the baseline would
   // make it the average of rest and flight, and the carried ball lag behind).
@@ -965,7 +979,11 @@ void BallFusion::learnLatency(const Track& track, const Candidate& candidate, do
     return omniView_R(p, config_.omni, radius_m);
   };
   for (int i = 0; i < 2; ++i) {
-    const double variance = omni_sigma[i] * omni_sigma[i] + J.row(i) * carried_covariance * J.row(i).transpose();
+    // A teammate's ball is on this robot's clock to within their exchange's bound: its time's error
+    // moves the reading as the ball does.
+    const double clock_error = rate[i] * newest.timing_sigma_s;
+    const double variance = omni_sigma[i] * omni_sigma[i] + J.row(i) * carried_covariance * J.row(i).transpose() +
+                            clock_error * clock_error;
     if ((i == 0 && std::abs(residual[i]) > kLatencyMaxBearingResidual_rad) ||
         std::abs(residual[i]) > kLatencyMaxOffset_s * std::abs(rate[i]) + 3.0 * std::sqrt(variance)) {
       continue;

@@ -148,11 +148,14 @@ class BallFusion {
     double from_teammate_m = 0.0;  // the teammate's ball from where it believes it stands
   };
   struct Candidate;
-  // This robot's Kinect ball in the robot frame, as the omni camera's latency is learnt from it.
+  // A Kinect's ball, this robot's or a teammate's, in this robot's frame at its time, as the omni
+  // camera's latency is learnt from it.
   struct KinectSighting {
-    double time_s;
-    Eigen::Vector3d p_R;
-    Eigen::Matrix3d covariance_R;
+    double time_s = 0.0;
+    Eigen::Vector3d p_R = Eigen::Vector3d::Zero();
+    Eigen::Matrix3d covariance_R = Eigen::Matrix3d::Zero();
+    std::optional<int> teammate = std::nullopt;  // whose Kinect: none for this robot's own
+    double timing_sigma_s = 0.0;                 // a teammate's: the bound of the two robots' clock offset
   };
   static constexpr std::size_t kKinectSightingsKept = 10;  // a third of a second at 30 Hz
   struct Track {
@@ -174,10 +177,14 @@ class BallFusion {
     // be judged against themselves, and a mislocalised one that reached this robot's ball first
     // would pass.
     std::optional<BallFilter> own_view = std::nullopt;
-    // This robot's Kinect balls of it, the newest kKinectSightingsKept, oldest first: they time the
-    // omni camera.
+    // One Kinect's balls of it, the newest kKinectSightingsKept, oldest first: they time the omni
+    // camera. This robot's Kinect's; a teammate's while this robot's has not seen the ball lately.
     std::array<KinectSighting, kKinectSightingsKept> kinect_sightings = {};
     std::size_t kinect_sighting_count = 0;
+
+    // Keeps a sighting by the rule above (one Kinect at a time: two robots' clocks differ by their
+    // exchange's error, and a fit across both would read that as motion).
+    void keepSighting(const KinectSighting& sighting, double within_s);
 
     // The air mode explains more of the data than the ground mode.
     bool flying() const { return filter.airProbability() > 0.5; }
