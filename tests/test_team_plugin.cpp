@@ -73,10 +73,10 @@ kinect3d::sim::BallMotion trueBallOf(const kinect3d::sim::Scene& scene) {
   return {*scene.ball, scene.physics, scene.duration_s, scene.objects};
 }
 
-// The demo's lob, and how far a point lies from its true flight within 0.1 s of t (a receiver's
-// clock): robots simulated without a shared world (host.sim_world_start_wall_s) start theirs when
-// their hosts' threads first read them, tens of milliseconds apart. In a shared world its time 0
-// is world_start_wall_s.
+// The demo's lob, its time 0 at world_start_wall_s in a shared world (host.sim_world_start_wall_s),
+// and how far a point lies from its true flight within 0.1 s of t (a receiver's clock): the recorded
+// runs' robots, simulated before they shared a world, started theirs when their hosts' threads first
+// read them, tens of milliseconds apart.
 struct Lob {
   explicit Lob(double world_start_wall_s = 0.0)
       : scene(kinect3d::sim::inSharedWorld(kinect3d::sim::loadScene("lob_over_robot"), world_start_wall_s)),
@@ -304,18 +304,22 @@ TEST(TeamPlugin, AMislocalisedKeeperIsDiscountedByTheDefenderAndNotUsedThroughAL
     const ScopedTempDir dir;
     const std::string team_key = writeKey(dir, "team.key", team::TeamKey::random());
     const UdpImpairment network({{"127.0.0.53", "127.0.0.51"}, {"127.0.0.54", "127.0.0.52"}}, kPort, {0.2, 0.2, 0.0});
-    fw::Host keeper(
-        robotConfig("keeper", 1, 51, {54}, kPort, team_key, "[localisation, kinect3d, omni, fusion, team]", {bias}),
-        PRODUCT_PLUGIN_DIR);
+    const SharedWorld world;
+    fw::Host keeper(robotConfig("keeper", 1, 51, {54}, kPort, team_key, "[localisation, kinect3d, omni, fusion, team]",
+                                {bias, world.setting()}),
+                    PRODUCT_PLUGIN_DIR);
     const std::string logs = (dir.path() / "logs").string();
-    fw::Host defender(robotConfig("defender", 2, 52, {53}, kPort, team_key,
-                                  "[localisation, omni, fusion, team, logger]", {"logger.folder=" + logs}),
-                      PRODUCT_PLUGIN_DIR);
+    fw::Host defender(
+        robotConfig("defender", 2, 52, {53}, kPort, team_key, "[localisation, omni, fusion, team, logger]",
+                    {"logger.folder=" + logs, world.setting(), measuredOmniLatency()}),
+        PRODUCT_PLUGIN_DIR);
     playTogether(defender, {&keeper});
     ASSERT_TRUE(keeper.sourcesFinished() && defender.sourcesFinished());
 
     const std::string run = onlySubfolder(logs);
-    ASSERT_TRUE(said(receivedIn(run, Lob{}), "teammate_discounted", {"keeper", "its localisation is off"})) << bias;
+    ASSERT_TRUE(
+        said(receivedIn(run, Lob(world.start_wall_s)), "teammate_discounted", {"keeper", "its localisation is off"}))
+        << bias;
     // From a second after it is discounted (a source is listed for a second after its last support), no
     // world ball of the defender rests on the keeper's observations.
     double discounted_at_s = kNever;  // the defender's fusion clock
