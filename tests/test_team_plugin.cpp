@@ -94,10 +94,12 @@ struct Lob {
   }
 };
 
-// Robots simulated side by side in one world whose time 0 is a moment from now (once their hosts
-// have started): the --set that gives it, and that time.
+// Robots simulated side by side in one world whose time 0 is lead_s from now (once their hosts have
+// started: hosts in this process take less than one in a process of its own): the --set that gives
+// it, and that time.
 struct SharedWorld {
-  double start_wall_s = fw::wallClockNow_s() + 2.0;
+  explicit SharedWorld(double lead_s = 2.0) : start_wall_s(fw::wallClockNow_s() + lead_s) {}
+  double start_wall_s;
   std::string setting() const { return "host.sim_world_start_wall_s=" + std::to_string(start_wall_s); }
 };
 
@@ -392,7 +394,7 @@ TEST(TeamPlugin, ThreeRobotsInOneWorldHoldTheLobOnlyTheKeepersKinectSees) {
       {{"127.0.0.71", "127.0.0.61"}, {"127.0.0.72", "127.0.0.62"}, {"127.0.0.73", "127.0.0.63"}}, kPort,
       {0.2, 0.2, 0.0});
   const std::string world = std::string(TEST_DATA_DIR) + "/scenes/team/";
-  const double world_start_s = fw::wallClockNow_s() + 3.0;
+  const SharedWorld shared(3.0);
   const auto robot = [&](const std::string& name, int id, const std::vector<int>& peers, const std::string& plugins) {
     const std::string scene = "sim:" + world + name + ".yaml";
     std::vector<std::string> args{"--robot",      kRobotFile,         "--defaults", kDefaults,
@@ -400,8 +402,7 @@ TEST(TeamPlugin, ThreeRobotsInOneWorldHoldTheLobOnlyTheKeepersKinectSees) {
     for (const std::string& value :
          robotOverrides(name, id, 60 + id, peers, kPort, team_key, plugins,
                         {"kinect3d.source=" + scene, "omni.source=" + scene, "localisation.source=" + scene,
-                         "host.sim_world_start_wall_s=" + std::to_string(world_start_s),
-                         "logger.folder=" + (dir.path() / name).string()})) {
+                         shared.setting(), "logger.folder=" + (dir.path() / name).string()})) {
       args.push_back(value);
     }
     return std::make_unique<HostProcess>(args);
@@ -425,7 +426,7 @@ TEST(TeamPlugin, ThreeRobotsInOneWorldHoldTheLobOnlyTheKeepersKinectSees) {
   const kinect3d::sim::BallMotion truth = trueBallOf(scene);
   for (const char* name : {"keeper", "defender", "striker"}) {
     const bool keeper_itself = std::string(name) == "keeper";
-    const InTheAir lob = lobInTheAir(onlySubfolder(dir.path() / name), truth, world_start_s, keeper_itself);
+    const InTheAir lob = lobInTheAir(onlySubfolder(dir.path() / name), truth, shared.start_wall_s, keeper_itself);
     ASSERT_GE(lob.errors_m.size(), 15u) << name << ": " << lob.world_balls << " world balls while the lob was 0.5 m up";
     // The target is 0.15 m. Here the keeper's own Kinect sees the flight 4-11 m away, and each
     // run draws its own losses and delays (docs/team.md gives the spread over runs): a guard against
@@ -450,13 +451,12 @@ TEST(TeamPlugin, TwoRobotsOmniCamerasAlonePlaceAHopInTheAirThroughALossyNetwork)
   constexpr int kPort = 50435;
   const UdpImpairment network({{"127.0.0.92", "127.0.0.82"}, {"127.0.0.93", "127.0.0.83"}}, kPort, {0.2, 0.2, 0.0});
   const std::string world = std::string(TEST_DATA_DIR) + "/scenes/team_hop/";
-  const double world_start_s = fw::wallClockNow_s() + 3.0;
+  const SharedWorld shared(3.0);
   const auto robot = [&](const std::string& name, int id, int peer) {
     const std::string scene = "sim:" + world + name + ".yaml";
     return std::make_unique<fw::Host>(
         robotConfig(name, id, 80 + id, {peer}, kPort, team_key, "[localisation, omni, fusion, team, logger]",
-                    {"omni.source=" + scene, "localisation.source=" + scene,
-                     "host.sim_world_start_wall_s=" + std::to_string(world_start_s),
+                    {"omni.source=" + scene, "localisation.source=" + scene, shared.setting(),
                      "logger.folder=" + (dir.path() / name).string()}),
         PRODUCT_PLUGIN_DIR);
   };
@@ -472,12 +472,12 @@ TEST(TeamPlugin, TwoRobotsOmniCamerasAlonePlaceAHopInTheAirThroughALossyNetwork)
   const double hop_m = scene.physics.radius_m + 0.1;
   const std::string run = onlySubfolder(dir.path() / "defender");
   const auto any = [](const fw::FusedBall&) { return true; };
-  const InTheAir two = ballInTheAir(run, truth, world_start_s, hop_m, any);
-  const InTheAir with_striker = ballInTheAir(run, truth, world_start_s, hop_m, [](const fw::FusedBall& ball) {
+  const InTheAir two = ballInTheAir(run, truth, shared.start_wall_s, hop_m, any);
+  const InTheAir with_striker = ballInTheAir(run, truth, shared.start_wall_s, hop_m, [](const fw::FusedBall& ball) {
     return std::count(ball.sources.begin(), ball.sources.end(), "team:striker") > 0;
   });
   const InTheAir alone = ballInTheAir(replayInto(run, dir.path() / "alone", "--set fusion.team.use=false"), truth,
-                                      world_start_s, hop_m, any);
+                                      shared.start_wall_s, hop_m, any);
   ASSERT_GE(two.errors_m.size(), 15u) << two.world_balls << " world balls while it hopped";
   EXPECT_GE(with_striker.errors_m.size(), two.errors_m.size() * 3 / 4) << "the striker's rays place it";
   // The anchor is 0.13 m: 0.048-0.083 m in most runs, with each robot's pose blended with its
