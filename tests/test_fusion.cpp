@@ -1667,6 +1667,37 @@ TEST(Fusion, AnOmniPhantomRisingTowardsTheMirrorIsReadForItsWholeLateness) {
             100.0);
 }
 
+TEST(Fusion, AnOmniReadingWhoseViewTurnsBackWithinThePlausibleOffsetsCannotSayWhichWayItIsLate) {
+  // A lob passing over the robot 0.11 m beside the camera's axis, 0.53 m up, at 6.15 m/s: its
+  // phantom's distance is at its minimum 6.5 ms after the reading. Stamps 21 ms late the other way
+  // show it beyond that minimum, as far out as it was 4.6 ms before: the secant reads 4.6 ms the
+  // wrong way, and in the fusion report that one reading took the estimate's sigma from 14 to 5 ms
+  // while it stood 20-25 ms off (lob_over_robot, seed 2).
+  const fusion::OmniConfig omni;
+  const auto ball_R = [](double t) { return Eigen::Vector3d(-0.11, 0.04 - 6.15 * t, 0.53); };
+  const auto distance = [&](double t) { return fusion::omniView_R(ball_R(t), omni, kRadius)[1]; };
+  const auto change_over = [&](double tau) { return distance(0.0) - distance(-tau); };
+  const double tangent = fusion::omniViewJacobian_R(ball_R(0.0), omni, kRadius).row(1) * Eigen::Vector3d(0, -6.15, 0);
+  const double residual = distance(0.021) - distance(0.0);
+  ASSERT_LT(tangent, 0.0);
+  ASSERT_GT(residual, 0.0);
+  EXPECT_TRUE(fusion::omniOffsetIsAmbiguous(change_over, residual, tangent, 0.045)) << "within 3 sigma of 15 ms";
+  EXPECT_FALSE(fusion::omniOffsetIsAmbiguous(change_over, residual, tangent, 0.005)) << "the turn beyond the window";
+  // Where the camera could not have seen the ball, the view says nothing.
+  EXPECT_FALSE(fusion::omniOffsetIsAmbiguous([](double) { return std::numeric_limits<double>::quiet_NaN(); }, residual,
+                                             tangent, 0.045));
+  // A ball rolled straight away: its distance grows whichever way the time is off.
+  const auto rolling = [](double t) {
+    return fusion::omniView_R(Eigen::Vector3d(0.5, 2.0 + 3.0 * t, kRadius), fusion::OmniConfig(), kRadius)[1];
+  };
+  for (const double late_s : {-0.03, 0.03}) {
+    const double rolled_residual = rolling(-late_s) - rolling(0.0);
+    EXPECT_FALSE(fusion::omniOffsetIsAmbiguous([&](double tau) { return rolling(0.0) - rolling(-tau); },
+                                               rolled_residual, 3.0, 0.15))
+        << 1000 * late_s << " ms late";
+  }
+}
+
 TEST(Fusion, LearnsTheOmniLatencyFromTheRobotsTurnWithTheBallAtRest) {
   fusion::BallFusion fusion{fusion::FusionConfig()};
   // The robot turns on the spot at 1.5 rad/s; the ball lies still, in the Kinect's 57 degrees once a

@@ -972,12 +972,18 @@ void BallFusion::learnLatency(const Track& track, const Candidate& candidate, do
   const Eigen::Vector2d omni_sigma(omniBearingSigma_rad(omni, config_.omni),
                                    omniDistanceSigma_m(omni, config_.omni, omni.distance_m));
   // The omni's view of the carried ball tau seconds before t (at tau 0: predicted).
-  const auto viewBefore = [&](double tau_s) {
+  const auto carriedBefore = [&](double tau_s) {
     const double from_newest_s = ahead_s - tau_s;
     Eigen::Vector3d p = p_newest + from_newest_s * v_newest + 0.5 * from_newest_s * from_newest_s * gravity;
     if (!in_air) p.z() = radius_m;
-    return omniView_R(p, config_.omni, radius_m);
+    return p;
   };
+  const auto viewBefore = [&](double tau_s) { return omniView_R(carriedBefore(tau_s), config_.omni, radius_m); };
+  // The offsets the estimate so far leaves plausible (three sigma round it, beside the one that
+  // corrected t): a reading whose view turns back within them could be off either way.
+  const std::optional<LatencyEstimator::Fit> so_far = state_.latency.fit(config_.omni.timing_sigma_s);
+  const double offset_window_s = so_far ? std::abs(so_far->latency_s - applied_s) + 3.0 * so_far->sigma_s
+                                        : std::abs(applied_s) + 3.0 * config_.omni.timing_sigma_s;
   for (int i = 0; i < 2; ++i) {
     // A teammate's ball is on this robot's clock to within their exchange's bound: its time's error
     // moves the reading as the ball does.
@@ -994,12 +1000,16 @@ void BallFusion::learnLatency(const Track& track, const Candidate& candidate, do
     // straight away (docs/fusion.md, "Time"). Such a reading is not used.
     const double rate_sigma = std::sqrt(J.row(i) * velocity_covariance * J.row(i).transpose());
     if (std::abs(rate[i]) < kLatencyRateSignificance * rate_sigma) continue;
-    const double secant = omniSecantRate(
-        [&](double tau_s) {
-          const double change = predicted[i] - viewBefore(tau_s)[i];
-          return i == 0 ? fw::wrapAngle(change) : change;
-        },
-        residual[i], rate[i], kLatencyMaxOffset_s);
+    const auto change_over = [&](double tau_s) {
+      const double change = predicted[i] - viewBefore(tau_s)[i];
+      return i == 0 ? fw::wrapAngle(change) : change;
+    };
+    const auto change_if_seen = [&](double tau_s) {
+      return omniCanSee(carriedBefore(tau_s), config_.omni) ? change_over(tau_s)
+                                                            : std::numeric_limits<double>::quiet_NaN();
+    };
+    if (omniOffsetIsAmbiguous(change_if_seen, residual[i], rate[i], offset_window_s)) continue;
+    const double secant = omniSecantRate(change_over, residual[i], rate[i], kLatencyMaxOffset_s);
     state_.latency.add(residual[i], variance, secant, applied_s, i == 1 ? predicted[1] : 0.0);
   }
 }

@@ -182,4 +182,15 @@ double omniSecantRate(const std::function<double(double)>& change_over, double r
   return secant * tangent > 0.0 ? secant : tangent;
 }
 
+bool omniOffsetIsAmbiguous(const std::function<double(double)>& change_over, double residual, double tangent,
+                           double window_s) {
+  const double other_side = -residual / tangent > 0.0 ? -1.0 : 1.0;
+  constexpr int kSamples = 16;  // a view that turns back and forth within a window this short is noise
+  for (int k = 1; k <= kSamples; ++k) {
+    const double miss = change_over(other_side * window_s * k / kSamples) + residual;
+    if (std::isfinite(miss) && (miss > 0.0) != (residual > 0.0)) return true;
+  }
+  return false;
+}
+
 }  // namespace fusion

@@ -78,6 +78,12 @@ Eigen::Matrix<double, 2, 3> omniViewJacobian_R(const Eigen::Vector3d& p_R, const
 // max_offset_s explains the residual (its noise), or the offset is too short to tell, the tangent.
 double omniSecantRate(const std::function<double(double)>& change_over, double residual, double tangent,
                       double max_offset_s);
+// Whether an offset on the other side of the reading's time than the tangent puts it, within window_s,
+// explains the residual as well: the view turned back (a ball passing closest to the camera's axis,
+// its distance at a minimum), so the reading cannot say which way its time is off. change_over as
+// above, for negative tau too; NaN where the camera could not have seen the ball.
+bool omniOffsetIsAmbiguous(const std::function<double(double)>& change_over, double residual, double tangent,
+                           double window_s);
 
 // Whether the omni camera can see a ball centre at p_F: below the top of its mirror's view.
 bool omniCanSee(const Eigen::Vector3d& p_F, const OmniConfig& omni);
