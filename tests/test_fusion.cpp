@@ -1713,6 +1713,55 @@ TEST(Fusion, LearnsTheOmniLatencyFromTheRobotsTurnWithTheBallAtRest) {
   EXPECT_NEAR(fusion.omniLatency()->latency_s, 0.04, 0.01);
 }
 
+// A robot without a Kinect (or whose Kinect does not see the ball) and a ball at rest 3 m away:
+// it stands for a second, then turns back and forth for 10 s (half a radian either way, every 3 s:
+// up to 1 rad/s). Its localisation's heading wanders by a degree, correlated over a second, and the
+// omni's bearings carry 0.6 degrees of noise, its distances 5 cm. Where the ball lay while the robot
+// stood, its bearing as the turn goes on lags the pose's heading by the omni's latency.
+fusion::BallFusion turnWithoutAKinect(int seed, double late_s) {
+  fusion::BallFusion fusion{fusion::FusionConfig()};
+  std::mt19937 random(seed);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  const auto turning = [](double t) {
+    const double turning_s = std::max(0.0, t - kT0 - 1.0);
+    return poseAt(0.0, 0.0, 0.5 * std::sin(2.0 * M_PI * turning_s / 3.0), t);
+  };
+  const Eigen::Vector3d resting(0.5, 3.0, kRadius);
+  const double sigma_rad = fw::degreesToRadians(1.0), frame_s = 1.0 / 30.0;
+  const double keep = std::exp(-frame_s / 1.0), fresh = std::sqrt(1.0 - keep * keep);
+  double heading_error_rad = sigma_rad * normal(random);
+  for (int i = 0; i * frame_s < 11.0; ++i) {
+    const double t = kT0 + i * frame_s;
+    fw::RobotPose believed = turning(t);
+    believed.theta_rad += heading_error_rad;
+    fusion.addPose(believed);
+    heading_error_rad = keep * heading_error_rad + fresh * sigma_rad * normal(random);
+    fw::OmniBallObservation omni = omniView(resting, turning(t), 0.75);
+    omni.bearing_rad += 0.01 * normal(random);
+    omni.distance_m += 0.05 * normal(random);
+    fusion.addOmniFrame(t + late_s, {omni});
+  }
+  return fusion;
+}
+
+TEST(Fusion, ARobotWithoutAKinectLearnsItsOmniLatencyFromItsOwnTurns) {
+  int within_10ms = 0;
+  double sum_s = 0.0;
+  for (int seed = 1; seed <= 10; ++seed) {
+    std::mt19937 random(1000 + seed);
+    const double late_s = std::uniform_real_distribution<double>(0.02, 0.06)(random);
+    const fusion::BallFusion fusion = turnWithoutAKinect(seed, late_s);
+    ASSERT_TRUE(fusion.omniLatency()) << "seed " << seed << ": " << fusion.omniLatencyExamples() << " examples";
+    const double error_s = fusion.omniLatency()->latency_s - late_s;
+    std::printf("seed %d: %.0f ms late, learnt %.0f +- %.0f ms\n", seed, 1000 * late_s,
+                1000 * fusion.omniLatency()->latency_s, 1000 * fusion.omniLatency()->sigma_s);
+    within_10ms += std::abs(error_s) <= 0.01;
+    sum_s += error_s;
+  }
+  EXPECT_GE(within_10ms, 9);
+  EXPECT_LE(std::abs(sum_s / 10), 0.005) << "no bias";
+}
+
 TEST(Fusion, LearnsTheOmniLatencyFromTheRobotsTurnThroughALocalisationThatWanders) {
   // The robot turns at 40 deg/s with a ball at rest 5 m away in the Kinect's view for a second (the
   // start of the fusion report's lob_while_turning). Its localisation's heading wanders by a degree,

@@ -30,6 +30,18 @@ constexpr double kLatencyMaxBearingResidual_rad = 0.2;
 constexpr double kLatencyOffTheFloor_m = 0.03;
 constexpr double kLatencyOffPathChi2 = 16.0;  // four sigma, in three dimensions
 constexpr double kLatencyRateSignificance = 3.0;
+// The robot's turn times the omni against a ball on the floor where it lay while the robot stood,
+// from that many readings, until an omni ball's distance, or the track, is further than
+// kRestingSpread_m from there. The ball's speed says only that it was not kicked: from the omni
+// alone its velocity is known to a metre per second or two. Standing: the pose moves the bearing
+// and the distance so slowly that 0.1 s of latency would move them less than the omni's noise (a
+// localisation's jitter alone turns it by 0.03-0.1 rad/s).
+constexpr double kRestingSpeed_mps = 1.0;
+constexpr double kStillBearingRate_radps = 0.15;
+constexpr double kStillDistanceRate_mps = 0.1;
+constexpr int kRestingReadings = 10;
+constexpr double kRestingSpread_m = 0.3;
+constexpr double kHeadingErrorSharedBy = 30.0;  // omni readings: a second at 30 Hz
 // Learnt latency is never trusted to better than this (the omni's exposure and the examples' spread).
 constexpr double kMinTimingSigma_s = 0.005;
 // The world's ball moves to another confirmed track when its own has had no support this long.
@@ -899,10 +911,13 @@ void BallFusion::recordJudgement(int teammate, const Judgement& judgement) {
 void BallFusion::learnLatency(const Track& track, const Candidate& candidate, double t, double applied_s) {
   // The Kinect's ball at t: its newest, carried on at its velocity over its frames of the baseline
   // (up to a third of a second: the longer, the less of the Kinect's noise is in the rate).
-  if (track.kinect_sighting_count == 0) return;
+  if (track.kinect_sighting_count == 0 ||
+      t - track.kinect_sightings[track.kinect_sighting_count - 1].time_s >= kLatencyKinectWithin_s) {
+    learnLatencyFromTurn(track, candidate, applied_s);
+    return;
+  }
   const auto seen_end = track.kinect_sightings.begin() + track.kinect_sighting_count;
   const KinectSighting& newest = *(seen_end - 1);
-  if (t - newest.time_s >= kLatencyKinectWithin_s) return;
   // In the air it falls, on the floor it lies there: the velocity is taken over the sightings of
   // the baseline since the ball last left the floor or came down (a kick inside the baseline would
   // make it the average of rest and flight, and the carried ball lag behind).
@@ -1012,6 +1027,46 @@ void BallFusion::learnLatency(const Track& track, const Candidate& candidate, do
     const double secant = omniSecantRate(change_over, residual[i], rate[i], kLatencyMaxOffset_s);
     state_.latency.add(residual[i], variance, secant, applied_s, i == 1 ? predicted[1] : 0.0);
   }
+}
+
+void BallFusion::learnLatencyFromTurn(const Track& track, const Candidate& candidate, double applied_s) {
+  // The ball must lie still, as its track says and as the omni's balls agree.
+  RestingBall& resting = state_.resting;
+  const Hypothesis& best = track.filter.best();
+  const Eigen::Vector3d& ground_F = candidate.p_F;  // an omni ball's: where it lies if on the floor
+  const MeasurementModel& omni = *candidate.measurement;
+  const double radius_m = config_.motion.radius_m;
+  const bool at_rest = best.mode == fw::BallState::kGround && best.x.tail<3>().norm() < kRestingSpeed_mps;
+  // A turn moves the ball's bearing, not its distance: a distance off the reference's is another
+  // place, and so is a track that moved away from it.
+  if (!at_rest || resting.track_id != track.id ||
+      (resting.count > 0 && (std::abs(omni.value()[1] - omni.predict(resting.mean_F(radius_m))[1]) > kRestingSpread_m ||
+                             (best.x.head<2>() - resting.mean_F(radius_m).head<2>()).norm() > kRestingSpread_m))) {
+    resting = RestingBall{};
+    if (!at_rest) return;
+    resting.track_id = track.id;
+  }
+  const MeasurementVector rate = omni.ownMotionRate(ground_F);
+  // Standing still, the robot sees the ball where it lies whatever the latency: that is the reference.
+  if (std::abs(rate[0]) < kStillBearingRate_radps && std::abs(rate[1]) < kStillDistanceRate_mps) {
+    resting.sum_xy_F += ground_F.head<2>();
+    ++resting.count;
+    return;
+  }
+  if (resting.count < kRestingReadings) return;
+  // Turning, the bearing lags the turn: the residual against the reference is -rate (L - applied).
+  const Eigen::Vector3d reference_F = resting.mean_F(radius_m);
+  const MeasurementVector turn_rate = omni.ownMotionRate(reference_F);
+  const double residual = fw::wrapAngle(omni.value()[0] - omni.predict(reference_F)[0]);
+  // The omni's noise, the reference's mean's, and the pose's heading error since the reference was
+  // taken: up to the localisation's whole error, and slow, so that the readings of a second share
+  // it; counted once in each of them as if each were alone, it made the estimate three times surer
+  // than it was.
+  const double omni_sigma = omniBearingSigma_rad(*candidate.omni, config_.omni);
+  const double variance = omni_sigma * omni_sigma * (1.0 + 1.0 / resting.count) +
+                          kHeadingErrorSharedBy * std::pow(config_.pose.sigma_theta_rad, 2);
+  if (std::abs(residual) > kLatencyMaxOffset_s * std::abs(turn_rate[0]) + 3.0 * std::sqrt(variance)) return;
+  state_.latency.add(residual, variance, turn_rate[0], applied_s);
 }
 
 std::vector<Hypothesis> BallFusion::initialHypotheses(const Candidate& candidate) const {

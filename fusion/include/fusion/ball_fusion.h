@@ -60,7 +60,9 @@ struct FusionUpdate {
 // How the omni camera's latency relative to the Kinect is learnt: from what the omni reports of one
 // ball that both of this robot's sensors see, against the Kinect's ball carried on to the omni's
 // corrected time, in the robot frame. Both sensors are on the robot, so the pose and its error play
-// no part. The omni's bearing minus the Kinect's, and its distance minus the Kinect's, are each
+// no part. (While no Kinect sees the ball, the omni's bearing of a ball at rest is read against where
+// it lay while the robot stood, the pose's own turn the rate: BallFusion::learnLatencyFromTurn.)
+// The omni's bearing minus the Kinect's, and its distance minus the Kinect's, are each
 //   residual = -rate (L - applied) [+ scale distance]
 // where rate is how fast the reading changes (the ball crossing the view, flying past or rolling
 // away, the robot turning, a ball's phantom running out as it rises), L the latency and applied the
@@ -203,11 +205,20 @@ class BallFusion {
     Eigen::Vector2d teammate_xy = Eigen::Vector2d::Zero();
     PoseConfig pose_error;
   };
+  // Where the world's ball lay, from the omni's balls while the robot stood still and the ball lay
+  // at rest: when no Kinect sees the ball, a turning robot's omni bearings are timed against it.
+  struct RestingBall {
+    int track_id = 0;  // 0: none
+    Eigen::Vector2d sum_xy_F = Eigen::Vector2d::Zero();
+    int count = 0;
+    Eigen::Vector3d mean_F(double radius_m) const { return {sum_xy_F.x() / count, sum_xy_F.y() / count, radius_m}; }
+  };
   struct State {
     std::vector<Track> tracks;
     int next_id = 1;
     int world_id = 0;  // 0: no world ball
     LatencyEstimator latency;
+    RestingBall resting;
     BounceLearner bounce{MotionConfig{}};  // made from config_.motion by the constructor
     std::map<int, TeammateStanding> teammates;
     std::map<int, std::deque<Judgement>> judged;            // per teammate, newest last
@@ -258,8 +269,12 @@ class BallFusion {
   };
 
   // Teaches the latency estimator from an omni ball (at corrected time t, corrected by applied_s) on
-  // the world's track, against the Kinect's bearings of that track.
+  // the world's track, against the Kinect's bearings of that track; while no Kinect sees it, by
+  // learnLatencyFromTurn.
   void learnLatency(const Track& track, const Candidate& candidate, double t, double applied_s);
+  // The same from the robot's own turning, while no Kinect sees the ball: the omni bearing of a
+  // ball at rest lags the pose's heading by the latency (the pose's clock the reference).
+  void learnLatencyFromTurn(const Track& track, const Candidate& candidate, double applied_s);
 
   // The time-line rule for a frame of source stamped stamp_s (its own clock): true to use it.
   bool onTimeLine(Source source, double stamp_s, double time_s);
