@@ -1713,6 +1713,29 @@ TEST(Fusion, LearnsTheOmniLatencyFromTheRobotsTurnWithTheBallAtRest) {
   EXPECT_NEAR(fusion.omniLatency()->latency_s, 0.04, 0.01);
 }
 
+// A localisation's heading error: a degree, correlated over a second (the simulator's model), moved
+// on by a frame at each pose it gives. It draws from the caller's generator and distribution, in
+// the caller's order.
+class WanderingHeading {
+ public:
+  WanderingHeading(std::mt19937& random, std::normal_distribution<double>& normal, double frame_s)
+      : random_(random), normal_(normal), keep_(std::exp(-frame_s / 1.0)), fresh_(std::sqrt(1.0 - keep_ * keep_)) {
+    error_rad_ = kSigma_rad * normal_(random_);
+  }
+  // The pose as the localisation believes it.
+  fw::RobotPose believed(fw::RobotPose pose) {
+    pose.theta_rad += error_rad_;
+    error_rad_ = keep_ * error_rad_ + fresh_ * kSigma_rad * normal_(random_);
+    return pose;
+  }
+
+ private:
+  static constexpr double kSigma_rad = M_PI / 180.0;
+  std::mt19937& random_;
+  std::normal_distribution<double>& normal_;
+  double keep_, fresh_, error_rad_ = 0.0;
+};
+
 // A robot without a Kinect (or whose Kinect does not see the ball) and a ball at rest 3 m away:
 // it stands for a second, then turns back and forth for 10 s (half a radian either way, every 3 s:
 // up to 1 rad/s). Its localisation's heading wanders by a degree, correlated over a second, and the
@@ -1727,15 +1750,11 @@ fusion::BallFusion turnWithoutAKinect(int seed, double late_s) {
     return poseAt(0.0, 0.0, 0.5 * std::sin(2.0 * M_PI * turning_s / 3.0), t);
   };
   const Eigen::Vector3d resting(0.5, 3.0, kRadius);
-  const double sigma_rad = fw::degreesToRadians(1.0), frame_s = 1.0 / 30.0;
-  const double keep = std::exp(-frame_s / 1.0), fresh = std::sqrt(1.0 - keep * keep);
-  double heading_error_rad = sigma_rad * normal(random);
+  const double frame_s = 1.0 / 30.0;
+  WanderingHeading localisation(random, normal, frame_s);
   for (int i = 0; i * frame_s < 11.0; ++i) {
     const double t = kT0 + i * frame_s;
-    fw::RobotPose believed = turning(t);
-    believed.theta_rad += heading_error_rad;
-    fusion.addPose(believed);
-    heading_error_rad = keep * heading_error_rad + fresh * sigma_rad * normal(random);
+    fusion.addPose(localisation.believed(turning(t)));
     fw::OmniBallObservation omni = omniView(resting, turning(t), 0.75);
     omni.bearing_rad += 0.01 * normal(random);
     omni.distance_m += 0.05 * normal(random);
@@ -1777,16 +1796,12 @@ TEST(Fusion, LearnsTheOmniLatencyFromTheRobotsTurnThroughALocalisationThatWander
     std::mt19937 random(seed);
     std::normal_distribution<double> normal(0.0, 1.0);
     const double late_s = std::uniform_real_distribution<double>(0.02, 0.06)(random);
-    const double sigma_rad = fw::degreesToRadians(1.0), frame_s = 1.0 / 30.0;
-    const double keep = std::exp(-frame_s / 1.0), fresh = std::sqrt(1.0 - keep * keep);
-    double heading_error_rad = sigma_rad * normal(random);
+    const double frame_s = 1.0 / 30.0;
+    WanderingHeading localisation(random, normal, frame_s);
     fusion::BallFusion fusion{fusion::FusionConfig()};
     for (int i = 0; i * frame_s < 1.0; ++i) {
       const double t = kT0 + i * frame_s;
-      fw::RobotPose believed = turning(t);
-      believed.theta_rad += heading_error_rad;
-      fusion.addPose(believed);
-      heading_error_rad = keep * heading_error_rad + fresh * sigma_rad * normal(random);
+      fusion.addPose(localisation.believed(turning(t)));
       fusion.addKinectFrame(t, {kinectView(resting, turning(t), random, 0.03)});
       fw::OmniBallObservation omni = omniView(resting, turning(t + 0.5 * frame_s), 0.75);
       omni.bearing_rad += 0.01 * normal(random);

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <iterator>
 #include <limits>
 #include <optional>
@@ -911,6 +912,7 @@ void BallFusion::recordJudgement(int teammate, const Judgement& judgement) {
 void BallFusion::learnLatency(const Track& track, const Candidate& candidate, double t, double applied_s) {
   // The Kinect's ball at t: its newest, carried on at its velocity over its frames of the baseline
   // (up to a third of a second: the longer, the less of the Kinect's noise is in the rate).
+  // No Kinect on the ball lately: the robot's own turns are what times the omni then.
   if (track.kinect_sighting_count == 0 ||
       t - track.kinect_sightings[track.kinect_sighting_count - 1].time_s >= kLatencyKinectWithin_s) {
     learnLatencyFromTurn(track, candidate, applied_s);
@@ -1023,8 +1025,9 @@ void BallFusion::learnLatency(const Track& track, const Candidate& candidate, do
       return omniCanSee(carriedBefore(tau_s), config_.omni) ? change_over(tau_s)
                                                             : std::numeric_limits<double>::quiet_NaN();
     };
-    if (omniOffsetIsAmbiguous(change_if_seen, residual[i], rate[i], offset_window_s)) continue;
-    const double secant = omniSecantRate(change_over, residual[i], rate[i], kLatencyMaxOffset_s);
+    // Passed by reference: a std::function holding the lambdas themselves would take them on the heap.
+    if (omniOffsetIsAmbiguous(std::cref(change_if_seen), residual[i], rate[i], offset_window_s)) continue;
+    const double secant = omniSecantRate(std::cref(change_over), residual[i], rate[i], kLatencyMaxOffset_s);
     state_.latency.add(residual[i], variance, secant, applied_s, i == 1 ? predicted[1] : 0.0);
   }
 }
