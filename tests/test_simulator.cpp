@@ -8,6 +8,7 @@
 #include <map>
 #include <set>
 
+#include "framework_api/config.h"
 #include "kinect3d/point_projector.h"
 #include "kinect3d/sim/field_sensors.h"
 #include "kinect3d/sim/kinect_simulator.h"
@@ -455,6 +456,24 @@ TEST(Simulator, TheWheelsOdometryFollowsTheTrueMotionOffByItsDrawnError) {
   EXPECT_NEAR(wheels_m / true_m, 1.0, 4 * model.odometry_error);
   EXPECT_NE(wheels_rad, true_rad);
   EXPECT_NEAR(wheels_rad / true_rad, 1.0, 4 * model.odometry_error);
+}
+
+TEST(Simulator, ARobotSwingsItsHeadingAndItsLocalisationStampsLate) {
+  // swing_at_rest's robot swings 20 degrees either way every 2.5 s.
+  const Scene scene = kinect3d::sim::loadScene("swing_at_rest");
+  EXPECT_NEAR(scene.robot.poseAt(0.0).theta_rad, 0.0, 1e-9);
+  EXPECT_NEAR(scene.robot.poseAt(0.625).theta_rad, fw::degreesToRadians(20.0), 1e-9);
+  EXPECT_NEAR(scene.robot.poseAt(1.875).theta_rad, fw::degreesToRadians(-20.0), 1e-9);
+  kinect3d::sim::LocalisationModel model;
+  model.stamp_late_s = 0.03;
+  const kinect3d::sim::LocalisationSimulator late(scene, model);
+  model.stamp_late_s = 0.0;
+  const kinect3d::sim::LocalisationSimulator on_time(scene, model);
+  ASSERT_GT(late.frameCount(), 30);
+  for (const int i : {0, 30}) {
+    EXPECT_NEAR(late.pose(i).stamp.source_time_s - on_time.pose(i).stamp.source_time_s, 0.03, 1e-6);  // at 1.7e9 s
+    EXPECT_EQ(late.pose(i).theta_rad, on_time.pose(i).theta_rad) << "the same pose, stamped later";
+  }
 }
 
 }  // namespace

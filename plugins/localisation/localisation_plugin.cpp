@@ -20,6 +20,7 @@ std::vector<fw::RobotPose> simulate(const fw::ConfigView& sim, const std::string
   model.bias_theta_rad = fw::degreesToRadians(sim.getDouble("bias_theta_deg", -180.0, 180.0));
   model.odometry = sim.getBool("odometry");
   model.odometry_error = sim.getDouble("odometry_error", 0.0, 0.5);
+  model.stamp_late_s = sim.getDouble("stamp_late_s", 0.0, 1.0);
   model.seed = static_cast<std::uint64_t>(sim.getInt("seed", 0, 2147483647));
   const kinect3d::sim::LocalisationSimulator localisation(
       kinect3d::sim::inSharedWorld(kinect3d::sim::loadScene(scene), world_start_wall_s), model);

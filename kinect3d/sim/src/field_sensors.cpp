@@ -169,7 +169,7 @@ fw::RobotPose LocalisationSimulator::pose(int index) const {
   pose.x_m += e.x() + model_.bias_xy_m.x();
   pose.y_m += e.y() + model_.bias_xy_m.y();
   pose.theta_rad += e.z() + model_.bias_theta_rad;
-  pose.stamp.source_time_s = pose.stamp.receive_time_s = scene_.start_time_s + t;
+  pose.stamp.source_time_s = pose.stamp.receive_time_s = scene_.start_time_s + t + model_.stamp_late_s;
   if (!odometry_.empty()) pose.odometry = odometry_[static_cast<std::size_t>(index)];
   return pose;
 }

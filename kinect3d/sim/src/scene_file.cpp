@@ -98,7 +98,7 @@ std::vector<Eigen::Vector2d> readPath(const fw::ConfigView& view, const std::str
 }
 
 CarrierRobot readCarrier(const fw::ConfigView& robot) {
-  robot.requireOnlyKeys({"pose", "path", "speed_mps", "turn_rate_deg_s"});
+  robot.requireOnlyKeys({"pose", "path", "speed_mps", "turn_rate_deg_s", "swing_deg", "swing_period_s"});
   CarrierRobot carrier;
   if (robot.has("pose")) {
     const fw::ConfigView pose = robot.child("pose");
@@ -123,6 +123,8 @@ CarrierRobot readCarrier(const fw::ConfigView& robot) {
   if (robot.has("turn_rate_deg_s")) {
     carrier.turn_rate_radps = degreesToRadians(robot.getDouble("turn_rate_deg_s", -720.0, 720.0));
   }
+  if (robot.has("swing_deg")) carrier.swing_rad = degreesToRadians(robot.getDouble("swing_deg", 0.0, 180.0));
+  if (robot.has("swing_period_s")) carrier.swing_period_s = robot.getDouble("swing_period_s", 0.1, 60.0);
   return carrier;
 }
 
@@ -341,7 +343,8 @@ fw::RobotPose CarrierRobot::poseAt(double t_s) const {
   fw::RobotPose pose;
   pose.x_m = x_m + offset.x();
   pose.y_m = y_m + offset.y();
-  pose.theta_rad = std::remainder(theta_rad + turn_rate_radps * t_s, 2.0 * M_PI);
+  const double swing_rad = this->swing_rad * std::sin(2.0 * M_PI * t_s / swing_period_s);
+  pose.theta_rad = std::remainder(theta_rad + turn_rate_radps * t_s + swing_rad, 2.0 * M_PI);
   return pose;
 }
 

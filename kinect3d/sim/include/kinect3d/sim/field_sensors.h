@@ -58,6 +58,7 @@ struct LocalisationModel {
   double sigma_xy_m = 0.03;  // error of x and y (1 sigma), ...
   double sigma_theta_rad = 0.017;
   double correlation_s = 1.0;  // ... wandering over about this time
+  double stamp_late_s = 0.0;   // its stamps are this much later than the pose they carry (unknown to fusion)
   // A mislocalised robot: where its localisation believes it stands, beyond the noise, shifted by
   // this and turned by this about itself.
   Eigen::Vector2d bias_xy_m = Eigen::Vector2d::Zero();

@@ -70,12 +70,15 @@ struct SceneObject {
 Eigen::Vector2d walkPath(const std::vector<Eigen::Vector2d>& path_m, double speed_mps, double t_s);
 
 // The robot carrying the sensors: its pose in the field at t = 0, a path it drives (its centre
-// walks the waypoints like an obstacle) and a constant turn rate.
+// walks the waypoints like an obstacle), a constant turn rate and a swing of its heading back and
+// forth about it (a robot keeping its face to the ball).
 struct CarrierRobot {
   double x_m = 0.0, y_m = 0.0, theta_rad = 0.0;
   std::vector<Eigen::Vector2d> path_m;  // waypoints in the field frame; the first is (x_m, y_m)
   double speed_mps = 0.0;
   double turn_rate_radps = 0.0;
+  double swing_rad = 0.0;       // the heading swings by up to this either way, sinusoidally, ...
+  double swing_period_s = 1.0;  // ... once over this
 
   // Its pose at scene time t (stamp.source_time_s left for the caller).
   fw::RobotPose poseAt(double t_s) const;
