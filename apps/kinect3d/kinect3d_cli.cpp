@@ -65,6 +65,9 @@ void runFuse(const kinect3d::RecordedFiles& files, const fw::Config& config, con
   fw::logInfo("fuse", std::to_string(run.updates.size()) + " updates, " + std::to_string(with_ball) +
                           " with a ball; omni latency behind the Kinect " +
                           (run.omni_latency_s ? std::to_string(std::lround(1000 * *run.omni_latency_s)) + " ms"
+                                              : std::string("not learnt")) +
+                          ", pose latency " +
+                          (run.pose_latency_s ? std::to_string(std::lround(1000 * *run.pose_latency_s)) + " ms"
                                               : std::string("not learnt")));
 }
 

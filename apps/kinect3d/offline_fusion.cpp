@@ -88,6 +88,7 @@ FusionRun fuseRecorded(const fw::Config& config, const RecordedFiles& files) {
         run.updates.push_back({none->stamp.source_time_s, std::nullopt});
       } else if (const auto* event = std::get_if<fw::Event>(&entry.item)) {
         if (event->source == "fusion" && event->kind == "omni_latency") run.omni_latency_s = event->value;
+        if (event->source == "fusion" && event->kind == "pose_latency") run.pose_latency_s = event->value;
       }
     }
     if (refused > 0)

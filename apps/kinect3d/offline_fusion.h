@@ -25,6 +25,7 @@ struct FusionRun {
   // (no rejections: the plugin publishes none).
   std::vector<fusion::FusionUpdate> updates;
   std::optional<double> omni_latency_s;  // what the fusion last said it learnt, relative to the Kinect
+  std::optional<double> pose_latency_s;  // likewise the pose's
 };
 
 // Hands every input of the files to its plugin (fw::Host::replay) in source-time order, as a robot

@@ -42,7 +42,7 @@ constexpr double kStillBearingRate_radps = 0.15;
 constexpr double kStillDistanceRate_mps = 0.1;
 constexpr int kRestingReadings = 10;
 constexpr double kRestingSpread_m = 0.3;
-constexpr double kHeadingErrorSharedBy = 30.0;  // omni readings: a second at 30 Hz
+constexpr double kHeadingErrorSharedBy = 30.0;  // readings: a second at 30 Hz
 // Learnt latency is never trusted to better than this (the omni's exposure and the examples' spread).
 constexpr double kMinTimingSigma_s = 0.005;
 // The world's ball moves to another confirmed track when its own has had no support this long.
@@ -251,6 +251,19 @@ std::optional<LatencyEstimator::Fit> BallFusion::omniLatency() const {
   return fit;
 }
 
+std::optional<LatencyEstimator::Fit> BallFusion::poseLatency() const {
+  if (!config_.pose.estimate_latency) return std::nullopt;
+  const std::optional<LatencyEstimator::Fit> fit = state_.pose_latency.fit(config_.pose.timing_sigma_s);
+  if (!fit || std::abs(fit->latency_s) > kLatencyMaxOffset_s) return std::nullopt;
+  return fit;
+}
+
+fw::RobotPose BallFusion::poseAt(double t_s) const {
+  // A pose stamped late shows the robot of an earlier time: the one for t is stamped that much later.
+  const std::optional<LatencyEstimator::Fit> learnt = poseLatency();
+  return poses_.at(t_s + (learnt ? learnt->latency_s : 0.0));
+}
+
 void BallFusion::addPose(const fw::RobotPose& pose) {
   fw::RobotPose corrected = pose_blend_.add(pose);
   corrected.stamp.source_time_s -= config_.pose.latency_s;
@@ -273,7 +286,7 @@ const FusionUpdate& BallFusion::addOmniFrame(double stamp_s, const std::vector<f
   const double t = stamp_s - config_.omni.latency_s - learnt_s;
   if (!poses_.empty()) {
     for (const fw::OmniRobotObservation& robot : robots) {
-      seen_robots_.push_back(seenRobot_F(robot, poses_.at(t), config_.omni, t));
+      seen_robots_.push_back(seenRobot_F(robot, poseAt(t), config_.omni, t));
     }
   }
   while (!seen_robots_.empty() && seen_robots_.front().time_s < t - kSeenRobotsKept_s) seen_robots_.pop_front();
@@ -513,9 +526,8 @@ std::vector<BallFusion::Candidate> BallFusion::candidatesOf(const Frame& frame, 
     candidates.push_back(std::move(c));
   }
   for (const fw::OmniBallObservation& ball : frame.omni) {
-    auto omni =
-        std::make_unique<OmniMeasurement>(ball, pose, poses_.at(frame.time_s + OmniMeasurement::kPoseRateStep_s),
-                                          config_.omni, config_.pose, r, frame.omni_timing_sigma_s);
+    auto omni = std::make_unique<OmniMeasurement>(ball, pose, poseAt(frame.time_s + OmniMeasurement::kPoseRateStep_s),
+                                                  config_.omni, config_.pose, r, frame.omni_timing_sigma_s);
     Candidate c{Source::kOmni, nullptr, omni->groundBall_F(), groundCovariance(*omni, ball, pose)};
     c.measurement = std::move(omni);
     c.omni = &ball;
@@ -526,7 +538,7 @@ std::vector<BallFusion::Candidate> BallFusion::candidatesOf(const Frame& frame, 
 
 void BallFusion::process(const Frame& frame) {
   const double t = frame.time_s;
-  const fw::RobotPose pose = poses_.at(t);
+  const fw::RobotPose pose = poseAt(t);
   State& state = state_;
   state.update = FusionUpdate{t, std::nullopt};
   if (frame.team_world_ball) {
@@ -596,6 +608,7 @@ void BallFusion::process(const Frame& frame) {
     Track& track = state.tracks[pair.track];
     track.colour_confirmed |= c.colour == fw::ColourVerdict::kConfirmed;
     if (c.source == Source::kOmni && track.id == state.world_id) learnLatency(track, c, t, frame.omni_latency_s);
+    if (c.kinect && track.id == state.world_id) learnPoseLatency(track, c, t);
     if (c.sighting) track.keepSighting(*c.sighting, kLatencyKinectWithin_s);
     const Eigen::Vector3d before_F = BallFilter::likeliest(branches[pair.track]).x.head<3>();
     track.filter.update(branches[pair.track], t, *c.measurement);
@@ -802,7 +815,7 @@ void BallFusion::judgeTeammateBySight(const TeammateSightings& sightings) {
     Eigen::Vector2d xy_F;
     Eigen::Matrix2d covariance_m2;
   };
-  const fw::RobotPose own_pose = poses_.at(t_s);
+  const fw::RobotPose own_pose = poseAt(t_s);
   const Eigen::Vector2d own_xy(own_pose.x_m, own_pose.y_m);
   const auto poseVariance_m2 = [](const PoseConfig& error, double distance_m) {
     return error.sigma_xy_m * error.sigma_xy_m + std::pow(distance_m * error.sigma_theta_rad, 2);
@@ -1072,6 +1085,57 @@ void BallFusion::learnLatencyFromTurn(const Track& track, const Candidate& candi
   state_.latency.add(residual, variance, turn_rate[0], applied_s);
 }
 
+void BallFusion::learnPoseLatency(const Track& track, const Candidate& candidate, double t) {
+  RestingBall& resting = state_.kinect_resting;
+  const Hypothesis& best = track.filter.best();
+  const double radius_m = config_.motion.radius_m;
+  const Eigen::Vector3d& ball_R = candidate.kinect->position_m;
+  const auto bearing_R = [](const Eigen::Vector3d& p_R) { return std::atan2(-p_R.x(), p_R.y()); };
+  const auto seenFrom = [&](double t_s, const Eigen::Vector3d& p_F) { return poseAt(t_s).T_F_R().inverse() * p_F; };
+  const bool at_rest = best.mode == fw::BallState::kGround && best.x.tail<3>().norm() < kRestingSpeed_mps &&
+                       candidate.kinect->state == fw::BallState::kGround;
+  // A turn moves the ball's bearing, not its distance: a distance off the reference's is another
+  // place, and so is a track that moved away from it.
+  if (!at_rest || resting.track_id != track.id ||
+      (resting.count > 0 &&
+       (std::abs(ball_R.head<2>().norm() - seenFrom(t, resting.mean_F(radius_m)).head<2>().norm()) > kRestingSpread_m ||
+        (best.x.head<2>() - resting.mean_F(radius_m).head<2>()).norm() > kRestingSpread_m))) {
+    resting = RestingBall{};
+    if (!at_rest) return;
+    resting.track_id = track.id;
+  }
+  // How fast the pose alone turns and moves a ball lying at p_F in the robot's view.
+  const auto poseRates = [&](const Eigen::Vector3d& p_F) {
+    constexpr double kStep_s = OmniMeasurement::kPoseRateStep_s;
+    const Eigen::Vector3d now_R = seenFrom(t, p_F), later_R = seenFrom(t + kStep_s, p_F);
+    return Eigen::Vector2d(fw::wrapAngle(bearing_R(later_R) - bearing_R(now_R)) / kStep_s,
+                           (later_R.head<2>().norm() - now_R.head<2>().norm()) / kStep_s);
+  };
+  const Eigen::Vector2d still = poseRates(candidate.p_F);
+  // Standing still, the pose maps the ball to where it lies whatever the latency: that is the reference.
+  if (std::abs(still[0]) < kStillBearingRate_radps && std::abs(still[1]) < kStillDistanceRate_mps) {
+    resting.sum_xy_F += candidate.p_F.head<2>();
+    ++resting.count;
+    return;
+  }
+  if (resting.count < kRestingReadings) return;
+  // Turning, a late pose is one from before: the reference's bearing predicted through it lags the
+  // Kinect's by the pose's rate times (L - applied). The estimator reads residual = -rate (L - applied).
+  const Eigen::Vector3d reference_F = resting.mean_F(radius_m);
+  const double turn_rate = poseRates(reference_F)[0];
+  const double residual = fw::wrapAngle(bearing_R(ball_R) - bearing_R(seenFrom(t, reference_F)));
+  // The Kinect's bearing noise, the reference's mean's, and the pose's heading error since the
+  // reference, shared by a second of readings (learnLatencyFromTurn).
+  const double rho2 = std::max(ball_R.head<2>().squaredNorm(), 1e-6);
+  const Eigen::Vector2d d_bearing(-ball_R.y() / rho2, ball_R.x() / rho2);
+  const double kinect_variance = d_bearing.dot(candidate.kinect->covariance_m2.topLeftCorner<2, 2>() * d_bearing);
+  const double variance =
+      kinect_variance * (1.0 + 1.0 / resting.count) + kHeadingErrorSharedBy * std::pow(config_.pose.sigma_theta_rad, 2);
+  if (std::abs(residual) > kLatencyMaxOffset_s * std::abs(turn_rate) + 3.0 * std::sqrt(variance)) return;
+  const std::optional<LatencyEstimator::Fit> applied = poseLatency();
+  state_.pose_latency.add(residual, variance, -turn_rate, applied ? applied->latency_s : 0.0);
+}
+
 std::vector<Hypothesis> BallFusion::initialHypotheses(const Candidate& candidate) const {
   Hypothesis h;
   h.x.head<3>() = candidate.p_F;
@@ -1167,7 +1231,7 @@ std::optional<fw::FusedBall> BallFusion::worldBall(double t_s) const {
   ball.position_F = best.x.head<3>();
   ball.velocity_F = best.x.tail<3>();
   ball.covariance_F = best.P.topLeftCorner<3, 3>();
-  ball.position_R = poses_.at(t_s).T_F_R().inverse() * ball.position_F;
+  ball.position_R = poseAt(t_s).T_F_R().inverse() * ball.position_F;
   ball.state = filter.hopsNoticeably(best) ? fw::BallState::kAir : fw::BallState::kGround;
   ball.air_probability = filter.airProbability();
   if (t_s - world->last_kinect_s <= kSourceRecent_s) ball.sources.push_back(config_.kinect.source);
@@ -1214,7 +1278,7 @@ std::optional<fw::FusedBall> BallFusion::teammatePrior(double t_s) const {
       (pose.sigma_xy_m * pose.sigma_xy_m + std::pow(range_m * pose.sigma_theta_rad, 2) + drift_m * drift_m) *
       Eigen::Matrix2d::Identity();
   ball.covariance_F(2, 2) += drift_m * drift_m;
-  ball.position_R = poses_.at(t_s).T_F_R().inverse() * ball.position_F;
+  ball.position_R = poseAt(t_s).T_F_R().inverse() * ball.position_F;
   ball.sources = {teammatePriorSource(freshest->name)};
   ball.age_s = freshest_age_s;
   ball.stamp.source_time_s = t_s;

@@ -58,6 +58,8 @@ FusionConfig readFusionConfig(const fw::ConfigView& block) {
   config.pose.sigma_xy_m = pose.getDouble("sigma_xy_m", 0.0, 5.0);
   config.pose.sigma_theta_rad = fw::degreesToRadians(pose.getDouble("sigma_theta_deg", 0.0, 90.0));
   config.pose.odometry_blend_s = pose.getDouble("odometry_blend_s", 0.0, 10.0);
+  config.pose.estimate_latency = pose.getBool("estimate_latency");
+  config.pose.timing_sigma_s = pose.getDouble("timing_sigma_s", 0.0, 1.0);
 
   const fw::ConfigView track = block.child("track");
   config.track.gate_sigma = track.getDouble("gate_sigma", 1.0, 100.0);

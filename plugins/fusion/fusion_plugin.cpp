@@ -154,21 +154,30 @@ class FusionPlugin : public fw::Plugin {
         {name_, standing.discounted ? "teammate_discounted" : "teammate_trusted", text, {t_s, fw::wallClockNow_s()}});
   }
 
-  // Follows the omni camera's latency as it is learnt: an event "omni_latency" with the latency as its
-  // value whenever it has moved by a millisecond (the match log keeps its course), stamped with the
-  // update that learnt it; the console is told once, when it is first learnt.
+  // Follows the omni camera's and the pose's latencies as they are learnt: an event "omni_latency" or
+  // "pose_latency" with the latency as its value whenever it has moved by a millisecond (the match log
+  // keeps its course), stamped with the update that learnt it; the console is told once, when it is
+  // first learnt.
   void reportLatency(double t_s) {
-    static constexpr double kLatencyNews_s = 0.001;
-    const std::optional<fusion::LatencyEstimator::Fit> latency = fusion_.omniLatency();
-    if (!latency || (said_latency_s_ && std::abs(latency->latency_s - *said_latency_s_) < kLatencyNews_s)) return;
-    const std::string message = "omni camera's stamps are " + std::to_string(std::lround(1000 * latency->latency_s)) +
-                                " +- " + std::to_string(std::lround(1000 * latency->sigma_s)) +
-                                " ms late against the Kinect's (learnt from " +
-                                std::to_string(fusion_.omniLatencyExamples()) +
-                                " bearings and distances of a ball both sensors saw); compensated";
-    if (!said_latency_s_) fw::logInfo(name_, message);
-    said_latency_s_ = latency->latency_s;
-    world_.publishEvent({name_, "omni_latency", message, {t_s, fw::wallClockNow_s()}, latency->latency_s});
+    const auto news = [&](const char* kind, const std::optional<fusion::LatencyEstimator::Fit>& latency,
+                          const std::string& what, const std::string& from, std::optional<double>& said_s) {
+      static constexpr double kLatencyNews_s = 0.001;
+      if (!latency || (said_s && std::abs(latency->latency_s - *said_s) < kLatencyNews_s)) return;
+      const std::string message = what + " stamps are " + std::to_string(std::lround(1000 * latency->latency_s)) +
+                                  " +- " + std::to_string(std::lround(1000 * latency->sigma_s)) +
+                                  " ms late against the Kinect's (learnt from " + from + "); compensated";
+      if (!said_s) fw::logInfo(name_, message);
+      said_s = latency->latency_s;
+      world_.publishEvent({name_, kind, message, {t_s, fw::wallClockNow_s()}, latency->latency_s});
+    };
+    news("omni_latency", fusion_.omniLatency(), "omni camera's",
+         std::to_string(fusion_.omniLatencyExamples()) + " bearings and distances of a ball both sensors saw",
+         said_omni_latency_s_);
+    news("pose_latency", fusion_.poseLatency(), "pose's",
+         std::to_string(fusion_.poseLatencyExamples()) +
+             " bearings of a ball at rest the Kinect saw while the robot "
+             "turned",
+         said_pose_latency_s_);
   }
 
   // Follows the ball's bounce as it is learnt (fusion.motion.learn_bounce): an event "ball_bounce"
@@ -196,11 +205,12 @@ class FusionPlugin : public fw::Plugin {
   std::optional<fw::SensorPose> kinect_pose_;        // the Kinect's pose_in_robot, when configured
   std::optional<fusion::AlignmentCheck> alignment_;  // once alignmentCheck() made it
   std::uint64_t seen_version_ = 0;
-  std::uint64_t cursor_ = 0;                 // what was read of the measurements (fw::WorldState)
-  std::map<int, bool> teammate_discounted_;  // as last said, by robot id
-  std::set<int> said_ignored_;               // teammates fusion.team.ignore names, heard and said so
-  std::optional<double> said_latency_s_;     // the omni latency last said
-  int said_bounces_ = 0;                     // the bounces learnt when last said
+  std::uint64_t cursor_ = 0;                   // what was read of the measurements (fw::WorldState)
+  std::map<int, bool> teammate_discounted_;    // as last said, by robot id
+  std::set<int> said_ignored_;                 // teammates fusion.team.ignore names, heard and said so
+  std::optional<double> said_omni_latency_s_;  // the omni latency last said
+  std::optional<double> said_pose_latency_s_;  // the pose's
+  int said_bounces_ = 0;                       // the bounces learnt when last said
 };
 
 }  // namespace

@@ -129,6 +129,11 @@ class BallFusion {
   // fusion.omni.latency_s +- timing_sigma_s and the examples); and from how many examples.
   std::optional<LatencyEstimator::Fit> omniLatency() const;
   int omniLatencyExamples() const { return state_.latency.examples(); }
+  // The pose's latency relative to the Kinect (seconds its stamps are late beyond fusion.pose.latency_s)
+  // with its standard error, once learnt from a ball at rest the Kinect sees while the robot turns;
+  // and from how many examples.
+  std::optional<LatencyEstimator::Fit> poseLatency() const;
+  int poseLatencyExamples() const { return state_.pose_latency.examples(); }
   // The ball's bounce as learnt from the bounces this robot's Kinect saw (fusion.motion.learn_bounce;
   // until it has seen one, and without learning, the configured one), and from how many.
   const MotionConfig& bounce() const { return state_.bounce.motion(); }
@@ -205,8 +210,9 @@ class BallFusion {
     Eigen::Vector2d teammate_xy = Eigen::Vector2d::Zero();
     PoseConfig pose_error;
   };
-  // Where the world's ball lay, from the omni's balls while the robot stood still and the ball lay
-  // at rest: when no Kinect sees the ball, a turning robot's omni bearings are timed against it.
+  // Where the world's ball lay, from one sensor's balls while the robot stood still and the ball lay
+  // at rest: a turning robot's bearings of it are timed against it (the omni's while no Kinect sees
+  // the ball, the pose's by the Kinect's).
   struct RestingBall {
     int track_id = 0;  // 0: none
     Eigen::Vector2d sum_xy_F = Eigen::Vector2d::Zero();
@@ -216,9 +222,11 @@ class BallFusion {
   struct State {
     std::vector<Track> tracks;
     int next_id = 1;
-    int world_id = 0;  // 0: no world ball
-    LatencyEstimator latency;
-    RestingBall resting;
+    int world_id = 0;          // 0: no world ball
+    LatencyEstimator latency;  // the omni camera's
+    RestingBall resting;       // the omni's balls of it
+    LatencyEstimator pose_latency;
+    RestingBall kinect_resting;            // this robot's Kinect's balls of it
     BounceLearner bounce{MotionConfig{}};  // made from config_.motion by the constructor
     std::map<int, TeammateStanding> teammates;
     std::map<int, std::deque<Judgement>> judged;            // per teammate, newest last
@@ -275,6 +283,12 @@ class BallFusion {
   // The same from the robot's own turning, while no Kinect sees the ball: the omni bearing of a
   // ball at rest lags the pose's heading by the latency (the pose's clock the reference).
   void learnLatencyFromTurn(const Track& track, const Candidate& candidate, double applied_s);
+  // Teaches the pose's latency from this robot's Kinect ball (at t) on the world's track: while the
+  // robot turns, a ball at rest stays where the Kinect sees it, and the pose it is mapped by, late,
+  // turns it away by the pose's rate times the latency.
+  void learnPoseLatency(const Track& track, const Candidate& candidate, double t);
+  // The robot's pose at t on the reference clock, by its configured latency and the learnt one.
+  fw::RobotPose poseAt(double t_s) const;
 
   // The time-line rule for a frame of source stamped stamp_s (its own clock): true to use it.
   bool onTimeLine(Source source, double stamp_s, double time_s);

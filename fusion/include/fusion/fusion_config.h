@@ -51,6 +51,8 @@ struct PoseConfig {
   double sigma_xy_m = 0.03;  // localisation error, added to every measurement mapped by the pose
   double sigma_theta_rad = 0.0175;
   double odometry_blend_s = 1.0;  // with the wheels' odometry: the localisation followed over this (PoseBlend)
+  bool estimate_latency = true;   // learn the pose's latency relative to the Kinect online (the robot's turns)
+  double timing_sigma_s = 0.05;   // how far its stamps may be off until the latency is learnt
 };
 
 struct TrackConfig {
