@@ -1091,14 +1091,16 @@ void BallFusion::learnPoseLatency(const Track& track, const Candidate& candidate
   const double radius_m = config_.motion.radius_m;
   const Eigen::Vector3d& ball_R = candidate.kinect->position_m;
   const auto bearing_R = [](const Eigen::Vector3d& p_R) { return std::atan2(-p_R.x(), p_R.y()); };
-  const auto seenFrom = [&](double t_s, const Eigen::Vector3d& p_F) { return poseAt(t_s).T_F_R().inverse() * p_F; };
+  // The pose at t and a step later, looked up once: how the pose alone moves a ball in the robot's view.
+  constexpr double kStep_s = OmniMeasurement::kPoseRateStep_s;
+  const Eigen::Isometry3d T_R_F = poseAt(t).T_F_R().inverse(), T_R_F_later = poseAt(t + kStep_s).T_F_R().inverse();
   const bool at_rest = best.mode == fw::BallState::kGround && best.x.tail<3>().norm() < kRestingSpeed_mps &&
                        candidate.kinect->state == fw::BallState::kGround;
   // A turn moves the ball's bearing, not its distance: a distance off the reference's is another
   // place, and so is a track that moved away from it.
   if (!at_rest || resting.track_id != track.id ||
       (resting.count > 0 &&
-       (std::abs(ball_R.head<2>().norm() - seenFrom(t, resting.mean_F(radius_m)).head<2>().norm()) > kRestingSpread_m ||
+       (std::abs(ball_R.head<2>().norm() - (T_R_F * resting.mean_F(radius_m)).head<2>().norm()) > kRestingSpread_m ||
         (best.x.head<2>() - resting.mean_F(radius_m).head<2>()).norm() > kRestingSpread_m))) {
     resting = RestingBall{};
     if (!at_rest) return;
@@ -1106,8 +1108,7 @@ void BallFusion::learnPoseLatency(const Track& track, const Candidate& candidate
   }
   // How fast the pose alone turns and moves a ball lying at p_F in the robot's view.
   const auto poseRates = [&](const Eigen::Vector3d& p_F) {
-    constexpr double kStep_s = OmniMeasurement::kPoseRateStep_s;
-    const Eigen::Vector3d now_R = seenFrom(t, p_F), later_R = seenFrom(t + kStep_s, p_F);
+    const Eigen::Vector3d now_R = T_R_F * p_F, later_R = T_R_F_later * p_F;
     return Eigen::Vector2d(fw::wrapAngle(bearing_R(later_R) - bearing_R(now_R)) / kStep_s,
                            (later_R.head<2>().norm() - now_R.head<2>().norm()) / kStep_s);
   };
@@ -1123,7 +1124,7 @@ void BallFusion::learnPoseLatency(const Track& track, const Candidate& candidate
   // Kinect's by the pose's rate times (L - applied). The estimator reads residual = -rate (L - applied).
   const Eigen::Vector3d reference_F = resting.mean_F(radius_m);
   const double turn_rate = poseRates(reference_F)[0];
-  const double residual = fw::wrapAngle(bearing_R(ball_R) - bearing_R(seenFrom(t, reference_F)));
+  const double residual = fw::wrapAngle(bearing_R(ball_R) - bearing_R(T_R_F * reference_F));
   // The Kinect's bearing noise, the reference's mean's, and the pose's heading error since the
   // reference, shared by a second of readings (learnLatencyFromTurn).
   const double rho2 = std::max(ball_R.head<2>().squaredNorm(), 1e-6);
