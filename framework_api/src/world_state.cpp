@@ -133,6 +133,17 @@ std::optional<SensorPose> WorldState::sensorPose(const std::string& source) cons
   return valueAt(sensor_poses_, source);
 }
 
+void WorldState::publishLearntLatencies(const LearntLatencies& latencies) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  learnt_latencies_ = latencies;
+  ++version_;
+}
+
+LearntLatencies WorldState::learntLatencies() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return learnt_latencies_;
+}
+
 void WorldState::publishTeamMessage(const TeamMessage& message) {
   std::lock_guard<std::mutex> lock(mutex_);
   team_messages_[message.robot_id] = message;

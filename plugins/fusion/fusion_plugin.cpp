@@ -156,9 +156,11 @@ class FusionPlugin : public fw::Plugin {
 
   // Follows the omni camera's and the pose's latencies as they are learnt: an event "omni_latency" or
   // "pose_latency" with the latency as its value whenever it has moved by a millisecond (the match log
-  // keeps its course), stamped with the update that learnt it; the console is told once, when it is
+  // keeps its course), stamped with the update that learnt it, and the two in the world state (the
+  // team plugin places this robot's measurements with them); the console is told once, when it is
   // first learnt.
   void reportLatency(double t_s) {
+    bool moved = false;
     const auto news = [&](const char* kind, const std::optional<fusion::LatencyEstimator::Fit>& latency,
                           const std::string& what, const std::string& from, std::optional<double>& said_s) {
       static constexpr double kLatencyNews_s = 0.001;
@@ -168,6 +170,7 @@ class FusionPlugin : public fw::Plugin {
                                   " ms late against the Kinect's (learnt from " + from + "); compensated";
       if (!said_s) fw::logInfo(name_, message);
       said_s = latency->latency_s;
+      moved = true;
       world_.publishEvent({name_, kind, message, {t_s, fw::wallClockNow_s()}, latency->latency_s});
     };
     news("omni_latency", fusion_.omniLatency(), "omni camera's",
@@ -178,6 +181,7 @@ class FusionPlugin : public fw::Plugin {
              " bearings of a ball at rest the Kinect saw while the robot "
              "turned",
          said_pose_latency_s_);
+    if (moved) world_.publishLearntLatencies({said_omni_latency_s_, said_pose_latency_s_});
   }
 
   // Follows the ball's bounce as it is learnt (fusion.motion.learn_bounce): an event "ball_bounce"

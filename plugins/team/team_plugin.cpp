@@ -219,9 +219,11 @@ class TeamNetwork {
 
   // This robot's own measurements since the last step (the fusion's inputs, in their order): each
   // Kinect ball and omni ray placed in the field with the pose at its time. Times are the fusion's:
-  // each source's stamps less its known latency (fusion.<source>.latency_s), so that a teammate
-  // places what this robot saw where the robot stood when it saw it.
+  // each source's stamps less its configured latency (fusion.<source>.latency_s) and what the fusion
+  // has learnt beyond it (fw::LearntLatencies), so that a teammate places what this robot saw where
+  // the robot stood when it saw it.
   void readOwnMeasurements() {
+    learnt_ = world_.learntLatencies();
     for (const fw::WorldState::Measurement& measurement : world_.measurementsSince(&cursor_)) {
       if (const auto* pose = std::get_if<fw::RobotPose>(&measurement)) {
         fw::RobotPose blended = pose_blend_.add(*pose);
@@ -240,11 +242,10 @@ class TeamNetwork {
         omni_clock_.add(omni->stamp);
         for (const fw::OmniBallObservation& ball : omni->balls) omni_rays_.push_back(rayOf(ball, omni->stamp));
         // The robots of its newest image only: teammates judge this robot's localisation by them.
-        const double seen_s = omni->stamp.source_time_s - fusion_.omni.latency_s;
+        const double seen_s = omniSeen_s(omni->stamp.source_time_s);
         robots_seen_.clear();
         for (const fw::OmniRobotObservation& robot : omni->robots) {
-          robots_seen_.push_back(
-              fusion::seenRobot_F(robot, poses_.at(seen_s), fusion_.omni, omni_clock_.toHost(seen_s)));
+          robots_seen_.push_back(fusion::seenRobot_F(robot, poseAt(seen_s), fusion_.omni, omni_clock_.toHost(seen_s)));
         }
       }
     }
@@ -257,18 +258,23 @@ class TeamNetwork {
     if (items.size() > kMaxObservationsPerMessage) items.erase(items.begin(), items.end() - kMaxObservationsPerMessage);
   }
 
+  // When the omni camera took the image stamped stamp_s, on its own clock.
+  double omniSeen_s(double stamp_s) const { return stamp_s - fusion_.omni.latency_s - learnt_.omni_s.value_or(0.0); }
+  // The robot's pose at t_s: a pose stamped late shows the robot of an earlier time, so the one for
+  // t_s is stamped that much later (as fusion::BallFusion::poseAt).
+  fw::RobotPose poseAt(double t_s) const { return poses_.at(t_s + learnt_.pose_s.value_or(0.0)); }
+
   fw::BallObservation toField(const fw::BallObservation& ball_R) const {
     const double seen_s = ball_R.stamp.source_time_s - fusion_.kinect.latency_s;
-    fw::BallObservation ball = fusion::kinectBall_F(ball_R, poses_.at(seen_s));
+    fw::BallObservation ball = fusion::kinectBall_F(ball_R, poseAt(seen_s));
     ball.stamp.source_time_s = kinect_clock_.toHost(seen_s);
     return ball;
   }
 
   // The omni camera's ray through a ball it reports, placed with the pose at the image's time.
   fw::BallRay rayOf(const fw::OmniBallObservation& ball, const fw::Stamp& stamp) const {
-    const double seen_s = stamp.source_time_s - fusion_.omni.latency_s;
-    return fusion::omniRay_F(ball, poses_.at(seen_s), fusion_.omni, fusion_.motion.radius_m,
-                             omni_clock_.toHost(seen_s));
+    const double seen_s = omniSeen_s(stamp.source_time_s);
+    return fusion::omniRay_F(ball, poseAt(seen_s), fusion_.omni, fusion_.motion.radius_m, omni_clock_.toHost(seen_s));
   }
 
   void send() {
@@ -281,7 +287,8 @@ class TeamNetwork {
     message.sent_time_s = now_s;
     if (newest_pose_ && pose_clock_.known()) {
       message.pose = *newest_pose_;
-      message.pose->stamp.source_time_s = pose_clock_.toHost(newest_pose_->stamp.source_time_s);
+      message.pose->stamp.source_time_s =
+          pose_clock_.toHost(newest_pose_->stamp.source_time_s - learnt_.pose_s.value_or(0.0));
       message.pose_sigma_xy_m = fusion_.pose.sigma_xy_m;
       message.pose_sigma_theta_rad = fusion_.pose.sigma_theta_rad;
     }
@@ -299,7 +306,7 @@ class TeamNetwork {
       if (const std::optional<fw::BallTrajectory> flight = world_.trajectory(fusion_.kinect.source);
           flight && flight->touchdown) {
         const double latency_s = fusion_.kinect.latency_s;
-        const fw::RobotPose pose = poses_.at(flight->time_s - latency_s);
+        const fw::RobotPose pose = poseAt(flight->time_s - latency_s);
         const Eigen::Vector3d point_F =
             pose.fieldFromRobot({flight->touchdown->point_m.x(), flight->touchdown->point_m.y(), 0.0});
         message.touchdown = fw::Touchdown{
@@ -342,6 +349,7 @@ class TeamNetwork {
   std::uint64_t cursor_ = 0;      // what was read of the measurements (fw::WorldState)
   fusion::PoseBlend pose_blend_;  // the pose mapped with and sent is the one the fusion maps with
   fw::PoseHistory poses_;
+  fw::LearntLatencies learnt_;  // the fusion's, as last read
   std::optional<fw::RobotPose> newest_pose_;
   fw::HostClockOf pose_clock_, kinect_clock_, omni_clock_;
   std::vector<fw::BallObservation> kinect_balls_;  // since the last message, field frame, host clock

@@ -11,7 +11,7 @@
 #include <cstddef>
 #include <cstdint>
 
-#define FW_PLUGIN_API_MAJOR 4
+#define FW_PLUGIN_API_MAJOR 5
 #define FW_PLUGIN_API_MINOR 0
 
 #define FW_PLUGIN_DESCRIPTOR_SYMBOL "fw_plugin_descriptor"

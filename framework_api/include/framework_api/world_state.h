@@ -30,6 +30,14 @@ struct FusedBallCleared {
   Stamp stamp;
 };
 
+// What the fusion has learnt of its inputs' stamps: how many seconds each is late beyond its
+// configured latency (fusion.omni.latency_s, fusion.pose.latency_s), as the fusion applies it; none
+// until learnt. The stages that place the same measurements (the team plugin) place them alike.
+struct LearntLatencies {
+  std::optional<double> omni_s;
+  std::optional<double> pose_s;
+};
+
 // One publication as the journal keeps it, with the host's wall clock when it was published.
 using WorldItem = std::variant<BallFrame, OmniFrame, BallTrajectory, TrajectoryCleared, FusedBall, FusedBallCleared,
                                RobotPose, DepthImage, Event, PluginHealth, TeamMessage>;
@@ -58,6 +66,8 @@ class WorldState {
   // measurements; replaced when it changes.
   void publishSensorPose(const std::string& source, const SensorPose& pose);
   std::optional<SensorPose> sensorPose(const std::string& source) const;
+  void publishLearntLatencies(const LearntLatencies& latencies);
+  LearntLatencies learntLatencies() const;
   // A teammate's message as the team plugin received it, its times on this host's clock.
   void publishTeamMessage(const TeamMessage& message);
   // The newest message of each teammate, by robot id.
@@ -166,6 +176,7 @@ class WorldState {
   std::optional<FusedBall> fused_ball_;
   History<RobotPose> robot_poses_;
   std::map<std::string, SensorPose> sensor_poses_;
+  LearntLatencies learnt_latencies_;
   std::map<int, TeamMessage> team_messages_;
   std::deque<Place> places_;       // the newest kMeasurementsKept measurements
   std::uint64_t first_place_ = 0;  // the number of places_.front()
