@@ -157,30 +157,38 @@ class FusionPlugin : public fw::Plugin {
   // Follows the omni camera's and the pose's latencies as they are learnt: an event "omni_latency" or
   // "pose_latency" with the latency as its value whenever it has moved by a millisecond (the match log
   // keeps its course), stamped with the update that learnt it, and the two in the world state (the
-  // team plugin places this robot's measurements with them); the console is told once, when it is
-  // first learnt.
+  // team plugin places this robot's measurements with them). The console is told once, when the
+  // standard error has come to half its prior's (timing_sigma_s): the first estimates, from a few
+  // readings, are mostly the configured latency and that prior.
   void reportLatency(double t_s) {
     bool moved = false;
     const auto news = [&](const char* kind, const std::optional<fusion::LatencyEstimator::Fit>& latency,
-                          const std::string& what, const std::string& from, std::optional<double>& said_s) {
+                          const std::string& what, const std::string& from, double prior_sigma_s,
+                          std::optional<double>& said_s, bool& told) {
       static constexpr double kLatencyNews_s = 0.001;
-      if (!latency || (said_s && std::abs(latency->latency_s - *said_s) < kLatencyNews_s)) return;
+      if (!latency) return;
+      const bool news = !said_s || std::abs(latency->latency_s - *said_s) >= kLatencyNews_s;
+      const bool tell = !told && latency->sigma_s <= 0.5 * prior_sigma_s;
+      if (!news && !tell) return;
       const std::string message = what + " stamps are " + std::to_string(std::lround(1000 * latency->latency_s)) +
                                   " +- " + std::to_string(std::lround(1000 * latency->sigma_s)) +
                                   " ms late against the Kinect's (learnt from " + from + "); compensated";
-      if (!said_s) fw::logInfo(name_, message);
+      if (tell) {
+        fw::logInfo(name_, message);
+        told = true;
+      }
+      if (!news) return;
       said_s = latency->latency_s;
       moved = true;
       world_.publishEvent({name_, kind, message, {t_s, fw::wallClockNow_s()}, latency->latency_s});
     };
     news("omni_latency", fusion_.omniLatency(), "omni camera's",
          std::to_string(fusion_.omniLatencyExamples()) + " bearings and distances of a ball both sensors saw",
-         said_omni_latency_s_);
+         config_.omni.timing_sigma_s, said_omni_latency_s_, told_omni_latency_);
     news("pose_latency", fusion_.poseLatency(), "pose's",
          std::to_string(fusion_.poseLatencyExamples()) +
-             " bearings of a ball at rest the Kinect saw while the robot "
-             "turned",
-         said_pose_latency_s_);
+             " bearings of a ball at rest the Kinect saw while the robot turned",
+         config_.pose.timing_sigma_s, said_pose_latency_s_, told_pose_latency_);
     if (moved) world_.publishLearntLatencies({said_omni_latency_s_, said_pose_latency_s_});
   }
 
@@ -214,7 +222,9 @@ class FusionPlugin : public fw::Plugin {
   std::set<int> said_ignored_;                 // teammates fusion.team.ignore names, heard and said so
   std::optional<double> said_omni_latency_s_;  // the omni latency last said
   std::optional<double> said_pose_latency_s_;  // the pose's
-  int said_bounces_ = 0;                       // the bounces learnt when last said
+  bool told_omni_latency_ = false;             // whether the console was told of it
+  bool told_pose_latency_ = false;
+  int said_bounces_ = 0;  // the bounces learnt when last said
 };
 
 }  // namespace
