@@ -674,6 +674,12 @@ TEST(TeamWorlds, TheTeamReportPlaysOnlyTheWorldsNamedAndRefusesOneItDoesNotHave)
   EXPECT_FALSE(std::filesystem::exists(dir.path() / "report.md"));
 }
 
+// How far a ball at ball_F lies beside a ray, in degrees: positive counter-clockwise of it.
+double degreesBeside(const fw::BallRay& ray, const Eigen::Vector2d& ball_F) {
+  const Eigen::Vector2d along = ray.direction_F.head<2>(), to_ball = ball_F - ray.origin_F.head<2>();
+  return std::atan2(along.x() * to_ball.y() - along.y() * to_ball.x(), along.dot(to_ball)) * 180.0 / M_PI;
+}
+
 TEST(TeamPlugin, AnOmniRayIsPlacedWithThePoseWhenItsImageWasTakenNotWhenItWasStamped) {
   // The robot turns on the spot at 90 degrees a second, a ball lying 3 m away (turn_at_rest). Its
   // omni camera's stamps are 0.1 s later than its images, as its file says (fusion.omni.latency_s).
@@ -708,11 +714,7 @@ TEST(TeamPlugin, AnOmniRayIsPlacedWithThePoseWhenItsImageWasTakenNotWhenItWasSta
   for (const fw::JournalEntry& entry : fw::MatchLogReader(onlySubfolder(logs)).entries()) {
     const auto* message = std::get_if<fw::TeamMessage>(&entry.item);
     if (message == nullptr) continue;
-    for (const fw::BallRay& ray : message->omni_rays) {
-      const Eigen::Vector2d along = ray.direction_F.head<2>(), to_ball = ball_F - ray.origin_F.head<2>();
-      beside_deg.push_back(std::atan2(along.x() * to_ball.y() - along.y() * to_ball.x(), along.dot(to_ball)) * 180.0 /
-                           M_PI);
-    }
+    for (const fw::BallRay& ray : message->omni_rays) beside_deg.push_back(degreesBeside(ray, ball_F));
   }
   ASSERT_GE(beside_deg.size(), 100u) << "the 5 s scene's rays, 30 a second, a few missed or lost";
   double sum = 0.0;
@@ -734,9 +736,10 @@ TEST(TeamPlugin, WhatARobotSendsIsPlacedWithTheLatenciesItsFusionLearnt) {
   // late, which its file does not say (fusion.pose.latency_s and fusion.omni.latency_s 0). Its fusion
   // learns both, the pose's from the ball at rest while the robot turns, the omni's from the ball
   // both sensors see (docs/fusion.md, "Time"); from then on the team plugin places the Kinect's ball
-  // and the omni camera's rays with them too. With the stamps as they come, the turn (up to 50 deg/s)
-  // would put the ball sent to a teammate up to 0.13 m off where it lies, and its rays up to 4.5
-  // degrees beside it. The localisation is exact here, so that what is left is the lateness alone.
+  // and the omni camera's rays with them too. With the pose as stamped, the turn (up to 50 deg/s)
+  // would put the ball sent to a teammate up to 0.13 m off where it lies; with the omni's image time
+  // as stamped, its rays up to 2 degrees beside it. The localisation is exact here, so that what is
+  // left is the lateness alone.
   const ScopedTempDir dir;
   const std::string team_key = writeKey(dir, "team.key", team::TeamKey::random());
   constexpr int kPort = 50438;
@@ -786,7 +789,8 @@ TEST(TeamPlugin, WhatARobotSendsIsPlacedWithTheLatenciesItsFusionLearnt) {
   // half a second after both had settled (the omni's is learnt within a second, from the first
   // swing: too few rays before it).
   const Eigen::Vector2d ball_F(0.3, 3.0);
-  const double both_settled_wall_s = std::max(settled_wall_s(pose), settled_wall_s(omni)) + 0.5;
+  const double pose_settled_wall_s = settled_wall_s(pose) + 0.5;
+  const double both_settled_wall_s = std::max(pose_settled_wall_s, settled_wall_s(omni) + 0.5);
   std::vector<double> balls_before_m, balls_after_m, rays_after_deg;
   for (const fw::JournalEntry& entry : fw::MatchLogReader(onlySubfolder(listener_logs)).entries()) {
     const auto* message = std::get_if<fw::TeamMessage>(&entry.item);
@@ -794,14 +798,10 @@ TEST(TeamPlugin, WhatARobotSendsIsPlacedWithTheLatenciesItsFusionLearnt) {
     for (const fw::BallObservation& ball : message->kinect_balls) {
       const double off_m = (ball.position_m.head<2>() - ball_F).norm();
       if (entry.wall_time_s < pose.front().first) balls_before_m.push_back(off_m);
-      if (entry.wall_time_s > settled_wall_s(pose) + 0.5) balls_after_m.push_back(off_m);
+      if (entry.wall_time_s > pose_settled_wall_s) balls_after_m.push_back(off_m);
     }
     if (entry.wall_time_s <= both_settled_wall_s) continue;
-    for (const fw::BallRay& ray : message->omni_rays) {
-      const Eigen::Vector2d along = ray.direction_F.head<2>(), to_ball = ball_F - ray.origin_F.head<2>();
-      rays_after_deg.push_back(
-          std::abs(std::atan2(along.x() * to_ball.y() - along.y() * to_ball.x(), along.dot(to_ball))) * 180.0 / M_PI);
-    }
+    for (const fw::BallRay& ray : message->omni_rays) rays_after_deg.push_back(std::abs(degreesBeside(ray, ball_F)));
   }
   ASSERT_GE(balls_before_m.size(), 20u) << "the Kinect's balls sent before the pose latency was learnt";
   ASSERT_GE(balls_after_m.size(), 30u) << "the Kinect's balls sent after";

@@ -167,9 +167,9 @@ class FusionPlugin : public fw::Plugin {
                           std::optional<double>& said_s, bool& told) {
       static constexpr double kLatencyNews_s = 0.001;
       if (!latency) return;
-      const bool news = !said_s || std::abs(latency->latency_s - *said_s) >= kLatencyNews_s;
+      const bool moved_enough = !said_s || std::abs(latency->latency_s - *said_s) >= kLatencyNews_s;
       const bool tell = !told && latency->sigma_s <= 0.5 * prior_sigma_s;
-      if (!news && !tell) return;
+      if (!moved_enough && !tell) return;
       const std::string message = what + " stamps are " + std::to_string(std::lround(1000 * latency->latency_s)) +
                                   " +- " + std::to_string(std::lround(1000 * latency->sigma_s)) +
                                   " ms late against the Kinect's (learnt from " + from + "); compensated";
@@ -177,7 +177,7 @@ class FusionPlugin : public fw::Plugin {
         fw::logInfo(name_, message);
         told = true;
       }
-      if (!news) return;
+      if (!moved_enough) return;
       said_s = latency->latency_s;
       moved = true;
       world_.publishEvent({name_, kind, message, {t_s, fw::wallClockNow_s()}, latency->latency_s});
@@ -223,8 +223,8 @@ class FusionPlugin : public fw::Plugin {
   std::optional<double> said_omni_latency_s_;  // the omni latency last said
   std::optional<double> said_pose_latency_s_;  // the pose's
   bool told_omni_latency_ = false;             // whether the console was told of it
-  bool told_pose_latency_ = false;
-  int said_bounces_ = 0;  // the bounces learnt when last said
+  bool told_pose_latency_ = false;             // of the pose's
+  int said_bounces_ = 0;                       // the bounces learnt when last said
 };
 
 }  // namespace
