@@ -237,7 +237,8 @@ bool BallRefiner::isBallSized(const Eigen::Vector3d& centroid, const Eigen::Vect
   return widest <= config_.max_size_ratio * 2.0 * r;
 }
 
-Eigen::Vector3d BallRefiner::centreFromDisc(const Eigen::Vector3d& centroid, const Eigen::Vector3d& ray) const {
+Eigen::Vector3d BallRefiner::centreFromDisc(const Eigen::Vector3d& centroid, const Eigen::Vector3d& ray,
+                                            double floor_margin_m) const {
   // Pixels sample the cap evenly in the image, so for a disc of normalised radius a (the edge
   // filter trims the limb, a < 1) the mean depth lies (2/3)(1 - (1 - a^2)^(3/2)) / a^2 of a radius
   // in front of the centre. a is measured from the spread of the points across the ray (the 98th
@@ -254,12 +255,35 @@ Eigen::Vector3d BallRefiner::centreFromDisc(const Eigen::Vector3d& centroid, con
   std::nth_element(radial_.begin(), radial_.begin() + rank, radial_.end());
   const double a = std::clamp(radial_[rank] / std::sqrt(kSpreadQuantile) / r, kMinDisc, 1.0);
   const double cap_depth = (2.0 / 3.0) * (1.0 - std::pow(1.0 - a * a, 1.5)) / (a * a);
-  return centroid + cap_depth * r * ray;
+  const Eigen::Vector3d from_centroid = centroid + cap_depth * r * ray;
+  // A ball on or just over the floor lost its lowest points to the floor band: the centroid of what
+  // is left lies above the cap's, by up to 1 cm for a resting ball beyond 3 m. The shift, for a ball
+  // where the cap puts it, is the mean of the cap sampled evenly across the view less the mean of
+  // its samples above the band. Taken once: iterated to its fixed point (the cut moves with the
+  // centre) it feeds the far ball's noise back, and a resting ball 6 m away came out up to 1 cm low.
+  constexpr int kSamples = 24;  // across the disc, each way
+  if (from_centroid.z() - r >= floor_margin_m) return from_centroid;
+  const Eigen::Vector3d side = ray.cross(Eigen::Vector3d::UnitZ()).normalized();
+  const Eigen::Vector3d up = side.cross(ray);
+  Eigen::Vector3d all = Eigen::Vector3d::Zero(), above = Eigen::Vector3d::Zero();
+  int all_n = 0, above_n = 0;
+  for (int i = 0; i < kSamples; ++i) {
+    for (int j = 0; j < kSamples; ++j) {
+      const double s = a * (2.0 * (i + 0.5) / kSamples - 1.0), h = a * (2.0 * (j + 0.5) / kSamples - 1.0);
+      if (s * s + h * h > a * a) continue;
+      const Eigen::Vector3d offset = r * (s * side + h * up - std::sqrt(1.0 - s * s - h * h) * ray);
+      all += offset, ++all_n;
+      if (from_centroid.z() + offset.z() >= floor_margin_m) above += offset, ++above_n;
+    }
+  }
+  if (above_n == 0) return from_centroid;  // no such ball would show a point above the band
+  return from_centroid - (above / above_n - all / all_n);
 }
 
 std::optional<Eigen::Vector3d> BallRefiner::centreFromOutline(const Eigen::Vector3d& center_R, const DepthFrame& frame,
                                                               const SensorCoverage& coverage,
-                                                              const Eigen::Isometry3d& T_R_S) const {
+                                                              const Eigen::Isometry3d& T_R_S,
+                                                              double floor_margin_m) const {
   constexpr int kLook_px = 4;              // past an end of the ball's pixels, looking for what bounds it
   constexpr double kMinHiddenShare = 0.2;  // of the outline's ends: below this the ball is whole
   constexpr int kMinLimbEnds = 6;
@@ -291,7 +315,9 @@ std::optional<Eigen::Vector3d> BallRefiner::centreFromOutline(const Eigen::Vecto
 
   // The ends of the ball's pixels along each row and column. An end is the ball's limb when beyond
   // it the view passes the ball (no depth, or depth behind the ball); it is hidden when something
-  // nearer or the edge of the sensor's view bounds it.
+  // nearer or the edge of the sensor's view bounds it. An end where the floor band cut the ball's
+  // points off (what lies beyond is at the ball's depth, below floor_margin_m) is neither: the ball
+  // goes on there, as a resting ball's lowest few centimetres do, but its outline is not seen.
   Eigen::Vector2i lo = pixels_.front(), hi = pixels_.front();
   for (const Eigen::Vector2i& px : pixels_) lo = lo.cwiseMin(px), hi = hi.cwiseMax(px);
   constexpr int kNone = -1;
@@ -304,8 +330,9 @@ std::optional<Eigen::Vector3d> BallRefiner::centreFromOutline(const Eigen::Vecto
     extend(row_ends_[px.y() - lo.y()], px.x());
     extend(column_ends_[px.x() - lo.x()], px.y());
   }
-  limb_rays_S_.clear();  // unit rays through the outer edge of limb pixels
-  limb_blank_.clear();   // and whether beyond each the sensor returned nothing at all
+  limb_rays_S_.clear();       // unit rays through the outer edge of limb pixels
+  limb_blank_.clear();        // and whether beyond each the sensor returned nothing at all
+  floor_cut_rays_S_.clear();  // and through what lies beyond the ends the floor band cut
   int hidden = 0;
   auto visit = [&](int u, int v, int du, int dv) {
     bool passes_behind = false;
@@ -320,7 +347,13 @@ std::optional<Eigen::Vector3d> BallRefiner::centreFromOutline(const Eigen::Vecto
         ++hidden;  // something nearer
         return;
       }
-      if (d_m > 0.0 && d_m <= ball_far_m) continue;  // the ball's own edge pixels, dropped by the edge filter
+      if (d_m > 0.0 && d_m <= ball_far_m) {
+        if ((T_R_S * in.backProject(x, y, d_m)).z() < floor_margin_m) {
+          floor_cut_rays_S_.push_back(Eigen::Vector3d((x - in.cx) / in.fx, (y - in.cy) / in.fy, 1.0).normalized());
+          return;
+        }
+        continue;  // the ball's own edge pixels, dropped by the edge filter
+      }
       passes_behind = passes_behind || d_m > 0.0;
     }
     limb_rays_S_.push_back(
@@ -401,16 +434,22 @@ std::optional<Eigen::Vector3d> BallRefiner::centreFromOutline(const Eigen::Vecto
       }
       at = fitOutline(at);
     }
+    // The sectors round the centre holding limb ends; where the floor band cut the ball off, no
+    // limb can be seen, and the sector counts as seen.
     int sectors = 0, kept = 0;
     std::array<bool, kSectors> seen{};
     const Eigen::Vector3d c = c0_S + at.x() * e1 + at.y() * e2;
+    auto see = [&](const Eigen::Vector3d& d) {
+      const Eigen::Vector3d w = d * c.dot(d) - c;  // centre to the ray
+      const double angle = std::atan2(w.dot(e2), w.dot(e1));
+      seen[static_cast<std::size_t>(std::clamp(int((angle + M_PI) / (2 * M_PI) * kSectors), 0, kSectors - 1))] = true;
+    };
     for (std::size_t i = 0; i < limb_rays_S_.size(); ++i) {
       if (notch_[i]) continue;
       ++kept;
-      const Eigen::Vector3d w = limb_rays_S_[i] * c.dot(limb_rays_S_[i]) - c;  // centre to the ray
-      const double angle = std::atan2(w.dot(e2), w.dot(e1));
-      seen[static_cast<std::size_t>(std::clamp(int((angle + M_PI) / (2 * M_PI) * kSectors), 0, kSectors - 1))] = true;
+      see(limb_rays_S_[i]);
     }
+    for (const Eigen::Vector3d& d : floor_cut_rays_S_) see(d);
     for (bool s : seen) sectors += s;
     // Panels are spread over the ball: what they leave is about as wide one way as the other. A
     // foot or a hand whose long sides were taken for notches is not.
@@ -550,7 +589,7 @@ std::optional<BallFit> BallRefiner::refine(const BallCandidate& candidate, const
   if (!isBallSized(centroid, ray, range, frame.intrinsics.fx)) return std::nullopt;
 
   BallFit fit;
-  fit.center_R = centreFromDisc(centroid, ray);
+  fit.center_R = centreFromDisc(centroid, ray, surface.config().floor_margin_m);
   // Where the cap's depth is resolved (noise well under the radius) a sphere of the known radius
   // fitted to its points also uses the cap's shape, which keeps a partly hidden ball centred.
   // Depth noise moves points off the sphere mostly along the ray, so on average they lie
@@ -563,7 +602,8 @@ std::optional<BallFit> BallRefiner::refine(const BallCandidate& candidate, const
     const Eigen::Vector3d sphere = fitSphere(points_, fit.center_R, std::hypot(r, sigma), gate);
     if ((sphere - fit.center_R).norm() < r / 3) fit.center_R = sphere;
   }
-  const std::optional<Eigen::Vector3d> outlined = centreFromOutline(fit.center_R, frame, coverage, T_R_S);
+  const std::optional<Eigen::Vector3d> outlined =
+      centreFromOutline(fit.center_R, frame, coverage, T_R_S, surface.config().floor_margin_m);
   if (!outlined) return std::nullopt;
   fit.center_R = *outlined;
   if (!surfacedLikeABall(fit.center_R, T_R_S)) return std::nullopt;

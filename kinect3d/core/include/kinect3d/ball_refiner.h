@@ -60,14 +60,16 @@ class BallRefiner {
   bool besidePanelHole(const DepthFrame& frame, int u, int v, const PointProjector& surface) const;
   // Enough pixels for a ball at this range, and no wider than one.
   bool isBallSized(const Eigen::Vector3d& centroid, const Eigen::Vector3d& ray, double range, double focal_px) const;
-  // The centre: the centroid moved back along the ray by the visible cap's depth.
-  Eigen::Vector3d centreFromDisc(const Eigen::Vector3d& centroid, const Eigen::Vector3d& ray) const;
+  // The centre: the centroid moved back along the ray by the visible cap's depth, and down by what
+  // the floor band (points below floor_margin_m) cut off a ball near the floor.
+  Eigen::Vector3d centreFromDisc(const Eigen::Vector3d& centroid, const Eigen::Vector3d& ray,
+                                 double floor_margin_m) const;
   // For a ball seen in part, the centre moved across the view so that the rays through the visible
   // limb graze a sphere of the ball's radius; nothing when that outline is not a ball's. Unchanged
   // when the whole outline is visible.
   std::optional<Eigen::Vector3d> centreFromOutline(const Eigen::Vector3d& center_R, const DepthFrame& frame,
-                                                   const SensorCoverage& coverage,
-                                                   const Eigen::Isometry3d& T_R_S) const;
+                                                   const SensorCoverage& coverage, const Eigen::Isometry3d& T_R_S,
+                                                   double floor_margin_m) const;
   // Whether the points recede from the centre across the view like a sphere of the ball's radius
   // (not a flat panel, not a thinner limb), as one smooth surface (not an arm before a body).
   bool surfacedLikeABall(const Eigen::Vector3d& center_R, const Eigen::Isometry3d& T_R_S) const;
@@ -83,7 +85,7 @@ class BallRefiner {
   mutable std::vector<Eigen::Vector2i> pixels_;  // where each point was seen
   mutable int beside_panels_ = 0;                // and pixels beside a dark panel's hole, only counted
   mutable std::vector<std::pair<int, int>> row_ends_, column_ends_;
-  mutable std::vector<Eigen::Vector3d> limb_rays_S_;
+  mutable std::vector<Eigen::Vector3d> limb_rays_S_, floor_cut_rays_S_;
   mutable std::vector<bool> limb_blank_, notch_;
   mutable std::vector<double> radial_;
   struct Regressed {  // a point's regressors in the surface fit (surfacedLikeABall), and its range
