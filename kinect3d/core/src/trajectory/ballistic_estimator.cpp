@@ -89,9 +89,12 @@ class BallisticEstimator : public TrajectoryEstimator {
     const double t = ball.stamp.source_time_s;
     if (!fitted_) {
       if (!segment_.empty()) {
+        // A new segment for a ball too far from the last to be the same, and for a ball that left
+        // the floor: its resting or rolling detections before the kick are not on the flight.
         const fw::BallObservation& last = segment_.back();
         const double dt = std::max(t - last.stamp.source_time_s, 1e-3);
-        if ((ball.position_m - last.position_m).norm() > kMaxSpeed_mps * dt + 0.3) segment_.clear();
+        const bool kicked = last.state == fw::BallState::kGround && ball.state == fw::BallState::kAir;
+        if (kicked || (ball.position_m - last.position_m).norm() > kMaxSpeed_mps * dt + 0.3) segment_.clear();
       }
       push(ball);
       if (segment_.size() >= 3) fit();
