@@ -261,7 +261,7 @@ std::optional<LatencyEstimator::Fit> BallFusion::poseLatency() const {
 fw::RobotPose BallFusion::poseAt(double t_s) const {
   // A pose stamped late shows the robot of an earlier time: the one for t is stamped that much later.
   const std::optional<LatencyEstimator::Fit> learnt = poseLatency();
-  return poses_.at(t_s + (learnt ? learnt->latency_s : 0.0));
+  return poses_.at(poseStampFor_s(t_s, learnt ? learnt->latency_s : 0.0));
 }
 
 void BallFusion::addPose(const fw::RobotPose& pose) {
@@ -283,7 +283,7 @@ const FusionUpdate& BallFusion::addOmniFrame(double stamp_s, const std::vector<f
   const std::optional<LatencyEstimator::Fit> learnt = omniLatency();
   const double learnt_s = learnt ? learnt->latency_s : 0.0;
   const double timing_sigma_s = learnt ? std::max(learnt->sigma_s, kMinTimingSigma_s) : config_.omni.timing_sigma_s;
-  const double t = stamp_s - config_.omni.latency_s - learnt_s;
+  const double t = omniSeen_s(stamp_s, config_.omni, learnt_s);
   if (!poses_.empty()) {
     for (const fw::OmniRobotObservation& robot : robots) {
       seen_robots_.push_back(seenRobot_F(robot, poseAt(t), config_.omni, t));

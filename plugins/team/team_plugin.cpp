@@ -258,11 +258,14 @@ class TeamNetwork {
     if (items.size() > kMaxObservationsPerMessage) items.erase(items.begin(), items.end() - kMaxObservationsPerMessage);
   }
 
-  // When the omni camera took the image stamped stamp_s, on its own clock.
-  double omniSeen_s(double stamp_s) const { return stamp_s - fusion_.omni.latency_s - learnt_.omni_s.value_or(0.0); }
-  // The robot's pose at t_s: a pose stamped late shows the robot of an earlier time, so the one for
-  // t_s is stamped that much later (as fusion::BallFusion::poseAt).
-  fw::RobotPose poseAt(double t_s) const { return poses_.at(t_s + learnt_.pose_s.value_or(0.0)); }
+  // When the omni camera took the image stamped stamp_s, on its own clock, and the robot's pose at
+  // t_s, by the fusion's conventions and what it learnt.
+  double omniSeen_s(double stamp_s) const {
+    return fusion::omniSeen_s(stamp_s, fusion_.omni, learnt_.omni_s.value_or(0.0));
+  }
+  fw::RobotPose poseAt(double t_s) const {
+    return poses_.at(fusion::poseStampFor_s(t_s, learnt_.pose_s.value_or(0.0)));
+  }
 
   fw::BallObservation toField(const fw::BallObservation& ball_R) const {
     const double seen_s = ball_R.stamp.source_time_s - fusion_.kinect.latency_s;

@@ -31,8 +31,9 @@ struct FusedBallCleared {
 };
 
 // What the fusion has learnt of its inputs' stamps: how many seconds each is late beyond its
-// configured latency (fusion.omni.latency_s, fusion.pose.latency_s), as the fusion applies it; none
-// until learnt. The stages that place the same measurements (the team plugin) place them alike.
+// configured latency (fusion.omni.latency_s, fusion.pose.latency_s), as the fusion last reported
+// it (within a millisecond of what it applies); none until learnt. The stages that place the same
+// measurements (the team plugin) place them alike (fusion::omniSeen_s, fusion::poseStampFor_s).
 struct LearntLatencies {
   std::optional<double> omni_s;
   std::optional<double> pose_s;

@@ -55,6 +55,17 @@ struct PoseConfig {
   double timing_sigma_s = 0.05;   // how far its stamps may be off until the latency is learnt
 };
 
+// The time lines' two conventions for what the fusion learns of its inputs' lateness beyond the
+// configured latencies (docs/fusion.md, "Time"), for every stage that places the same measurements
+// (the fusion, and the team plugin for what it sends):
+// - the time the omni camera took the image it stamped stamp_s;
+inline double omniSeen_s(double stamp_s, const OmniConfig& omni, double learnt_s) {
+  return stamp_s - omni.latency_s - learnt_s;
+}
+// - the stamp, less fusion.pose.latency_s, of the pose that shows the robot at t_s: a pose stamped
+//   late shows the robot of an earlier time.
+inline double poseStampFor_s(double t_s, double learnt_pose_s) { return t_s + learnt_pose_s; }
+
 struct TrackConfig {
   double gate_sigma = 4.0;               // a measurement joins a track within this Mahalanobis distance
   int confirm_updates = 3;               // measurements before a track may become the world's ball
