@@ -750,6 +750,45 @@ TEST(Fusion, AFlightNoSensorSupportsGivesWayToTheBallAKinectLocatesElsewhere) {
   EXPECT_GT(checked, 10);
 }
 
+TEST(Fusion, ABallRolledBeyondTheOmniCamerasReachIsCarriedNotSwappedForAnOrangeShirt) {
+  // A ball rolls past the robot and away behind it. The Kinect sees it in front; the omni camera's
+  // mirror reaches 7 m. Once the ball is past that, an orange shirt 2.5 m in front is all the camera
+  // reports. The ball is out of view, not lost: the world's ball rolls on (in the fusion report's lobs
+  // landing behind the robot it had jumped to such a shirt 12 m away).
+  fusion::BallFusion fusion(testConfig());
+  constexpr double kReach_m = 7.0, kSpeed_mps = 3.0, kDecel_mps2 = 0.3;
+  const Truth rolling = [&](double t) {
+    const double s = std::min(t - kT0, kSpeed_mps / kDecel_mps2);
+    return Eigen::Vector3d(0.6, 2.5 - (kSpeed_mps * s - 0.5 * kDecel_mps2 * s * s), kRadius);
+  };
+  const Sees in_front = [](double, const Eigen::Vector3d& p) { return p.y() > 0.8; };
+  const Sees within_reach = [&](double, const Eigen::Vector3d& p) { return p.head<2>().norm() <= kReach_m; };
+  const Eigen::Vector3d shirt_F(-1.0, 2.5, kRadius);
+  std::mt19937 random(3);
+  FedRun run;
+  double out_of_reach_t = 0.0;
+  for (int i = 0; i * (1.0 / 30) < 5.5; ++i) {
+    const double t = kT0 + i / 30.0;
+    if (out_of_reach_t == 0.0 && rolling(t).y() < 0.0 && !within_reach(t, rolling(t))) out_of_reach_t = t;
+    const bool shirt_shown = out_of_reach_t > 0.0 && t > out_of_reach_t + 0.3;
+    feedOwnStep(fusion, rolling, t, standingAtOrigin, in_front, within_reach, true, 0.0, random, run,
+                shirt_shown ? std::vector<Eigen::Vector3d>{shirt_F} : std::vector<Eigen::Vector3d>{});
+  }
+  ASSERT_GT(out_of_reach_t, kT0 + 2.0);
+  int checked = 0;
+  for (std::size_t i = 0; i < run.updates.size(); ++i) {
+    const double t = run.updates[i].time_s;
+    // The shirt's track is confirmed a few images after it appears; the ball's is lost a second
+    // after the camera last saw it (track.lost_after_s).
+    if (t < out_of_reach_t + 0.5 || t > out_of_reach_t + 0.9) continue;
+    ++checked;
+    ASSERT_TRUE(run.updates[i].ball) << t - out_of_reach_t << " s after the ball left the camera's reach";
+    EXPECT_LT((run.updates[i].ball->position_F - run.truth[i]).norm(), 0.5)
+        << t - out_of_reach_t << " s after the ball left the camera's reach";
+  }
+  EXPECT_GT(checked, 20);
+}
+
 // What a teammate standing at true_pose but believing it stands at believed_pose tells of the ball
 // at p_F seen at time t: its Kinect's ball, placed in the field with the pose it believes.
 fw::TeamMessage teammateMessage(const fw::RobotPose& true_pose, const fw::RobotPose& believed_pose,

@@ -547,6 +547,8 @@ void BallFusion::process(const Frame& frame) {
     state.teammate_world_balls[prior.robot_id] = prior;
   }
   std::vector<Candidate> candidates = candidatesOf(frame, pose);
+  for (const fw::OmniBallObservation& ball : frame.omni)
+    state.omni_reach_m = std::max(state.omni_reach_m, ball.distance_m);
 
   // Gate every candidate against every track's branches at t, then pair them most likely first.
   std::vector<std::vector<Hypothesis>> branches;
@@ -1196,13 +1198,15 @@ void BallFusion::maintainTracks(double t_s) {
                       best.x.tail<3>().norm() - speed_sigma > config.min_flight_speed_mps;
   }
   // The world's ball is kept while it is supported, and while it flies (a flight above the omni's
-  // view and out of the Kinect's is carried, not swapped for another ball) until a Kinect, this
-  // robot's or a teammate's, locates another confirmed ball: then the flight was lost, not hidden.
-  // On the ground without support for kWorldSwitchAfter_s it gives way to a confirmed track supported
-  // since, and it is dropped when lost.
+  // view and out of the Kinect's is carried, not swapped for another ball) or, once a Kinect has
+  // located it, has rolled beyond the omni camera's reach, until a Kinect, this robot's or a
+  // teammate's, locates another confirmed ball: then the ball was lost, not hidden. Otherwise, on the
+  // ground without support for kWorldSwitchAfter_s it gives way to a confirmed track supported since
+  // (for a robot with only its omni camera, a flight it placed too far gives way to where the camera
+  // sees the ball), and it is dropped when lost.
   const auto world =
       std::find_if(tracks.begin(), tracks.end(), [&](const Track& track) { return track.id == state_.world_id; });
-  const bool carried = world != tracks.end() && world->flying();
+  const bool carried = world != tracks.end() && (world->flying() || beyondOmniReach(*world, t_s));
   const auto locatedSince = [&](const Track& track) {
     return track.confirmed && track.last_located_s > world->last_support_s;
   };
@@ -1219,6 +1223,14 @@ void BallFusion::maintainTracks(double t_s) {
     }
   }
   state_.world_id = chosen ? chosen->id : 0;
+}
+
+bool BallFusion::beyondOmniReach(const Track& track, double t_s) const {
+  if (state_.omni_reach_m <= 0.0 || track.last_located_s < track.born_s) return false;
+  BallFilter filter = track.filter;
+  filter.predict(t_s);
+  const fw::RobotPose pose = poseAt(t_s);
+  return (filter.best().x.head<2>() - Eigen::Vector2d(pose.x_m, pose.y_m)).norm() > state_.omni_reach_m;
 }
 
 std::optional<fw::FusedBall> BallFusion::worldBall(double t_s) const {

@@ -231,6 +231,9 @@ class BallFusion {
     std::map<int, TeammateStanding> teammates;
     std::map<int, std::deque<Judgement>> judged;            // per teammate, newest last
     std::map<int, TeammateWorldBall> teammate_world_balls;  // the newest of each teammate
+    // The farthest this robot's omni camera has reported a ball, any ball: its mirror reaches at
+    // least that far (0 until it has reported one). A ball rolled farther is out of its view, not lost.
+    double omni_reach_m = 0.0;
     FusionUpdate update;
   };
   // A teammate's ball with what places it: the teammate's pose and how far its localisation may be off.
@@ -324,6 +327,9 @@ class BallFusion {
   void recordJudgement(int teammate, const Judgement& judgement);
   const std::string& nameOf(Source source) const;  // this robot's own sources
   void maintainTracks(double t_s);
+  // Whether a Kinect has located the track's ball and it lies farther from the robot at t_s than its
+  // omni camera has reported a ball.
+  bool beyondOmniReach(const Track& track, double t_s) const;
   std::optional<fw::FusedBall> worldBall(double t_s) const;
   // Without a world ball of its own: the freshest world ball of a teammate that is not discounted,
   // carried on to t_s with its uncertainty grown (none older than team.prior_max_age_s).
