@@ -1206,14 +1206,12 @@ void BallFusion::maintainTracks(double t_s) {
   // sees the ball), and it is dropped when lost.
   const auto world =
       std::find_if(tracks.begin(), tracks.end(), [&](const Track& track) { return track.id == state_.world_id; });
+  if (world != tracks.end() && t_s - world->last_support_s <= kWorldSwitchAfter_s) return;
   const bool carried = world != tracks.end() && (world->flying() || beyondOmniReach(*world, t_s));
   const auto locatedSince = [&](const Track& track) {
     return track.confirmed && track.last_located_s > world->last_support_s;
   };
-  if (world != tracks.end() && (t_s - world->last_support_s <= kWorldSwitchAfter_s ||
-                                (carried && std::none_of(tracks.begin(), tracks.end(), locatedSince)))) {
-    return;
-  }
+  if (carried && std::none_of(tracks.begin(), tracks.end(), locatedSince)) return;
   const Track* chosen = world != tracks.end() ? &*world : nullptr;
   for (const Track& track : tracks) {
     if (!track.confirmed || (carried && !locatedSince(track))) continue;
