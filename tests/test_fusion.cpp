@@ -789,6 +789,39 @@ TEST(Fusion, ABallRolledBeyondTheOmniCamerasReachIsCarriedNotSwappedForAnOrangeS
   EXPECT_GT(checked, 20);
 }
 
+TEST(Fusion, ABallOnlyTheOmniCameraSawGivesWayOnceItIsOutOfReach) {
+  // A robot without a Kinect: what its omni camera placed beyond its reach may be placed wrong (a
+  // flight put too far), so it is not carried there. The ball rolls out of the mirror's 7 m, and a
+  // ball the camera then sees 3 m away becomes the world's within a few tenths of a second, not only
+  // once the lost one is dropped (track.lost_after_s, a second).
+  fusion::BallFusion fusion(testConfig());
+  constexpr double kReach_m = 7.0;
+  const Truth rolling = [](double t) { return Eigen::Vector3d(0.6, -4.0 - 3.0 * (t - kT0), kRadius); };
+  const Sees within_reach = [&](double, const Eigen::Vector3d& p) { return p.head<2>().norm() <= kReach_m; };
+  const Eigen::Vector3d seen_next_F(-1.0, 3.0, kRadius);
+  std::mt19937 random(5);
+  FedRun run;
+  double out_of_reach_t = 0.0;
+  for (int i = 0; i * (1.0 / 30) < 2.5; ++i) {
+    const double t = kT0 + i / 30.0;
+    if (out_of_reach_t == 0.0 && !within_reach(t, rolling(t))) out_of_reach_t = t;
+    const bool next_shown = out_of_reach_t > 0.0 && t > out_of_reach_t + 0.1;
+    feedOwnStep(fusion, rolling, t, standingAtOrigin, never, within_reach, true, 0.0, random, run,
+                next_shown ? std::vector<Eigen::Vector3d>{seen_next_F} : std::vector<Eigen::Vector3d>{});
+  }
+  ASSERT_GT(out_of_reach_t, kT0 + 0.5);
+  int checked = 0;
+  for (std::size_t i = 0; i < run.updates.size(); ++i) {
+    const double t = run.updates[i].time_s;
+    if (t < out_of_reach_t + 0.5 || t > out_of_reach_t + 0.9) continue;
+    ++checked;
+    ASSERT_TRUE(run.updates[i].ball) << t - out_of_reach_t << " s after the ball left the camera's reach";
+    EXPECT_LT((run.updates[i].ball->position_F - seen_next_F).norm(), 0.3)
+        << t - out_of_reach_t << " s after the ball left the camera's reach";
+  }
+  EXPECT_GT(checked, 20);
+}
+
 // What a teammate standing at true_pose but believing it stands at believed_pose tells of the ball
 // at p_F seen at time t: its Kinect's ball, placed in the field with the pose it believes.
 fw::TeamMessage teammateMessage(const fw::RobotPose& true_pose, const fw::RobotPose& believed_pose,
