@@ -47,6 +47,9 @@ constexpr double kHeadingErrorSharedBy = 30.0;  // readings: a second at 30 Hz
 constexpr double kMinTimingSigma_s = 0.005;
 // The world's ball moves to another confirmed track when its own has had no support this long.
 constexpr double kWorldSwitchAfter_s = 0.2;
+// ... unless a Kinect located it and it was last seen this far out of the omni camera's reach, and
+// has since gone beyond it.
+constexpr double kLeavingReachShare = 0.9;
 // A source counts as supporting the world's ball if it did within this time.
 constexpr double kSourceRecent_s = 1.0;
 // At most this many tracks at once (the ball, shirts, posters); the oldest unconfirmed goes first.
@@ -1225,10 +1228,16 @@ void BallFusion::maintainTracks(double t_s) {
 
 bool BallFusion::beyondOmniReach(const Track& track, double t_s) const {
   if (state_.omni_reach_m <= 0.0 || track.last_located_s < track.born_s) return false;
+  const auto distance_m = [&](const BallFilter& filter) {
+    const fw::RobotPose pose = poseAt(filter.time());
+    return (filter.best().x.head<2>() - Eigen::Vector2d(pose.x_m, pose.y_m)).norm();
+  };
+  // Last seen near the edge: a ball that drifts out on a stale track's prediction while another
+  // track takes its measurements has not left the view.
+  if (distance_m(track.filter) < kLeavingReachShare * state_.omni_reach_m) return false;
   BallFilter filter = track.filter;
   filter.predict(t_s);
-  const fw::RobotPose pose = poseAt(t_s);
-  return (filter.best().x.head<2>() - Eigen::Vector2d(pose.x_m, pose.y_m)).norm() > state_.omni_reach_m;
+  return distance_m(filter) > state_.omni_reach_m;
 }
 
 std::optional<fw::FusedBall> BallFusion::worldBall(double t_s) const {

@@ -327,8 +327,8 @@ class BallFusion {
   void recordJudgement(int teammate, const Judgement& judgement);
   const std::string& nameOf(Source source) const;  // this robot's own sources
   void maintainTracks(double t_s);
-  // Whether a Kinect has located the track's ball and it lies farther from the robot at t_s than its
-  // omni camera has reported a ball.
+  // Whether a Kinect has located the track's ball, it was last seen near the omni camera's reach, and
+  // it lies farther from the robot at t_s than that camera has reported a ball.
   bool beyondOmniReach(const Track& track, double t_s) const;
   std::optional<fw::FusedBall> worldBall(double t_s) const;
   // Without a world ball of its own: the freshest world ball of a teammate that is not discounted,
