@@ -750,30 +750,44 @@ TEST(Fusion, AFlightNoSensorSupportsGivesWayToTheBallAKinectLocatesElsewhere) {
   EXPECT_GT(checked, 10);
 }
 
+// A ball rolling out of the reach of an omni camera whose mirror sees 7 m, watched by this robot
+// standing at the origin (its Kinect while kinect_sees); from other_after_s after the ball left the
+// reach the camera also reports something else at other_F in every image.
+struct RolledOut {
+  FedRun run;
+  double out_of_reach_t = 0.0;  // the first step with the ball beyond the reach
+};
+RolledOut rollOutOfTheOmnisReach(fusion::BallFusion& fusion, const Truth& rolling, const Sees& kinect_sees,
+                                 const Eigen::Vector3d& other_F, double other_after_s, double duration_s,
+                                 unsigned seed) {
+  constexpr double kReach_m = 7.0;
+  const Sees within_reach = [&](double, const Eigen::Vector3d& p) { return p.head<2>().norm() <= kReach_m; };
+  std::mt19937 random(seed);
+  RolledOut out;
+  for (int i = 0; i * (1.0 / 30) < duration_s; ++i) {
+    const double t = kT0 + i / 30.0;
+    if (out.out_of_reach_t == 0.0 && !within_reach(t, rolling(t))) out.out_of_reach_t = t;
+    const bool other_shown = out.out_of_reach_t > 0.0 && t > out.out_of_reach_t + other_after_s;
+    feedOwnStep(fusion, rolling, t, standingAtOrigin, kinect_sees, within_reach, true, 0.0, random, out.run,
+                other_shown ? std::vector<Eigen::Vector3d>{other_F} : std::vector<Eigen::Vector3d>{});
+  }
+  return out;
+}
+
 TEST(Fusion, ABallRolledBeyondTheOmniCamerasReachIsCarriedNotSwappedForAnOrangeShirt) {
   // A ball rolls past the robot and away behind it. The Kinect sees it in front; the omni camera's
   // mirror reaches 7 m. Once the ball is past that, an orange shirt 2.5 m in front is all the camera
   // reports. The ball is out of view, not lost: the world's ball rolls on (in the fusion report's lobs
   // landing behind the robot it had jumped to such a shirt 12 m away).
   fusion::BallFusion fusion(testConfig());
-  constexpr double kReach_m = 7.0, kSpeed_mps = 3.0, kDecel_mps2 = 0.3;
+  constexpr double kSpeed_mps = 3.0, kDecel_mps2 = 0.3;
   const Truth rolling = [&](double t) {
     const double s = std::min(t - kT0, kSpeed_mps / kDecel_mps2);
     return Eigen::Vector3d(0.6, 2.5 - (kSpeed_mps * s - 0.5 * kDecel_mps2 * s * s), kRadius);
   };
   const Sees in_front = [](double, const Eigen::Vector3d& p) { return p.y() > 0.8; };
-  const Sees within_reach = [&](double, const Eigen::Vector3d& p) { return p.head<2>().norm() <= kReach_m; };
   const Eigen::Vector3d shirt_F(-1.0, 2.5, kRadius);
-  std::mt19937 random(3);
-  FedRun run;
-  double out_of_reach_t = 0.0;
-  for (int i = 0; i * (1.0 / 30) < 5.5; ++i) {
-    const double t = kT0 + i / 30.0;
-    if (out_of_reach_t == 0.0 && rolling(t).y() < 0.0 && !within_reach(t, rolling(t))) out_of_reach_t = t;
-    const bool shirt_shown = out_of_reach_t > 0.0 && t > out_of_reach_t + 0.3;
-    feedOwnStep(fusion, rolling, t, standingAtOrigin, in_front, within_reach, true, 0.0, random, run,
-                shirt_shown ? std::vector<Eigen::Vector3d>{shirt_F} : std::vector<Eigen::Vector3d>{});
-  }
+  const auto [run, out_of_reach_t] = rollOutOfTheOmnisReach(fusion, rolling, in_front, shirt_F, 0.3, 5.5, 3);
   ASSERT_GT(out_of_reach_t, kT0 + 2.0);
   int checked = 0;
   for (std::size_t i = 0; i < run.updates.size(); ++i) {
@@ -795,20 +809,9 @@ TEST(Fusion, ABallOnlyTheOmniCameraSawGivesWayOnceItIsOutOfReach) {
   // ball the camera then sees 3 m away becomes the world's within a few tenths of a second, not only
   // once the lost one is dropped (track.lost_after_s, a second).
   fusion::BallFusion fusion(testConfig());
-  constexpr double kReach_m = 7.0;
   const Truth rolling = [](double t) { return Eigen::Vector3d(0.6, -4.0 - 3.0 * (t - kT0), kRadius); };
-  const Sees within_reach = [&](double, const Eigen::Vector3d& p) { return p.head<2>().norm() <= kReach_m; };
   const Eigen::Vector3d seen_next_F(-1.0, 3.0, kRadius);
-  std::mt19937 random(5);
-  FedRun run;
-  double out_of_reach_t = 0.0;
-  for (int i = 0; i * (1.0 / 30) < 2.5; ++i) {
-    const double t = kT0 + i / 30.0;
-    if (out_of_reach_t == 0.0 && !within_reach(t, rolling(t))) out_of_reach_t = t;
-    const bool next_shown = out_of_reach_t > 0.0 && t > out_of_reach_t + 0.1;
-    feedOwnStep(fusion, rolling, t, standingAtOrigin, never, within_reach, true, 0.0, random, run,
-                next_shown ? std::vector<Eigen::Vector3d>{seen_next_F} : std::vector<Eigen::Vector3d>{});
-  }
+  const auto [run, out_of_reach_t] = rollOutOfTheOmnisReach(fusion, rolling, never, seen_next_F, 0.1, 2.5, 5);
   ASSERT_GT(out_of_reach_t, kT0 + 0.5);
   int checked = 0;
   for (std::size_t i = 0; i < run.updates.size(); ++i) {
